@@ -1,0 +1,14 @@
+"""Checkpointers: where a thread's state is saved after every superstep."""
+
+from .base import BaseCheckpointSaver, Checkpoint, PickleSerializer, Serializer
+from .memory import InMemorySaver
+from .sqlite import SqliteSaver
+
+__all__ = [
+    "BaseCheckpointSaver",
+    "Checkpoint",
+    "InMemorySaver",
+    "PickleSerializer",
+    "Serializer",
+    "SqliteSaver",
+]

@@ -1,0 +1,376 @@
+"""One run of a compiled graph as a state machine: load, take input, plan supersteps, apply the barrier, save.
+
+The drivers in ``compiled.py`` (sync and async) only execute the tasks this class hands them; every rule about
+what runs next, how writes merge and what gets checkpointed lives here, once.
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from .checkpoint.base import Checkpoint, TaskOutcome, TaskSpec, diff_values, new_checkpoint_id, now_iso
+from .constants import END, INTERRUPT_KEY, START
+from .errors import (
+    CheckpointError,
+    EmptyInputError,
+    GraphError,
+    GraphRecursionError,
+    InvalidRouteError,
+    InvalidUpdateError,
+)
+from .state import MISSING as _MISSING
+from .types import Command, Interrupt, Send
+
+if TYPE_CHECKING:
+    from .checkpoint import BaseCheckpointSaver
+    from .compiled import CompiledStateGraph
+
+DEFAULT_RECURSION_LIMIT = 10_000
+INPUT_NODE = "__input__"
+
+
+def _task(node: str, *, push: bool = False, arg: Any = None) -> TaskSpec:
+    return TaskSpec(uuid.uuid4().hex, node, push, arg)
+
+
+class Run:
+    """The state of one invocation: values, the next tasks, join barriers, and the outcomes of this step."""
+
+    def __init__(
+        self,
+        graph: CompiledStateGraph,
+        config: Mapping[str, Any] | None,
+        *,
+        saver: BaseCheckpointSaver | None,
+        modes: frozenset[str] = frozenset(),
+        ns: str = "",
+    ) -> None:
+        self.graph = graph
+        self.spec = graph.spec
+        self.schema = graph.spec.schema
+        self.config: dict[str, Any] = dict(config or {})
+        self.configurable: dict[str, Any] = dict(self.config.get("configurable") or {})
+        self.saver = saver
+        self.thread_id: str | None = self.configurable.get("thread_id")
+        if saver is not None and self.thread_id is None:
+            raise CheckpointError(
+                "this graph has a checkpointer, so every call needs a thread id: "
+                "pass config={'configurable': {'thread_id': 'some-id'}}"
+            )
+        self.ns = ns or str(self.configurable.get("checkpoint_ns", ""))
+        limit = self.config.get("recursion_limit", DEFAULT_RECURSION_LIMIT)
+        if not isinstance(limit, int) or limit < 1:
+            raise GraphError(f"recursion_limit must be a positive integer, got {limit!r}")
+        self.limit = limit
+        self.modes = modes
+        self.events: list[tuple[str, Any]] = []
+        self.values: dict[str, Any] = {}
+        self.tasks: list[TaskSpec] = []
+        self.joins: dict[str, list[str]] = {}
+        self.step = -1
+        self.checkpoint_id: str | None = None
+        self.outcomes: dict[str, TaskOutcome] = {}
+        self.open_interrupts: dict[str, TaskOutcome] = {}
+        self.resume_lists: dict[str, list[Any]] = {}
+        self.fresh_resume: dict[str, Any] = {}
+        self.at_breakpoint = False
+        self.skip_breakpoint = False
+        self.steps_run = 0
+        self.interrupts: list[Interrupt] = []
+        self.stopped = False
+        self.last_nodes: list[str] = []
+        self._saved_lists: dict[str, list[Any]] = {}
+
+    # --- events ---
+    def emit(self, mode: str, chunk: Any) -> None:
+        if mode in self.modes:
+            self.events.append((mode, chunk))
+
+    def output(self) -> dict[str, Any]:
+        out = {**self.schema.defaults(), **self.values} if self.schema.is_model else dict(self.values)
+        if self.interrupts:
+            out[INTERRUPT_KEY] = list(self.interrupts)
+        return out
+
+    # --- loading and input ---
+    def load(self, ckpt: Checkpoint) -> None:
+        self.values = dict(ckpt.values)
+        self.tasks = list(ckpt.tasks)
+        self.joins = {k: list(v) for k, v in ckpt.joins.items()}
+        self.step = ckpt.step
+        self.checkpoint_id = ckpt.id
+        self.at_breakpoint = ckpt.at_breakpoint
+        for tid, out in ckpt.outcomes.items():
+            if out.interrupted:
+                self.open_interrupts[tid] = out
+                self.resume_lists[tid] = list(out.resume)
+            elif out.error is None:
+                self.outcomes[tid] = out
+        self._saved_lists = {k: list(v) for k, v in self.values.items() if type(v) is list}
+
+    def start(self, input: Any) -> None:
+        """Load the thread's checkpoint (if any) and take ``input``: new values, ``None`` or a ``Command``."""
+        ckpt = None
+        if self.saver is not None:
+            assert self.thread_id is not None
+            ckpt = self.saver.get(self.thread_id, self.ns, self.configurable.get("checkpoint_id"))
+        if ckpt is not None:
+            self.load(ckpt)
+        elif self.schema.is_model:
+            self.values = self.schema.defaults()
+        if input is None:
+            if ckpt is None:
+                where = f"thread {self.thread_id!r}" if self.saver else "a graph without a checkpointer"
+                raise EmptyInputError(f"invoke(None) resumes a paused run, but {where} has nothing to resume")
+            self.skip_breakpoint = self.at_breakpoint
+            return
+        if isinstance(input, Command):
+            if ckpt is None and input.resume is not None:
+                raise EmptyInputError(f"Command(resume=...) given, but thread {self.thread_id!r} has no checkpoint")
+            if input.resume is not None:
+                self._take_resume(input.resume)
+                self.skip_breakpoint = self.at_breakpoint
+            if input.update is not None or input.goto:
+                writes = self._checked_writes(INPUT_NODE, self.schema.update_to_dict(INPUT_NODE, input.update))
+                changed = self.apply([(INPUT_NODE, writes)])
+                if input.goto:
+                    self.tasks = self.plan([], extra=[(INPUT_NODE, list(input.goto_list()))])
+                    self.outcomes, self.open_interrupts = {}, {}
+                self.save("input", changed)
+            return
+        writes = self._checked_writes(INPUT_NODE, self.schema.update_to_dict(INPUT_NODE, input))
+        changed = self.apply([(INPUT_NODE, writes)])
+        self.schema.check_complete("input", self.values)
+        self.tasks = self.plan([(TaskSpec("", START), TaskOutcome())])
+        self.outcomes, self.open_interrupts, self.resume_lists = {}, {}, {}
+        self.save("input", changed | set(self.values) if ckpt is None else changed)
+        self.emit("values", self.output())
+
+    def _checked_writes(self, node: str, update: Mapping[str, Any]) -> list[tuple[str, Any]]:
+        return [(k, self.schema.check_write(node, k, v, self.values.get(k, _MISSING))) for k, v in update.items()]
+
+    def _take_resume(self, resume: Any) -> None:
+        if not self.open_interrupts:
+            raise GraphError(f"Command(resume=...) given, but no interrupt is pending on thread {self.thread_id!r}")
+        by_id = {i.id: tid for tid, out in self.open_interrupts.items() for i in out.interrupts}
+        if isinstance(resume, Mapping) and resume and all(k in by_id for k in resume):
+            targets = [(by_id[k], v) for k, v in resume.items()]
+        elif len(self.open_interrupts) == 1:
+            targets = [(next(iter(self.open_interrupts)), resume)]
+        else:
+            raise GraphError(
+                f"{len(by_id)} interrupts are pending (ids {', '.join(by_id)}); resume them with "
+                "Command(resume={interrupt_id: value, ...})"
+            )
+        for tid, value in targets:
+            self.resume_lists[tid] = [*self.resume_lists.get(tid, []), value]
+            self.fresh_resume[tid] = value
+
+    # --- supersteps ---
+    def begin_step(self) -> list[TaskSpec] | None:
+        """The tasks to execute now, or None when the run is finished or paused."""
+        if self.stopped or not self.tasks:
+            return None
+        if self.steps_run >= self.limit:
+            raise self._recursion_error()
+        before = self.graph.interrupt_before
+        if before and not self.skip_breakpoint and any(t.node in before or "*" in before for t in self.tasks):
+            self.stopped = True
+            self.at_breakpoint = True
+            self.save("loop", set())
+            return None
+        self.skip_breakpoint = False
+        self.at_breakpoint = False
+        todo = [t for t in self.tasks if t.id not in self.outcomes]
+        if "debug" in self.modes:
+            for t in todo:
+                self.emit("debug", self._debug("task", {"id": t.id, "name": t.node, "input": t.arg}))
+        return todo
+
+    def record(self, task: TaskSpec, outcome: TaskOutcome) -> None:
+        """Keep a task's outcome; in a step of several tasks, or when interrupted, save it at once."""
+        self.outcomes[task.id] = outcome
+        if self.saver is not None and self.checkpoint_id and (len(self.tasks) > 1 or outcome.interrupted):
+            assert self.thread_id is not None
+            self.saver.put_outcome(self.thread_id, self.ns, self.checkpoint_id, task.id, outcome)
+        if "debug" in self.modes:
+            payload = {
+                "id": task.id,
+                "name": task.node,
+                "result": outcome.writes,
+                "interrupts": outcome.interrupts,
+            }
+            self.emit("debug", self._debug("task_result", payload))
+
+    def record_error(self, task: TaskSpec, exc: BaseException) -> None:
+        if self.saver is not None and self.checkpoint_id:
+            assert self.thread_id is not None
+            outcome = TaskOutcome(error=f"{type(exc).__name__}: {exc}")
+            self.saver.put_outcome(self.thread_id, self.ns, self.checkpoint_id, task.id, outcome)
+
+    def end_step(self) -> None:
+        """The barrier: apply all writes in task order, pick the next tasks, save a checkpoint."""
+        done = [(t, self.outcomes[t.id]) for t in self.tasks]
+        interrupted = [o for _, o in done if o.interrupted]
+        if interrupted:
+            self.interrupts = [i for o in interrupted for i in o.interrupts]
+            self.stopped = True
+            self.emit("updates", {INTERRUPT_KEY: tuple(self.interrupts)})
+            return
+        changed = self.apply([(t.node, o.writes) for t, o in done])
+        if "updates" in self.modes:
+            for t, o in done:
+                self.emit("updates", {t.node: dict(o.writes) if o.writes else None})
+        self.last_nodes = [t.node for t, _ in done]
+        self.tasks = self.plan(done)
+        self.step += 1
+        self.steps_run += 1
+        self.outcomes, self.open_interrupts, self.resume_lists, self.fresh_resume = {}, {}, {}, {}
+        self.save("loop", changed)
+        self.emit("values", self.output())
+        after = self.graph.interrupt_after
+        if after and self.tasks and any(n in after or "*" in after for n in self.last_nodes):
+            self.stopped = True
+
+    def apply(self, writes: list[tuple[str, list[tuple[str, Any]]]]) -> set[str]:
+        """Merge writes in the given order: reducers fold, last-value keys accept one writer per step."""
+        written_by: dict[str, str] = {}
+        changed: set[str] = set()
+        keys = self.schema.keys
+        for node, items in writes:
+            for key, value in items:
+                spec = keys[key]
+                if spec.reducer is None:
+                    if key in written_by:
+                        raise InvalidUpdateError(
+                            f"nodes {written_by[key]!r} and {node!r} both wrote last-value key {key!r} in the same "
+                            f"superstep; give {key!r} a reducer (Annotated[T, reducer]) or let one node write it"
+                        )
+                    written_by[key] = node
+                    self.values[key] = value
+                else:
+                    if key in self.values:
+                        self.values[key] = spec.reducer(self.values[key], value)
+                    elif spec.initial is not _MISSING:
+                        self.values[key] = spec.reducer(spec.initial, value)
+                    else:
+                        self.values[key] = value
+                changed.add(key)
+        return changed
+
+    def plan(
+        self,
+        done: list[tuple[TaskSpec, TaskOutcome]],
+        extra: list[tuple[str, list[str | Send]]] = (),  # type: ignore[assignment]
+    ) -> list[TaskSpec]:
+        """The tasks of the next superstep: edges, completed joins, routers and gotos of the finished tasks."""
+        pull: set[str] = set()
+        push: list[Send] = []
+        view: Any = _MISSING
+        spec = self.spec
+
+        def add(source: str, dest: str | Send) -> None:
+            if isinstance(dest, Send):
+                if dest.node not in spec.nodes:
+                    raise InvalidRouteError(f"{source!r} sent to unknown node {dest.node!r} (Send)")
+                push.append(dest)
+            elif dest != END:
+                if dest not in spec.nodes:
+                    raise InvalidRouteError(
+                        f"{source!r} routed to unknown node {dest!r}; known: {', '.join(spec.nodes)}"
+                    )
+                pull.add(dest)
+
+        for task, outcome in done:
+            node = task.node
+            for target in spec.edges.get(node, ()):
+                add(node, target)
+            for join in spec.joins.get(node, ()):
+                seen = self.joins.setdefault(join.id, [])
+                if node not in seen:
+                    seen.append(node)
+                if all(s in seen for s in join.sources):
+                    add(node, join.target)
+                    del self.joins[join.id]
+            for dest in outcome.goto:
+                add(node, dest)
+            for branch in spec.branches.get(node, ()):
+                if view is _MISSING:
+                    view = self.schema.to_node_input(self.values)
+                try:
+                    kwargs = {"config": self.config} if branch.takes_config else {}
+                    result = branch.router(view, **kwargs)
+                    if branch.is_async:
+                        import asyncio
+
+                        result = asyncio.run(result)
+                except Exception as exc:
+                    exc.add_note(f"in router {branch.name!r} of the conditional edge from {node!r}")
+                    raise
+                for dest in branch.resolve(result):
+                    add(node, dest)
+        for source, dests in extra:
+            for dest in dests:
+                add(source, dest)
+        tasks = [_task(n) for n in self.graph.node_order if n in pull]
+        tasks.extend(_task(s.node, push=True, arg=s.arg) for s in push)
+        return tasks
+
+    # --- checkpoints ---
+    def save(self, source: str, changed: set[str]) -> None:
+        if self.saver is None:
+            return
+        assert self.thread_id is not None
+        delta = diff_values(self._saved_lists, self.values, changed)
+        for key in changed:
+            value = self.values.get(key)
+            if type(value) is list:
+                self._saved_lists[key] = list(value)
+        ckpt = Checkpoint(
+            id=new_checkpoint_id(),
+            parent_id=self.checkpoint_id,
+            step=self.step,
+            source=source,
+            created_at=now_iso(),
+            values=self.values,
+            tasks=self.tasks,
+            joins=self.joins,
+            at_breakpoint=self.at_breakpoint,
+            metadata={"source": source, "step": self.step, "ran": list(self.last_nodes)},
+        )
+        self.saver.put(self.thread_id, self.ns, ckpt, delta)
+        self.checkpoint_id = ckpt.id
+        if "debug" in self.modes:
+            payload = {"config": self.checkpoint_config(), "values": self.output(), "next": self.next_nodes()}
+            self.emit("debug", self._debug("checkpoint", payload))
+
+    def checkpoint_config(self) -> dict[str, Any]:
+        return {
+            "configurable": {
+                "thread_id": self.thread_id,
+                "checkpoint_ns": self.ns,
+                "checkpoint_id": self.checkpoint_id,
+            }
+        }
+
+    def next_nodes(self) -> tuple[str, ...]:
+        return tuple(t.node for t in self.tasks)
+
+    def _debug(self, kind: str, payload: dict[str, Any]) -> dict[str, Any]:
+        return {"type": kind, "timestamp": now_iso(), "step": self.step + 1, "payload": payload}
+
+    def _recursion_error(self) -> GraphRecursionError:
+        last = ", ".join(self.last_nodes) or "(none)"
+        nxt = ", ".join(self.next_nodes())
+        msg = (
+            f"recursion limit of {self.limit} supersteps reached without reaching END: the last superstep ran "
+            f"{last} and {nxt} would run next. If the loop is meant to run this long, raise the limit: "
+            f"invoke(..., config={{'recursion_limit': {self.limit * 10}, ...}})."
+        )
+        if self.saver is not None:
+            msg += " The run is checkpointed: continue it with invoke(None, config) and a higher recursion_limit."
+        else:
+            msg += " If it is not, check the condition that should route to END."
+        return GraphRecursionError(msg)

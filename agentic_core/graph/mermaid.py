@@ -1,0 +1,75 @@
+"""The structure of a graph as Mermaid flowchart text (``compiled.get_graph().draw_mermaid()``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from .constants import END, START
+
+if TYPE_CHECKING:
+    from .graph import StateGraph
+
+
+@dataclass(frozen=True)
+class Edge:
+    source: str
+    target: str
+    conditional: bool = False
+    label: str | None = None
+
+
+@dataclass
+class DrawableGraph:
+    """Nodes and edges as drawn; conditional edges are dotted and labelled with their router's key."""
+
+    nodes: list[str]
+    edges: list[Edge] = field(default_factory=list)
+
+    @classmethod
+    def from_builder(cls, builder: StateGraph) -> DrawableGraph:
+        graph = cls(nodes=[START, *builder.nodes, END])
+        for a, b in builder.edges:
+            graph.edges.append(Edge(a, b))
+        for join in builder.joins:
+            for s in join.sources:
+                graph.edges.append(Edge(s, join.target))
+        for br in builder.branches:
+            if br.path_map is None:
+                continue
+            for key, target in br.path_map.items():
+                label = None if str(key) == target else str(key)
+                graph.edges.append(Edge(br.source, target, conditional=True, label=label))
+        for spec in builder.nodes.values():
+            for target in spec.destinations or ():
+                graph.edges.append(Edge(spec.name, target, conditional=True))
+        return graph
+
+    @staticmethod
+    def _id(name: str) -> str:
+        return name.strip("_") if name in (START, END) else name.replace(" ", "_").replace("-", "_")
+
+    def draw_mermaid(self) -> str:
+        """Mermaid text; paste it into any Mermaid renderer (GitHub renders it in Markdown)."""
+        lines = ["graph TD;"]
+        for node in self.nodes:
+            if node == START:
+                lines.append(f"\t{self._id(node)}([<p>{START}</p>]):::first")
+            elif node == END:
+                lines.append(f"\t{self._id(node)}([<p>{END}</p>]):::last")
+            else:
+                lines.append(f"\t{self._id(node)}({node})")
+        for e in self.edges:
+            a, b = self._id(e.source), self._id(e.target)
+            if not e.conditional:
+                lines.append(f"\t{a} --> {b};")
+            elif e.label:
+                lines.append(f"\t{a} -. &nbsp;{e.label}&nbsp; .-> {b};")
+            else:
+                lines.append(f"\t{a} -.-> {b};")
+        lines += [
+            "\tclassDef default fill:#f2f0ff,line-height:1.2",
+            "\tclassDef first fill-opacity:0",
+            "\tclassDef last fill:#bfb6fc",
+        ]
+        return "\n".join(lines) + "\n"

@@ -1,0 +1,1 @@
+"""Evaluation: Hajj search-and-rescue scenarios, campaigns, metrics and the paper's statistics pipeline."""

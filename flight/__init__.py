@@ -1,0 +1,1 @@
+"""Flight: the JSBSim quadcopter, its flight controller, the MAVLink vehicle and the safety envelope."""

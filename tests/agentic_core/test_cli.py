@@ -1,0 +1,51 @@
+"""The agentic-uav command line and the demo it runs."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from agentic_core import __version__
+from agentic_core.cli import main
+from agentic_core.demo import run_demo
+
+
+def test_demo_approves_by_policy_and_leaves_a_checkpointed_run(tmp_path: Path) -> None:
+    lines: list[str] = []
+    final = run_demo(tmp_path, echo=lines.append)
+    assert final["outcome"] == "rescue kit dispatched"
+    assert final["casualties"] == ["east"]
+    assert any("headless policy answers 'approve'" in line for line in lines)
+    (run_dir,) = list(tmp_path.iterdir())
+    assert (run_dir / "checkpoints.sqlite").stat().st_size > 0
+    assert (run_dir / "graph.mmd").read_text().startswith("graph TD;")
+
+
+def test_demo_decline(tmp_path: Path) -> None:
+    assert run_demo(tmp_path, approve=False, echo=lambda _: None)["outcome"] == "operator declined dispatch"
+
+
+def test_cli_demo_and_version(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "--runs-dir", str(tmp_path)]) == 0
+    assert "outcome: rescue kit dispatched" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert __version__ in capsys.readouterr().out
+
+
+def test_cli_without_a_command_prints_help_and_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([]) == 2
+    assert "usage: agentic-uav" in capsys.readouterr().out
+
+
+def test_python_dash_m_entry_point(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "agentic_core", "demo", "--runs-dir", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "outcome: rescue kit dispatched" in proc.stdout

@@ -1,0 +1,22 @@
+"""The runnable examples in the docstrings of public entry points stay true."""
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = [
+    "agentic_core.graph",
+    "agentic_core.graph.graph",
+    "agentic_core.graph.types",
+    "agentic_core.graph.checkpoint.memory",
+    "agentic_core.graph.checkpoint.sqlite",
+    "agentic_core.demo",
+]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples(name: str) -> None:
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+    assert result.attempted > 0, f"{name} has no runnable example"
+    assert result.failed == 0
