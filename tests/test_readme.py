@@ -16,4 +16,4 @@ def test_quickstart_runs_as_documented() -> None:
     lines = out.getvalue().splitlines()
     assert lines[0].startswith("[Interrupt(value={'question': 'land near the crowd?'}, id=")
     assert lines[1] == "['leg 0', 'leg 1', 'leg 2', 'landed']"
-    assert lines[2] == "graph TD;"
+    assert "graph TD;" in lines

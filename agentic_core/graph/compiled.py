@@ -7,7 +7,7 @@ from collections.abc import AsyncIterator, Callable, Generator, Iterator, Mappin
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
-from .checkpoint.base import BaseCheckpointSaver, Checkpoint, TaskOutcome, TaskSpec
+from .checkpoint.base import BaseCheckpointSaver, Checkpoint, TaskOutcome, TaskSpec, iso_time
 from .constants import END, START
 from .context import _MISSING, TaskContext
 from .errors import CheckpointError, GraphError, GraphInterrupt, reject_unsupported
@@ -25,8 +25,22 @@ if TYPE_CHECKING:
 StreamModeArg = str | Sequence[str] | None
 
 
+SUBGRAPH_EVENT = "__subgraph__"
+Sink = Callable[[tuple[str, ...], str, Any], None]
+
+
 def _noop(_: Any) -> None:
     return None
+
+
+def _shape(mode: str, chunk: Any, paired: bool, subgraphs: bool) -> Any:
+    """A chunk as the caller asked for it: bare, ``(mode, chunk)``, or with the subgraph namespace first."""
+    ns: tuple[str, ...] = ()
+    if mode == SUBGRAPH_EVENT:
+        ns, mode, chunk = chunk
+    if subgraphs:
+        return (ns, mode, chunk) if paired else (ns, chunk)
+    return (mode, chunk) if paired else chunk
 
 
 def _check_call(where: str, stream_mode: str, kwargs: dict[str, Any]) -> None:
@@ -63,7 +77,6 @@ class CompiledStateGraph:
         self.interrupt_before = frozenset(interrupt_before)
         self.interrupt_after = frozenset(interrupt_after)
         self.name = name
-        self.node_order = list(spec.nodes)
         if checkpointer is not None and not isinstance(checkpointer, bool | BaseCheckpointSaver):
             raise GraphError(f"checkpointer must be InMemorySaver(), SqliteSaver(...) or None, got {checkpointer!r}")
 
@@ -91,16 +104,22 @@ class CompiledStateGraph:
         config: Mapping[str, Any] | None = None,
         *,
         stream_mode: StreamModeArg = None,
+        subgraphs: bool = False,
         **kwargs: Any,
     ) -> Iterator[Any]:
         """Yield as the run goes: ``values`` (state after each step), ``updates`` (each node's writes),
-        ``debug`` (tasks and checkpoints) or ``custom`` (what nodes pass to ``get_stream_writer()``)."""
+        ``debug`` (tasks and checkpoints) or ``custom`` (what nodes pass to ``get_stream_writer()``).
+
+        With ``subgraphs=True`` every chunk comes with the namespace of the (sub)graph that produced it:
+        ``(namespace, chunk)``, or ``(namespace, mode, chunk)`` when several modes are asked for."""
         reject_unsupported("stream()", kwargs, harmless=("debug",))
         modes, paired = _modes(stream_mode)
         events: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()
         writer: Callable[[Any], None] = (lambda c: events.put(("custom", c))) if "custom" in modes else _noop
-        for mode, chunk in self._drive(input, config, frozenset(modes), self._saver, writer, events):
-            yield (mode, chunk) if paired else chunk
+        sink = (lambda ns, m, c: events.put((SUBGRAPH_EVENT, (ns, m, c)))) if subgraphs else None
+        live = events if "custom" in modes or subgraphs else None
+        for mode, chunk in self._drive(input, config, frozenset(modes), self._saver, writer, live, sink=sink):
+            yield _shape(mode, chunk, paired, subgraphs)
 
     def _drive(
         self,
@@ -111,8 +130,10 @@ class CompiledStateGraph:
         writer: Callable[[Any], None],
         events: queue.SimpleQueue[tuple[str, Any]] | None = None,
         ns: str = "",
+        sink: Sink | None = None,
     ) -> Generator[tuple[str, Any], None, Run]:
         run = Run(self, config, saver=saver, modes=modes, ns=ns)
+        run.sink = sink
         run.start(input)
         yield from _drain(run)
         live = events is not None
@@ -120,7 +141,9 @@ class CompiledStateGraph:
         try:
             while (todo := run.begin_step()) is not None:
                 yield from _drain(run)
-                if len(todo) == 1 and not live:
+                if not todo:
+                    pass  # every task's outcome is already known (the input step, or a resumed step)
+                elif len(todo) == 1 and not live:
                     task = todo[0]
                     try:
                         run.record(task, run_task_sync(run, self.spec.nodes[task.node], task, writer))
@@ -150,6 +173,7 @@ class CompiledStateGraph:
                     _settle(run, todo, futures)
                 run.end_step()
                 yield from _drain(run)
+            yield from _drain(run)  # what the last begin_step said (a breakpoint)
             if events is not None:
                 while not events.empty():
                     yield events.get()
@@ -175,6 +199,7 @@ class CompiledStateGraph:
         config: Mapping[str, Any] | None = None,
         *,
         stream_mode: StreamModeArg = None,
+        subgraphs: bool = False,
         **kwargs: Any,
     ) -> AsyncIterator[Any]:
         """Async :meth:`stream`."""
@@ -191,8 +216,11 @@ class CompiledStateGraph:
             def writer(chunk: Any) -> None:
                 loop.call_soon_threadsafe(events.put_nowait, ("custom", chunk))
 
-        async for mode, chunk in self._adrive(run, input, writer, events):
-            yield (mode, chunk) if paired else chunk
+        if subgraphs:
+            run.sink = lambda ns, m, c: loop.call_soon_threadsafe(events.put_nowait, (SUBGRAPH_EVENT, (ns, m, c)))
+        live = events if "custom" in modes or subgraphs else None
+        async for mode, chunk in self._adrive(run, input, writer, live):
+            yield _shape(mode, chunk, paired, subgraphs)
 
     async def _adrive(
         self,
@@ -232,6 +260,8 @@ class CompiledStateGraph:
             run.end_step()
             for item in _drain(run):
                 yield item
+        for item in _drain(run):  # what the last begin_step said (a breakpoint)
+            yield item
         if events is not None:
             while not events.empty():
                 yield events.get_nowait()
@@ -249,13 +279,29 @@ class CompiledStateGraph:
         sub_input: Any = {k: v for k, v in values.items() if k in self.spec.schema.keys}
         if saver is not None and parent.thread_id is not None and saver.get(parent.thread_id, ns) is not None:
             sub_input = Command(resume=ctx.fresh_resume) if ctx.fresh_resume is not _MISSING else None
-        gen = self._drive(sub_input, config, frozenset(), saver, ctx.writer, ns=ns)
+        parent_sink = parent.sink
+        sink: Sink | None = None
+        writer = ctx.writer
+        modes: frozenset[str] = frozenset()
+        if parent_sink is not None:
+            label = ns.rsplit("|", 1)[-1]
+            modes = parent.modes
+
+            def sink(inner: tuple[str, ...], mode: str, chunk: Any) -> None:
+                parent_sink((label, *inner), mode, chunk)
+
+            def writer(chunk: Any) -> None:
+                parent_sink((label,), "custom", chunk)
+
+        gen = self._drive(sub_input, config, modes, saver, writer, ns=ns, sink=sink)
         while True:
             try:
-                next(gen)
+                mode, chunk = next(gen)
             except StopIteration as stop:
                 run: Run = stop.value
                 break
+            if sink is not None:
+                sink((), mode, chunk)
         if run.interrupts:
             raise GraphInterrupt(tuple(run.interrupts))
         parent_keys = parent.schema.keys
@@ -294,7 +340,7 @@ class CompiledStateGraph:
             next=tuple(t.node for t in ckpt.tasks),
             config=cfg(ckpt.id),
             metadata=dict(ckpt.metadata),
-            created_at=ckpt.created_at,
+            created_at=iso_time(ckpt.created_at),
             parent_config=cfg(ckpt.parent_id) if ckpt.parent_id else None,
             tasks=tuple(tasks),
         )
@@ -360,7 +406,6 @@ class CompiledStateGraph:
         elif as_node is not None:
             run.tasks = run.plan([(TaskSpec("", as_node), TaskOutcome(writes=writes))])
         run.last_nodes = [writer_name]
-        run.at_breakpoint = False
         run.step += 1
         run.save("update", changed)
         return run.checkpoint_config()

@@ -6,7 +6,6 @@ from anywhere inside a node (helpers included) without being passed around.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable
 from contextvars import ContextVar
 from dataclasses import dataclass, field
@@ -45,6 +44,8 @@ def current_task() -> TaskContext:
 
 
 def interrupt_id(ns: str, task_id: str, index: int) -> str:
+    import hashlib
+
     return hashlib.sha1(f"{ns}|{task_id}|{index}".encode(), usedforsecurity=False).hexdigest()[:16]
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import inspect
 import itertools
 import typing
@@ -21,6 +20,8 @@ if TYPE_CHECKING:
 
 
 def _closest(name: str, choices: Sequence[str]) -> str:
+    import difflib
+
     match = difflib.get_close_matches(name, list(choices), n=1)
     return f" (did you mean {match[0]!r}?)" if match else ""
 
@@ -43,11 +44,49 @@ def _literal_values(annotation: Any) -> tuple[str, ...] | None:
 
 
 def _return_annotation(fn: Callable[..., Any]) -> Any:
+    """The resolved return annotation; the raw text when it cannot be resolved (a forward reference to a class
+    defined inside a function, under ``from __future__ import annotations``)."""
     try:
         hints = typing.get_type_hints(fn)
-    except Exception:  # unresolvable forward references: no inference, no error
-        return None
+    except Exception:
+        target = fn if inspect.isfunction(fn) or inspect.ismethod(fn) else getattr(fn, "__call__", fn)  # noqa: B004
+        raw = getattr(target, "__annotations__", {}).get("return")
+        return raw if isinstance(raw, str) else None
     return hints.get("return")
+
+
+def _literal_values_from_text(text: str) -> tuple[tuple[str, ...] | None, bool]:
+    """Parse ``"Literal['a', 'b']"`` or ``"Command[Literal[...]]"`` without evaluating it.
+
+    Returns the names (or None) and whether the annotation is a ``Command``."""
+    import ast
+
+    try:
+        tree = ast.parse(text, mode="eval").body
+    except SyntaxError:
+        return None, False
+
+    def name_of(node: ast.expr) -> str:
+        if isinstance(node, ast.Attribute):
+            return node.attr
+        return node.id if isinstance(node, ast.Name) else ""
+
+    is_command = name_of(tree.value if isinstance(tree, ast.Subscript) else tree) == "Command"
+    if is_command and isinstance(tree, ast.Subscript):
+        tree = tree.slice
+    if isinstance(tree, ast.Subscript) and name_of(tree.value) == "Literal":
+        items = tree.slice.elts if isinstance(tree.slice, ast.Tuple) else [tree.slice]
+        if all(isinstance(i, ast.Constant) and isinstance(i.value, str) for i in items):
+            return tuple(str(i.value) for i in items if isinstance(i, ast.Constant)), is_command
+    return None, is_command
+
+
+def _routes(annotation: Any) -> tuple[tuple[str, ...] | None, bool]:
+    """The names a return annotation allows, and whether it is a ``Command`` (resolved or raw text)."""
+    if isinstance(annotation, str):
+        return _literal_values_from_text(annotation)
+    is_command = annotation is Command or get_origin(annotation) is Command
+    return _literal_values(annotation), is_command
 
 
 @dataclass
@@ -207,11 +246,10 @@ class StateGraph:
             spec.is_async = inspect.iscoroutinefunction(action) or inspect.iscoroutinefunction(
                 getattr(action, "__call__", None)  # noqa: B004 - async callable objects
             )
-            ret = _return_annotation(action)
-            literal = _literal_values(ret)
+            literal, is_command = _routes(_return_annotation(action))
             if literal is not None:
                 spec.destinations = literal
-            elif ret is Command or get_origin(ret) is Command:
+            elif is_command:
                 spec.dynamic = True
         if destinations is not None:
             spec.destinations = tuple(destinations)
@@ -244,7 +282,7 @@ class StateGraph:
         """After ``source``, call ``path(state)`` and go where it says (a name, a list of names, or ``Send``s)."""
         if source == END:
             raise GraphError("END cannot have outgoing edges")
-        literal = _literal_values(_return_annotation(path))
+        literal, _ = _routes(_return_annotation(path))
         mapping: dict[Hashable, str] | None
         if path_map is None:
             mapping = {v: v for v in literal} if literal is not None else None

@@ -6,11 +6,12 @@ what runs next, how writes merge and what gets checkpointed lives here, once.
 
 from __future__ import annotations
 
-import uuid
+import os
+import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from .checkpoint.base import Checkpoint, TaskOutcome, TaskSpec, diff_values, new_checkpoint_id, now_iso
+from .checkpoint.base import Checkpoint, TaskOutcome, TaskSpec, diff_values, iso_time
 from .constants import END, INTERRUPT_KEY, START
 from .errors import (
     CheckpointError,
@@ -29,10 +30,6 @@ if TYPE_CHECKING:
 
 DEFAULT_RECURSION_LIMIT = 10_000
 INPUT_NODE = "__input__"
-
-
-def _task(node: str, *, push: bool = False, arg: Any = None) -> TaskSpec:
-    return TaskSpec(uuid.uuid4().hex, node, push, arg)
 
 
 class Run:
@@ -82,6 +79,9 @@ class Run:
         self.stopped = False
         self.last_nodes: list[str] = []
         self._saved_lists: dict[str, list[Any]] = {}
+        self.sink: Any = None  # where a subgraph's events go when the caller streams with subgraphs=True
+        self._token = os.urandom(8).hex()
+        self._seq = 0
 
     # --- events ---
     def emit(self, mode: str, chunk: Any) -> None:
@@ -111,20 +111,25 @@ class Run:
         self._saved_lists = {k: list(v) for k, v in self.values.items() if type(v) is list}
 
     def start(self, input: Any) -> None:
-        """Load the thread's checkpoint (if any) and take ``input``: new values, ``None`` or a ``Command``."""
+        """Load the thread's checkpoint (if any) and take ``input``: new values, ``None`` or a ``Command``.
+
+        New values become the outcome of a ``__start__`` task, run as a superstep like any other (as in
+        LangGraph): a checkpoint before the input is applied, one after, and the step counts towards the limit.
+        """
         ckpt = None
         if self.saver is not None:
             assert self.thread_id is not None
             ckpt = self.saver.get(self.thread_id, self.ns, self.configurable.get("checkpoint_id"))
         if ckpt is not None:
             self.load(ckpt)
-        elif self.schema.is_model:
-            self.values = self.schema.defaults()
+        else:
+            self.values = self.schema.initial_values()
         if input is None:
             if ckpt is None:
                 where = f"thread {self.thread_id!r}" if self.saver else "a graph without a checkpointer"
                 raise EmptyInputError(f"invoke(None) resumes a paused run, but {where} has nothing to resume")
             self.skip_breakpoint = self.at_breakpoint
+            self.emit("values", self.output())
             return
         if isinstance(input, Command):
             if ckpt is None and input.resume is not None:
@@ -132,6 +137,7 @@ class Run:
             if input.resume is not None:
                 self._take_resume(input.resume)
                 self.skip_breakpoint = self.at_breakpoint
+                self.emit("values", self.output())
             if input.update is not None or input.goto:
                 writes = self._checked_writes(INPUT_NODE, self.schema.update_to_dict(INPUT_NODE, input.update))
                 changed = self.apply([(INPUT_NODE, writes)])
@@ -141,12 +147,23 @@ class Run:
                 self.save("input", changed)
             return
         writes = self._checked_writes(INPUT_NODE, self.schema.update_to_dict(INPUT_NODE, input))
-        changed = self.apply([(INPUT_NODE, writes)])
-        self.schema.check_complete("input", self.values)
-        self.tasks = self.plan([(TaskSpec("", START), TaskOutcome())])
-        self.outcomes, self.open_interrupts, self.resume_lists = {}, {}, {}
-        self.save("input", changed | set(self.values) if ckpt is None else changed)
-        self.emit("values", self.output())
+        self.schema.check_complete("input", {**self.values, **dict(writes)})
+        start = self.new_task(START)
+        self.tasks = [start]
+        self.outcomes, self.open_interrupts, self.resume_lists, self.fresh_resume = {}, {}, {}, {}
+        self.at_breakpoint = False
+        if ckpt is not None:
+            self.step += 1
+        self.save("input", set(self.values) if ckpt is None else set())
+        self.record(start, TaskOutcome(writes=writes), save=True)
+
+    def new_id(self) -> str:
+        """A task or checkpoint id: unique per run (random prefix) and cheap (a counter)."""
+        self._seq += 1
+        return f"{self._token}{self._seq:06x}"
+
+    def new_task(self, node: str, *, push: bool = False, arg: Any = None) -> TaskSpec:
+        return TaskSpec(self.new_id(), node, push, arg)
 
     def _checked_writes(self, node: str, update: Mapping[str, Any]) -> list[tuple[str, Any]]:
         return [(k, self.schema.check_write(node, k, v, self.values.get(k, _MISSING))) for k, v in update.items()]
@@ -180,6 +197,7 @@ class Run:
             self.stopped = True
             self.at_breakpoint = True
             self.save("loop", set())
+            self.emit("updates", {INTERRUPT_KEY: ()})
             return None
         self.skip_breakpoint = False
         self.at_breakpoint = False
@@ -189,13 +207,14 @@ class Run:
                 self.emit("debug", self._debug("task", {"id": t.id, "name": t.node, "input": t.arg}))
         return todo
 
-    def record(self, task: TaskSpec, outcome: TaskOutcome) -> None:
+    def record(self, task: TaskSpec, outcome: TaskOutcome, *, save: bool = False) -> None:
         """Keep a task's outcome; in a step of several tasks, or when interrupted, save it at once."""
         self.outcomes[task.id] = outcome
-        if self.saver is not None and self.checkpoint_id and (len(self.tasks) > 1 or outcome.interrupted):
+        save = save or len(self.tasks) > 1 or outcome.interrupted
+        if save and self.saver is not None and self.checkpoint_id:
             assert self.thread_id is not None
             self.saver.put_outcome(self.thread_id, self.ns, self.checkpoint_id, task.id, outcome)
-        if "debug" in self.modes:
+        if "debug" in self.modes and task.node != START:
             payload = {
                 "id": task.id,
                 "name": task.node,
@@ -218,21 +237,26 @@ class Run:
             self.interrupts = [i for o in interrupted for i in o.interrupts]
             self.stopped = True
             self.emit("updates", {INTERRUPT_KEY: tuple(self.interrupts)})
+            if "values" in self.modes:
+                self.emit("values", {**self.output(), INTERRUPT_KEY: tuple(self.interrupts)})
             return
         changed = self.apply([(t.node, o.writes) for t, o in done])
         if "updates" in self.modes:
             for t, o in done:
-                self.emit("updates", {t.node: dict(o.writes) if o.writes else None})
+                if t.node != START:
+                    self.emit("updates", {t.node: dict(o.writes) if o.writes else None})
         self.last_nodes = [t.node for t, _ in done]
         self.tasks = self.plan(done)
         self.step += 1
         self.steps_run += 1
         self.outcomes, self.open_interrupts, self.resume_lists, self.fresh_resume = {}, {}, {}, {}
         self.save("loop", changed)
-        self.emit("values", self.output())
+        if "values" in self.modes:
+            self.emit("values", self.output())
         after = self.graph.interrupt_after
         if after and self.tasks and any(n in after or "*" in after for n in self.last_nodes):
             self.stopped = True
+            self.emit("updates", {INTERRUPT_KEY: ()})
 
     def apply(self, writes: list[tuple[str, list[tuple[str, Any]]]]) -> set[str]:
         """Merge writes in the given order: reducers fold, last-value keys accept one writer per step."""
@@ -314,8 +338,9 @@ class Run:
         for source, dests in extra:
             for dest in dests:
                 add(source, dest)
-        tasks = [_task(n) for n in self.graph.node_order if n in pull]
-        tasks.extend(_task(s.node, push=True, arg=s.arg) for s in push)
+        # LangGraph's order: writes of a superstep are applied by node name, then Sends in the order sent
+        tasks = [self.new_task(n) for n in sorted(pull)]
+        tasks.extend(self.new_task(s.node, push=True, arg=s.arg) for s in push)
         return tasks
 
     # --- checkpoints ---
@@ -329,11 +354,11 @@ class Run:
             if type(value) is list:
                 self._saved_lists[key] = list(value)
         ckpt = Checkpoint(
-            id=new_checkpoint_id(),
+            id=self.new_id(),
             parent_id=self.checkpoint_id,
             step=self.step,
             source=source,
-            created_at=now_iso(),
+            created_at=time.time(),
             values=self.values,
             tasks=self.tasks,
             joins=self.joins,
@@ -359,7 +384,7 @@ class Run:
         return tuple(t.node for t in self.tasks)
 
     def _debug(self, kind: str, payload: dict[str, Any]) -> dict[str, Any]:
-        return {"type": kind, "timestamp": now_iso(), "step": self.step + 1, "payload": payload}
+        return {"type": kind, "timestamp": iso_time(time.time()), "step": self.step + 1, "payload": payload}
 
     def _recursion_error(self) -> GraphRecursionError:
         last = ", ".join(self.last_nodes) or "(none)"

@@ -47,11 +47,11 @@ class DrawableGraph:
 
     @staticmethod
     def _id(name: str) -> str:
-        return name.strip("_") if name in (START, END) else name.replace(" ", "_").replace("-", "_")
+        return name if name in (START, END) else name.replace(" ", "_").replace("-", "_")
 
     def draw_mermaid(self) -> str:
         """Mermaid text; paste it into any Mermaid renderer (GitHub renders it in Markdown)."""
-        lines = ["graph TD;"]
+        lines = ["---", "config:", "  flowchart:", "    curve: linear", "---", "graph TD;"]
         for node in self.nodes:
             if node == START:
                 lines.append(f"\t{self._id(node)}([<p>{START}</p>]):::first")

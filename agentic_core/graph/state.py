@@ -11,11 +11,12 @@ import inspect
 import typing
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Annotated, Any, get_args, get_origin, get_type_hints
-
-from pydantic import BaseModel, TypeAdapter, ValidationError
+from typing import TYPE_CHECKING, Annotated, Any, get_args, get_origin, get_type_hints
 
 from .errors import GraphError, InvalidUpdateError, StateTypeError
+
+if TYPE_CHECKING:
+    from pydantic import TypeAdapter
 
 MISSING: Any = object()
 
@@ -75,6 +76,8 @@ class StateSchema:
     """Introspects a TypedDict or pydantic model once and answers for it at run time."""
 
     def __init__(self, schema: Any) -> None:
+        from pydantic import BaseModel, TypeAdapter  # on first use: pydantic is most of the import time
+
         self.schema = schema
         self.is_model = isinstance(schema, type) and issubclass(schema, BaseModel)
         if not self.is_model and not typing.is_typeddict(schema):
@@ -119,7 +122,11 @@ class StateSchema:
             return value
         try:
             return spec.adapter.validate_python(value, strict=True)
-        except ValidationError as strict_error:
+        except Exception as strict_error:
+            from pydantic import ValidationError
+
+            if not isinstance(strict_error, ValidationError):
+                raise
             if isinstance(value, Mapping | list | tuple):
                 # Containers may be coerced structurally (a dict into a nested model); scalars never are.
                 try:
@@ -157,12 +164,20 @@ class StateSchema:
             return {}
         if isinstance(update, Mapping):
             return dict(update)
+        from pydantic import BaseModel
+
         if isinstance(update, BaseModel):
             return {k: getattr(update, k) for k in update.model_fields_set}
         raise InvalidUpdateError(
             f"node {node!r} returned {type(update).__name__}; a node must return a dict of state updates "
             f"(keys of {self.name}), a Command, or None"
         )
+
+    def initial_values(self) -> dict[str, Any]:
+        """A new thread's values: model defaults, and the empty value of each reducer key (as LangGraph)."""
+        values = {k: s.initial for k, s in self.keys.items() if s.initial is not MISSING}
+        values.update(self.defaults())
+        return values
 
     def defaults(self) -> dict[str, Any]:
         return {k: s.default for k, s in self.keys.items() if s.default is not MISSING}

@@ -19,7 +19,7 @@ def test_demo_approves_by_policy_and_leaves_a_checkpointed_run(tmp_path: Path) -
     assert any("headless policy answers 'approve'" in line for line in lines)
     (run_dir,) = list(tmp_path.iterdir())
     assert (run_dir / "checkpoints.sqlite").stat().st_size > 0
-    assert (run_dir / "graph.mmd").read_text().startswith("graph TD;")
+    assert "graph TD;" in (run_dir / "graph.mmd").read_text()
 
 
 def test_demo_decline(tmp_path: Path) -> None:

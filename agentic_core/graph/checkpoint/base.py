@@ -7,12 +7,9 @@ grows linearly with the number of steps, where a full copy per checkpoint would 
 
 from __future__ import annotations
 
-import pickle
 import threading
-import uuid
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from typing import Any, Protocol
 
 from ..errors import CheckpointError
@@ -31,11 +28,19 @@ class Serializer(Protocol):
 class PickleSerializer:
     """The default serializer. Checkpoint stores are trusted local files: never load one from a stranger."""
 
+    def __init__(self) -> None:
+        import pickle  # on first use, to keep ``import agentic_core.graph`` light
+
+        self._dumps = pickle.dumps
+        self._loads = pickle.loads
+        self._protocol = pickle.HIGHEST_PROTOCOL
+
     def dumps(self, obj: Any) -> bytes:
-        return pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+        data: bytes = self._dumps(obj, protocol=self._protocol)
+        return data
 
     def loads(self, data: bytes) -> Any:
-        return pickle.loads(data)
+        return self._loads(data)
 
 
 @dataclass(slots=True)
@@ -71,7 +76,7 @@ class Checkpoint:
     parent_id: str | None
     step: int
     source: str
-    created_at: str
+    created_at: float  # seconds since the epoch; shown as ISO 8601 in a StateSnapshot
     values: dict[str, Any]
     tasks: list[TaskSpec]
     joins: dict[str, list[str]] = field(default_factory=dict)
@@ -88,16 +93,14 @@ class CheckpointRow:
     parent_id: str | None
     step: int
     source: str
-    created_at: str
+    created_at: float
     body: bytes
 
 
-def new_checkpoint_id() -> str:
-    return uuid.uuid4().hex
+def iso_time(seconds: float) -> str:
+    from datetime import UTC, datetime
 
-
-def now_iso() -> str:
-    return datetime.now(UTC).isoformat()
+    return datetime.fromtimestamp(seconds, UTC).isoformat()
 
 
 def diff_values(saved: Mapping[str, Any], new: Mapping[str, Any], changed: set[str]) -> dict[str, tuple[Any, ...]]:
@@ -158,7 +161,7 @@ class BaseCheckpointSaver:
     ) -> None:
         body = {
             "delta": dict(delta),
-            "tasks": checkpoint.tasks,
+            "tasks": [(t.id, t.node, t.push, t.arg) for t in checkpoint.tasks],  # tuples pickle fastest
             "joins": checkpoint.joins,
             "at_breakpoint": checkpoint.at_breakpoint,
             "metadata": checkpoint.metadata,
@@ -248,7 +251,7 @@ class BaseCheckpointSaver:
             source=row.source,
             created_at=row.created_at,
             values=values,
-            tasks=body["tasks"],
+            tasks=[TaskSpec(*t) for t in body["tasks"]],
             joins=body["joins"],
             at_breakpoint=body["at_breakpoint"],
             metadata=body["metadata"],

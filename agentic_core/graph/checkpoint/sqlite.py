@@ -22,7 +22,7 @@ CREATE TABLE IF NOT EXISTS agentic_checkpoints (
     parent_id TEXT,
     step INTEGER NOT NULL,
     source TEXT NOT NULL,
-    created_at TEXT NOT NULL,
+    created_at REAL NOT NULL,
     body BLOB NOT NULL,
     UNIQUE (thread_id, ns, checkpoint_id)
 );

@@ -151,11 +151,11 @@ def test_draw_mermaid_shows_nodes_edges_and_conditional_labels() -> None:
     g.add_edge("inc", "check")
     g.add_conditional_edges("check", route, {"again": "inc", "stop": END})
     text = g.compile().get_graph().draw_mermaid()
-    assert text.startswith("graph TD;")
-    assert "\tstart --> inc;" in text
+    assert text.startswith("---\nconfig:\n  flowchart:\n    curve: linear\n---\ngraph TD;\n")
+    assert "\t__start__ --> inc;" in text
     assert "\tinc --> check;" in text
     assert "\tcheck -. &nbsp;again&nbsp; .-> inc;" in text
-    assert "\tcheck -. &nbsp;stop&nbsp; .-> end;" in text
+    assert "\tcheck -. &nbsp;stop&nbsp; .-> __end__;" in text
 
 
 def test_unsupported_langgraph_arguments_are_refused_not_ignored() -> None:

@@ -58,12 +58,14 @@ def test_only_the_interrupted_node_reruns_and_no_other_side_effect_repeats(saver
     assert [i.value for i in first["__interrupt__"]] == ["land near the crowd?"]
     assert first["log"] == []  # the barrier was not passed; deploy's write is held as a pending write
     snap = app.get_state(cfg())
-    assert snap.next == ("deploy", "ask")
+    assert snap.next == ("ask", "deploy")  # a superstep's tasks are ordered by node name, as in LangGraph
     assert [i.value for i in snap.interrupts] == ["land near the crowd?"]
 
     final = app.invoke(Command(resume="yes"), cfg())
     assert final == {"log": ["deployed", "done"], "answer": "yes"}
-    assert effects == ["deploy", "ask:before", "ask:before", "ask:after:yes", "finish"]
+    # deploy and ask ran concurrently in the first superstep, so only counts are fixed before the resume
+    assert sorted(effects[:2]) == ["ask:before", "deploy"]
+    assert effects[2:] == ["ask:before", "ask:after:yes", "finish"]
 
 
 def test_several_interrupts_in_one_node_resume_in_order(saver: BaseCheckpointSaver) -> None:
@@ -147,8 +149,7 @@ def test_breakpoint_holds_after_a_crash_like_restart(saver: BaseCheckpointSaver)
     """Loading the checkpoint before a breakpoint node (as a restarted process would) still stops there."""
     app = breakpoints(saver, interrupt_before=["land"])
     app.invoke({"log": []}, cfg())
-    before_land = [h for h in app.get_state_history(cfg()) if h.metadata["source"] == "loop"][-1]
-    assert before_land.next == ("land",)
+    before_land = [h for h in app.get_state_history(cfg()) if h.next == ("land",)][-1]  # the oldest, pre-breakpoint
     assert app.invoke(None, before_land.config) == {"log": ["takeoff"]}  # stops again at the breakpoint
 
 

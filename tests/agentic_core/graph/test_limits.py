@@ -37,14 +37,16 @@ def test_recursion_limit_counts_supersteps_and_names_the_last_nodes() -> None:
         loop_graph().invoke({"count": 0}, {"recursion_limit": 5})
     msg = str(err.value)
     assert "recursion limit of 5 supersteps" in msg
-    assert "ran inc and check would run next" in msg
+    # the input step counts as a superstep (as in LangGraph): __start__, inc, check, inc, check
+    assert "ran check and inc would run next" in msg
     assert "'recursion_limit': 50" in msg
 
 
 def test_exactly_enough_supersteps_pass() -> None:
-    assert loop_graph().invoke({"count": 0}, {"recursion_limit": 20}) == {"count": 10}
+    # 20 node supersteps plus the input step
+    assert loop_graph().invoke({"count": 0}, {"recursion_limit": 21}) == {"count": 10}
     with pytest.raises(GraphRecursionError):
-        loop_graph().invoke({"count": 0}, {"recursion_limit": 19})
+        loop_graph().invoke({"count": 0}, {"recursion_limit": 20})
 
 
 def test_a_run_stopped_by_the_limit_continues_with_a_higher_one() -> None:

@@ -40,9 +40,12 @@ def test_a_checkpoint_after_input_and_every_superstep(saver: BaseCheckpointSaver
     app = line(saver)
     assert app.invoke({"count": 1, "log": []}, cfg()) == {"count": 20, "log": ["a", "b"]}
     history = list(app.get_state_history(cfg()))
-    assert [h.metadata["source"] for h in history] == ["loop", "loop", "input"]
-    assert [h.next for h in history] == [(), ("b",), ("a",)]
-    assert [h.values["count"] for h in history] == [20, 2, 1]
+    # as in LangGraph: the input checkpoint holds the state before the input, which the __start__ step applies
+    assert [h.metadata["source"] for h in history] == ["loop", "loop", "loop", "input"]
+    assert [h.metadata["step"] for h in history] == [2, 1, 0, -1]
+    assert [h.next for h in history] == [(), ("b",), ("a",), ("__start__",)]
+    assert [h.values.get("count") for h in history] == [20, 2, 1, None]
+    assert history[-1].values == {"log": []}
     assert history[0].parent_config == history[1].config
     assert app.get_state(cfg()).values == {"count": 20, "log": ["a", "b"]}
 
@@ -103,8 +106,9 @@ def test_replay_from_an_earlier_checkpoint(saver: BaseCheckpointSaver) -> None:
     app = line(saver)
     app.invoke({"count": 1, "log": []}, cfg())
     first = list(app.get_state_history(cfg()))[-1]
+    assert first.next == ("__start__",)
     assert app.invoke(None, first.config) == {"count": 20, "log": ["a", "b"]}
-    assert len(list(app.get_state_history(cfg()))) == 5  # the replay added two checkpoints on a branch
+    assert len(list(app.get_state_history(cfg()))) == 7  # the replay added three checkpoints on a branch
 
 
 def test_history_filter_before_and_limit(saver: BaseCheckpointSaver) -> None:
@@ -112,7 +116,7 @@ def test_history_filter_before_and_limit(saver: BaseCheckpointSaver) -> None:
     app.invoke({"count": 1, "log": []}, cfg())
     assert [h.metadata["source"] for h in app.get_state_history(cfg(), filter={"source": "input"})] == ["input"]
     newest = app.get_state(cfg())
-    assert [h.values["count"] for h in app.get_state_history(cfg(), before=newest.config)] == [2, 1]
+    assert [h.values.get("count") for h in app.get_state_history(cfg(), before=newest.config)] == [2, 1, None]
     assert len(list(app.get_state_history(cfg(), limit=1))) == 1
 
 
@@ -183,7 +187,7 @@ def test_history_values_rebuild_every_checkpoint_exactly(saver: BaseCheckpointSa
     app = g.compile(checkpointer=saver)
     app.invoke({"count": 0, "log": []}, cfg())
     logs = [h.values["log"] for h in app.get_state_history(cfg())]
-    assert logs == [[str(i) for i in range(n)] for n in range(5, -1, -1)]
+    assert logs == [[str(i) for i in range(n)] for n in range(5, -1, -1)] + [[]]  # + the pre-input checkpoint
 
 
 def test_a_failed_step_resumes_without_rerunning_its_finished_tasks(saver: BaseCheckpointSaver) -> None:
@@ -210,8 +214,8 @@ def test_a_failed_step_resumes_without_rerunning_its_finished_tasks(saver: BaseC
     with pytest.raises(ConnectionError):
         app.invoke({"log": []}, cfg())
     snap = app.get_state(cfg())
-    assert snap.next == ("steady", "flaky")
+    assert snap.next == ("flaky", "steady")
     errors = {t.name: t.error for t in snap.tasks}
     assert errors == {"steady": None, "flaky": "ConnectionError: telemetry link lost"}
-    assert app.invoke(None, cfg()) == {"log": ["steady", "flaky"]}
+    assert app.invoke(None, cfg()) == {"log": ["flaky", "steady"]}
     assert calls == {"steady": 1, "flaky": 2}

@@ -100,4 +100,4 @@ def test_in_place_reducer_is_checkpointed_correctly() -> None:
     app = g.compile(checkpointer=InMemorySaver())
     cfg = {"configurable": {"thread_id": "t"}}
     app.invoke({"n": 0, "xs": []}, cfg)
-    assert [h.values["xs"] for h in app.get_state_history(cfg)] == [[0, 1, 2, 3], [0, 1, 2], [0, 1], [0], []]
+    assert [h.values["xs"] for h in app.get_state_history(cfg)] == [[0, 1, 2, 3], [0, 1, 2], [0, 1], [0], [], []]
