@@ -79,10 +79,14 @@ def to_outcome(run: Run, node: str, returned: Any) -> TaskOutcome:
     return TaskOutcome(writes=writes, goto=goto)
 
 
-def _retry_sleep(policy: RetryPolicy | None, attempt: int, exc: BaseException) -> float | None:
-    """Seconds to wait before the next attempt, or None to give up."""
+def _delay_or_raise(run: Run, node: NodeSpec, task: TaskSpec, attempt: int, exc: Exception) -> float:
+    """After a failed attempt: the seconds to wait before the next one, or re-raise (naming the node)."""
+    policy: RetryPolicy | None = node.retry
+    if isinstance(exc, ParentCommand):
+        raise exc
     if policy is None or attempt >= policy.max_attempts or not policy.should_retry(exc):
-        return None
+        _annotate(exc, run, task, attempt)
+        raise exc
     return policy.interval(attempt)
 
 
@@ -172,14 +176,8 @@ def run_task_sync(run: Run, node: NodeSpec, task: TaskSpec, writer: Callable[[An
             return to_outcome(run, node.name, returned)
         except GraphInterrupt as gi:
             return TaskOutcome(interrupts=gi.interrupts, resume=list(ctx.resume))
-        except ParentCommand:
-            raise
         except Exception as exc:
-            delay = _retry_sleep(node.retry, attempt, exc)
-            if delay is None:
-                _annotate(exc, run, task, attempt)
-                raise
-            time.sleep(delay)
+            time.sleep(_delay_or_raise(run, node, task, attempt, exc))
 
 
 async def run_task_async(run: Run, node: NodeSpec, task: TaskSpec, writer: Callable[[Any], None]) -> TaskOutcome:
@@ -195,10 +193,13 @@ async def run_task_async(run: Run, node: NodeSpec, task: TaskSpec, writer: Calla
                 token = _current.set(ctx)
                 try:
                     coro = node.fn(_node_input(run, task), **_kwargs(node, ctx))
-                    try:
-                        returned = await asyncio.wait_for(coro, node.timeout_s)
-                    except TimeoutError:
-                        raise _timeout_error(node) from None
+                    if node.timeout_s is None:
+                        returned = await coro
+                    else:
+                        try:
+                            returned = await asyncio.wait_for(coro, node.timeout_s)
+                        except TimeoutError:
+                            raise _timeout_error(node) from None
                 finally:
                     _current.reset(token)
             else:
@@ -206,11 +207,5 @@ async def run_task_async(run: Run, node: NodeSpec, task: TaskSpec, writer: Calla
             return to_outcome(run, node.name, returned)
         except GraphInterrupt as gi:
             return TaskOutcome(interrupts=gi.interrupts, resume=list(ctx.resume))
-        except ParentCommand:
-            raise
         except Exception as exc:
-            delay = _retry_sleep(node.retry, attempt, exc)
-            if delay is None:
-                _annotate(exc, run, task, attempt)
-                raise
-            await asyncio.sleep(delay)
+            await asyncio.sleep(_delay_or_raise(run, node, task, attempt, exc))

@@ -49,3 +49,20 @@ def test_python_dash_m_entry_point(tmp_path: Path) -> None:
     )
     assert proc.returncode == 0, proc.stderr
     assert "outcome: rescue kit dispatched" in proc.stdout
+
+
+def test_eval_stats_and_paper_are_wired(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = tmp_path / "results.csv"
+    rows = ["system,processing_time_s"] + [f"{s},{t}" for s in ("a", "b", "c") for t in (1.0, 1.5, 2.0, 2.5, 3.1)]
+    results.write_text("\n".join(rows) + "\n")
+    assert main(["eval", "stats", str(results), "--format", "json"]) == 0
+    assert '"processing_time_s"' in capsys.readouterr().out
+    assert main(["eval", "stats", str(tmp_path / "missing.csv")]) == 2
+    assert "missing.csv" in capsys.readouterr().err
+    assert main(["eval", "paper", "--format", "markdown"]) == 0
+    assert "reproduced" in capsys.readouterr().out
+
+
+def test_eval_subcommand_help_comes_from_the_evaluation_package(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "stats", "--help"]) == 0
+    assert "usage: agentic-uav eval stats" in capsys.readouterr().out

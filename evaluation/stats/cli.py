@@ -1,0 +1,96 @@
+"""``agentic-uav eval stats RESULTS``: the statistics report of a results file.
+
+Exit status: 0 on success, 2 on bad input (the message names the file, line or record, and column).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+from evaluation.stats.errors import InputError
+
+PROG = "agentic-uav eval stats"
+
+
+def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add this command's arguments to ``parser`` (for wiring into the main CLI's subparsers)."""
+    parser.add_argument("results", metavar="RESULTS", help="results file: CSV/TSV, JSON list of objects, or JSONL")
+    parser.add_argument("--group", metavar="COL", help="column holding the groups (default: detected)")
+    parser.add_argument(
+        "--value",
+        metavar="COL",
+        action="append",
+        help="outcome column (repeat, or separate with commas; default: detected)",
+    )
+    parser.add_argument(
+        "--categorical", metavar="COL", action="append", default=[], help="treat a numeric column as categories"
+    )
+    parser.add_argument("--alpha", type=float, default=0.05, help="significance level (default 0.05)")
+    parser.add_argument("--baseline", metavar="GROUP", help="group for 'speed vs. baseline' (default: the fastest)")
+    parser.add_argument(
+        "--format", choices=("markdown", "latex", "json"), default="markdown", help="what to print (default markdown)"
+    )
+    parser.add_argument(
+        "--out", metavar="DIR", type=Path, help="also write stats.md, stats.tex and stats.json into DIR"
+    )
+    parser.set_defaults(handler=run)
+    return parser
+
+
+def _split(values: Sequence[str] | None) -> list[str] | None:
+    if not values:
+        return None
+    return [v.strip() for item in values for v in item.split(",") if v.strip()]
+
+
+def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
+    from evaluation.stats.pipeline import analyze
+
+    out = stdout or sys.stdout
+    err = stderr or sys.stderr
+    if not 0.0 < args.alpha < 1.0:
+        print(f"{PROG}: error: --alpha must be between 0 and 1, got {args.alpha}", file=err)
+        return 2
+    try:
+        report = analyze(
+            args.results,
+            group=args.group,
+            values=_split(args.value),
+            categorical=_split(args.categorical) or [],
+            alpha=args.alpha,
+            baseline=args.baseline,
+        )
+    except InputError as exc:
+        print(f"{PROG}: error: {exc}", file=err)
+        return 2
+    rendered = {"markdown": report.to_markdown, "latex": report.to_latex, "json": report.to_json}[args.format]()
+    out.write(rendered if rendered.endswith("\n") else rendered + "\n")
+    if args.out is not None:
+        try:
+            args.out.mkdir(parents=True, exist_ok=True)
+            (args.out / "stats.md").write_text(report.to_markdown(), encoding="utf-8")
+            (args.out / "stats.tex").write_text(report.to_latex(), encoding="utf-8")
+            (args.out / "stats.json").write_text(report.to_json() + "\n", encoding="utf-8")
+        except OSError as exc:
+            print(f"{PROG}: error: {args.out}: cannot write the report ({exc.strerror or exc})", file=err)
+            return 2
+        print(f"wrote {args.out / 'stats.md'}, {args.out / 'stats.tex'}, {args.out / 'stats.json'}", file=err)
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point: ``main(["results.csv", "--group", "system"])`` returns the exit status."""
+    parser = configure_parser(argparse.ArgumentParser(prog=PROG, description=__doc__))
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse exits on --help (0) and on usage errors (2)
+        return int(exc.code) if isinstance(exc.code, int) else 2
+    return run(args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
