@@ -73,9 +73,7 @@ def to_outcome(run: Run, node: str, returned: Any) -> TaskOutcome:
             merged.update(cmd.update or {})
             goto.extend(cmd.goto_list())
         update = merged
-    updates = run.schema.update_to_dict(node, update)
-    values = run.values
-    writes = [(k, run.schema.check_write(node, k, v, values.get(k, _MISSING))) for k, v in updates.items()]
+    writes = run.checked_writes(node, update)
     return TaskOutcome(writes=writes, goto=goto)
 
 
@@ -189,7 +187,15 @@ async def run_task_async(run: Run, node: NodeSpec, task: TaskSpec, writer: Calla
         attempt += 1
         ctx = make_context(run, task, writer)
         try:
-            if node.is_async and node.subgraph is None:
+            if node.subgraph is not None:
+                token = _current.set(ctx)
+                try:
+                    returned = await node.subgraph._arun_as_node(_node_input(run, task), ctx)
+                except ParentCommand as pc:
+                    returned = dataclasses.replace(pc.command, graph=None)
+                finally:
+                    _current.reset(token)
+            elif node.is_async:
                 token = _current.set(ctx)
                 try:
                     coro = node.fn(_node_input(run, task), **_kwargs(node, ctx))

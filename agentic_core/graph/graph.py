@@ -198,7 +198,6 @@ class StateGraph:
         self.edges: list[tuple[str, str]] = []
         self.joins: list[Join] = []
         self.branches: list[Branch] = []
-        self.compiled = False
 
     # --- building ---
     def add_node(
@@ -429,7 +428,7 @@ class StateGraph:
         """Check the graph and return a runnable one. ``checkpointer=None`` in a subgraph inherits the parent's."""
         from .compiled import CompiledStateGraph
 
-        reject_unsupported("compile()", kwargs)
+        reject_unsupported("compile()", {**kwargs, "debug": debug})
         before = [interrupt_before] if isinstance(interrupt_before, str) else list(interrupt_before or ())
         after = [interrupt_after] if isinstance(interrupt_after, str) else list(interrupt_after or ())
         self.validate([*before, *after])
@@ -441,7 +440,6 @@ class StateGraph:
                 spec.joins.setdefault(s, []).append(j)
         for br in self.branches:
             spec.branches.setdefault(br.source, []).append(br)
-        self.compiled = True
         return CompiledStateGraph(
             spec,
             builder=self,

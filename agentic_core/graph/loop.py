@@ -6,9 +6,10 @@ what runs next, how writes merge and what gets checkpointed lives here, once.
 
 from __future__ import annotations
 
+import copy
 import os
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from .checkpoint.base import Checkpoint, TaskOutcome, TaskSpec, diff_values, iso_time
@@ -21,7 +22,7 @@ from .errors import (
     InvalidRouteError,
     InvalidUpdateError,
 )
-from .state import MISSING as _MISSING
+from .state import MISSING, StateSchema
 from .types import Command, Interrupt, Send
 
 if TYPE_CHECKING:
@@ -30,6 +31,58 @@ if TYPE_CHECKING:
 
 DEFAULT_RECURSION_LIMIT = 10_000
 INPUT_NODE = "__input__"
+Sink = Callable[[tuple[str, ...], str, Any], None]
+
+
+def merge_writes(
+    schema: StateSchema, values: dict[str, Any], writes: Iterable[tuple[str, list[tuple[str, Any]]]]
+) -> set[str]:
+    """Merge writes into ``values`` in the given order: reducers fold, last-value keys take one writer a step."""
+    written_by: dict[str, str] = {}
+    changed: set[str] = set()
+    keys = schema.keys
+    for node, items in writes:
+        for key, value in items:
+            spec = keys[key]
+            if spec.reducer is None:
+                if key in written_by:
+                    raise InvalidUpdateError(
+                        f"nodes {written_by[key]!r} and {node!r} both wrote last-value key {key!r} in the same "
+                        f"superstep; give {key!r} a reducer (Annotated[T, reducer]) or let one node write it"
+                    )
+                written_by[key] = node
+                values[key] = value
+            else:
+                base = values[key] if key in values else spec.initial()
+                values[key] = value if base is MISSING else spec.reducer(base, value)
+            changed.add(key)
+    return changed
+
+
+def run_sync(awaitable: Any) -> Any:
+    """Run a coroutine to its result from sync code, also when this thread already runs an event loop."""
+    import asyncio
+
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:
+        return asyncio.run(awaitable)
+    box: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            box["value"] = asyncio.run(awaitable)
+        except BaseException as exc:
+            box["error"] = exc
+
+    import threading
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join()
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
 
 
 class Run:
@@ -50,7 +103,8 @@ class Run:
         self.config: dict[str, Any] = dict(config or {})
         self.configurable: dict[str, Any] = dict(self.config.get("configurable") or {})
         self.saver = saver
-        self.thread_id: str | None = self.configurable.get("thread_id")
+        tid = self.configurable.get("thread_id")
+        self.thread_id: str | None = None if tid is None else str(tid)
         if saver is not None and self.thread_id is None:
             raise CheckpointError(
                 "this graph has a checkpointer, so every call needs a thread id: "
@@ -63,13 +117,14 @@ class Run:
         self.limit = limit
         self.modes = modes
         self.events: list[tuple[str, Any]] = []
+        self.sink: Sink | None = None  # where a subgraph's events go when the caller streams with subgraphs=True
         self.values: dict[str, Any] = {}
         self.tasks: list[TaskSpec] = []
         self.joins: dict[str, list[str]] = {}
         self.step = -1
         self.checkpoint_id: str | None = None
-        self.outcomes: dict[str, TaskOutcome] = {}
-        self.open_interrupts: dict[str, TaskOutcome] = {}
+        self.outcomes: dict[str, TaskOutcome] = {}  # finished tasks of the current step
+        self.open_interrupts: dict[str, TaskOutcome] = {}  # tasks of the current step paused in interrupt()
         self.resume_lists: dict[str, list[Any]] = {}
         self.fresh_resume: dict[str, Any] = {}
         self.at_breakpoint = False
@@ -79,17 +134,22 @@ class Run:
         self.stopped = False
         self.last_nodes: list[str] = []
         self._saved_lists: dict[str, list[Any]] = {}
-        self.sink: Any = None  # where a subgraph's events go when the caller streams with subgraphs=True
         self._token = os.urandom(8).hex()
         self._seq = 0
 
-    # --- events ---
+    # --- events and what callers see ---
     def emit(self, mode: str, chunk: Any) -> None:
         if mode in self.modes:
             self.events.append((mode, chunk))
 
+    def visible_values(self) -> dict[str, Any]:
+        """The values, with the writes of tasks that finished in a paused superstep applied (as LangGraph shows)."""
+        if not self.outcomes:
+            return dict(self.values)
+        return preview(self.schema, self.values, self.tasks, self.outcomes)
+
     def output(self) -> dict[str, Any]:
-        out = {**self.schema.defaults(), **self.values} if self.schema.is_model else dict(self.values)
+        out = self.visible_values()
         if self.interrupts:
             out[INTERRUPT_KEY] = list(self.interrupts)
         return out
@@ -102,12 +162,14 @@ class Run:
         self.step = ckpt.step
         self.checkpoint_id = ckpt.id
         self.at_breakpoint = ckpt.at_breakpoint
+        self.last_nodes = list(ckpt.metadata.get("ran", []))
         for tid, out in ckpt.outcomes.items():
             if out.interrupted:
                 self.open_interrupts[tid] = out
-                self.resume_lists[tid] = list(out.resume)
             elif out.error is None:
                 self.outcomes[tid] = out
+            if (out.resume and out.error is not None) or out.interrupted:
+                self.resume_lists[tid] = list(out.resume)  # answers given before an error or crash are kept
         self._saved_lists = {k: list(v) for k, v in self.values.items() if type(v) is list}
 
     def start(self, input: Any) -> None:
@@ -129,24 +191,12 @@ class Run:
                 where = f"thread {self.thread_id!r}" if self.saver else "a graph without a checkpointer"
                 raise EmptyInputError(f"invoke(None) resumes a paused run, but {where} has nothing to resume")
             self.skip_breakpoint = self.at_breakpoint
-            self.emit("values", self.output())
+            self.emit("values", self.visible_values())
             return
         if isinstance(input, Command):
-            if ckpt is None and input.resume is not None:
-                raise EmptyInputError(f"Command(resume=...) given, but thread {self.thread_id!r} has no checkpoint")
-            if input.resume is not None:
-                self._take_resume(input.resume)
-                self.skip_breakpoint = self.at_breakpoint
-                self.emit("values", self.output())
-            if input.update is not None or input.goto:
-                writes = self._checked_writes(INPUT_NODE, self.schema.update_to_dict(INPUT_NODE, input.update))
-                changed = self.apply([(INPUT_NODE, writes)])
-                if input.goto:
-                    self.tasks = self.plan([], extra=[(INPUT_NODE, list(input.goto_list()))])
-                    self.outcomes, self.open_interrupts = {}, {}
-                self.save("input", changed)
+            self._start_command(input, ckpt)
             return
-        writes = self._checked_writes(INPUT_NODE, self.schema.update_to_dict(INPUT_NODE, input))
+        writes = self.checked_writes(INPUT_NODE, input)
         self.schema.check_complete("input", {**self.values, **dict(writes)})
         start = self.new_task(START)
         self.tasks = [start]
@@ -157,23 +207,48 @@ class Run:
         self.save("input", set(self.values) if ckpt is None else set())
         self.record(start, TaskOutcome(writes=writes), save=True)
 
-    def new_id(self) -> str:
-        """A task or checkpoint id: unique per run (random prefix) and cheap (a counter)."""
-        self._seq += 1
-        return f"{self._token}{self._seq:06x}"
+    def _start_command(self, cmd: Command[Any], ckpt: Checkpoint | None) -> None:
+        if cmd.resume is not None:
+            if self.saver is None:
+                raise CheckpointError(
+                    "Command(resume=...) continues a paused run, which needs a checkpointer: "
+                    "compile(checkpointer=InMemorySaver()) and pass the same thread_id"
+                )
+            if ckpt is None:
+                raise EmptyInputError(f"Command(resume=...) given, but thread {self.thread_id!r} has no checkpoint")
+            self._take_resume(cmd.resume)
+            self.skip_breakpoint = self.at_breakpoint
+            self.emit("values", self.visible_values())
+        if cmd.update is None and not cmd.goto:
+            return
+        writes = self.checked_writes(INPUT_NODE, cmd.update)
+        changed = self.apply([(INPUT_NODE, writes)])
+        if cmd.goto:
+            self.tasks = self.plan([], extra=[(INPUT_NODE, list(cmd.goto_list()))])
+            self.outcomes, self.open_interrupts = {}, {}
+        self.step += 1
+        self.save("input", changed)
+        self.carry_outcomes()
 
-    def new_task(self, node: str, *, push: bool = False, arg: Any = None) -> TaskSpec:
-        return TaskSpec(self.new_id(), node, push, arg)
-
-    def _checked_writes(self, node: str, update: Mapping[str, Any]) -> list[tuple[str, Any]]:
-        return [(k, self.schema.check_write(node, k, v, self.values.get(k, _MISSING))) for k, v in update.items()]
+    def checked_writes(self, node: str, update: Any) -> list[tuple[str, Any]]:
+        """What a node (or the caller) wrote, normalised and validated against the schema."""
+        items = self.schema.update_to_dict(node, update).items()
+        return [(k, self.schema.check_write(node, k, v, self.values)) for k, v in items]
 
     def _take_resume(self, resume: Any) -> None:
         if not self.open_interrupts:
             raise GraphError(f"Command(resume=...) given, but no interrupt is pending on thread {self.thread_id!r}")
         by_id = {i.id: tid for tid, out in self.open_interrupts.items() for i in out.interrupts}
+        targets: list[tuple[str, Any]]
         if isinstance(resume, Mapping) and resume and all(k in by_id for k in resume):
-            targets = [(by_id[k], v) for k, v in resume.items()]
+            per_task: dict[str, dict[str, Any]] = {}
+            for iid, value in resume.items():
+                per_task.setdefault(by_id[iid], {})[iid] = value
+            # a task with one open interrupt gets the value; a subgraph task with several gets the id mapping
+            targets = [
+                (tid, next(iter(vals.values())) if len(self.open_interrupts[tid].interrupts) == 1 else vals)
+                for tid, vals in per_task.items()
+            ]
         elif len(self.open_interrupts) == 1:
             targets = [(next(iter(self.open_interrupts)), resume)]
         else:
@@ -184,18 +259,31 @@ class Run:
         for tid, value in targets:
             self.resume_lists[tid] = [*self.resume_lists.get(tid, []), value]
             self.fresh_resume[tid] = value
+            # saved at once: an answer survives a crash or an error of the node after it resumes
+            pending = self.open_interrupts[tid]
+            self._put(tid, TaskOutcome(interrupts=pending.interrupts, resume=self.resume_lists[tid]))
+
+    def new_id(self) -> str:
+        """A task or checkpoint id: unique per run (random prefix) and cheap (a counter)."""
+        self._seq += 1
+        return f"{self._token}{self._seq:06x}"
+
+    def new_task(self, node: str, *, push: bool = False, arg: Any = None) -> TaskSpec:
+        return TaskSpec(self.new_id(), node, push, arg)
 
     # --- supersteps ---
+    def _hits(self, names: frozenset[str], nodes: Iterable[str]) -> bool:
+        return bool(names) and any(n != START and (n in names or "*" in names) for n in nodes)
+
     def begin_step(self) -> list[TaskSpec] | None:
         """The tasks to execute now, or None when the run is finished or paused."""
         if self.stopped or not self.tasks:
             return None
         if self.steps_run >= self.limit:
             raise self._recursion_error()
-        before = self.graph.interrupt_before
-        if before and not self.skip_breakpoint and any(t.node in before or "*" in before for t in self.tasks):
-            self.stopped = True
-            self.at_breakpoint = True
+        if not self.skip_breakpoint and self._hits(self.graph.interrupt_before, (t.node for t in self.tasks)):
+            # Reached only when a run starts at tasks planned elsewhere (a fork); end_step stops before these.
+            self.stopped = self.at_breakpoint = True
             self.save("loop", set())
             self.emit("updates", {INTERRUPT_KEY: ()})
             return None
@@ -207,39 +295,49 @@ class Run:
                 self.emit("debug", self._debug("task", {"id": t.id, "name": t.node, "input": t.arg}))
         return todo
 
+    def _put(self, task_id: str, outcome: TaskOutcome) -> None:
+        if self.saver is not None and self.checkpoint_id:
+            assert self.thread_id is not None
+            self.saver.put_outcome(self.thread_id, self.ns, self.checkpoint_id, task_id, outcome)
+
     def record(self, task: TaskSpec, outcome: TaskOutcome, *, save: bool = False) -> None:
         """Keep a task's outcome; in a step of several tasks, or when interrupted, save it at once."""
-        self.outcomes[task.id] = outcome
-        save = save or len(self.tasks) > 1 or outcome.interrupted
-        if save and self.saver is not None and self.checkpoint_id:
-            assert self.thread_id is not None
-            self.saver.put_outcome(self.thread_id, self.ns, self.checkpoint_id, task.id, outcome)
+        if outcome.interrupted:
+            self.open_interrupts[task.id] = outcome
+        else:
+            self.outcomes[task.id] = outcome
+            self.open_interrupts.pop(task.id, None)
+        if save or len(self.tasks) > 1 or outcome.interrupted:
+            self._put(task.id, outcome)
         if "debug" in self.modes and task.node != START:
-            payload = {
-                "id": task.id,
-                "name": task.node,
-                "result": outcome.writes,
-                "interrupts": outcome.interrupts,
-            }
+            payload = {"id": task.id, "name": task.node, "result": outcome.writes, "interrupts": outcome.interrupts}
             self.emit("debug", self._debug("task_result", payload))
 
     def record_error(self, task: TaskSpec, exc: BaseException) -> None:
-        if self.saver is not None and self.checkpoint_id:
-            assert self.thread_id is not None
-            outcome = TaskOutcome(error=f"{type(exc).__name__}: {exc}")
-            self.saver.put_outcome(self.thread_id, self.ns, self.checkpoint_id, task.id, outcome)
+        resume = self.resume_lists.get(task.id, [])
+        self._put(task.id, TaskOutcome(error=f"{type(exc).__name__}: {exc}", resume=resume))
+
+    def carry_outcomes(self) -> None:
+        """Save the current step's finished and paused outcomes under the newest checkpoint (after an edit)."""
+        for tid, out in [*self.outcomes.items(), *self.open_interrupts.items()]:
+            if out.interrupted and tid in self.resume_lists:
+                out = TaskOutcome(interrupts=out.interrupts, resume=self.resume_lists[tid])
+            self._put(tid, out)
 
     def end_step(self) -> None:
         """The barrier: apply all writes in task order, pick the next tasks, save a checkpoint."""
-        done = [(t, self.outcomes[t.id]) for t in self.tasks]
-        interrupted = [o for _, o in done if o.interrupted]
-        if interrupted:
-            self.interrupts = [i for o in interrupted for i in o.interrupts]
+        if self.open_interrupts:
+            self.interrupts = [i for t in self.tasks if t.id in self.open_interrupts for i in self._opened(t.id)]
             self.stopped = True
+            if "updates" in self.modes:
+                for t in self.tasks:
+                    if t.id in self.outcomes and t.node != START:
+                        self.emit("updates", {t.node: dict(self.outcomes[t.id].writes) or None})
             self.emit("updates", {INTERRUPT_KEY: tuple(self.interrupts)})
             if "values" in self.modes:
-                self.emit("values", {**self.output(), INTERRUPT_KEY: tuple(self.interrupts)})
+                self.emit("values", {**self.visible_values(), INTERRUPT_KEY: tuple(self.interrupts)})
             return
+        done = [(t, self.outcomes[t.id]) for t in self.tasks]
         changed = self.apply([(t.node, o.writes) for t, o in done])
         if "updates" in self.modes:
             for t, o in done:
@@ -250,49 +348,31 @@ class Run:
         self.step += 1
         self.steps_run += 1
         self.outcomes, self.open_interrupts, self.resume_lists, self.fresh_resume = {}, {}, {}, {}
+        after = self._hits(self.graph.interrupt_after, self.last_nodes)
+        pause = bool(self.tasks) and (after or self._hits(self.graph.interrupt_before, (t.node for t in self.tasks)))
+        self.at_breakpoint = pause
         self.save("loop", changed)
         if "values" in self.modes:
-            self.emit("values", self.output())
-        after = self.graph.interrupt_after
-        if after and self.tasks and any(n in after or "*" in after for n in self.last_nodes):
-            self.stopped = True
+            self.emit("values", dict(self.values))
+        self.stopped = pause
+        if pause or after:  # after the last node there is nothing to pause, but LangGraph still says so
             self.emit("updates", {INTERRUPT_KEY: ()})
 
+    def _opened(self, task_id: str) -> tuple[Interrupt, ...]:
+        return self.open_interrupts[task_id].interrupts
+
     def apply(self, writes: list[tuple[str, list[tuple[str, Any]]]]) -> set[str]:
-        """Merge writes in the given order: reducers fold, last-value keys accept one writer per step."""
-        written_by: dict[str, str] = {}
-        changed: set[str] = set()
-        keys = self.schema.keys
-        for node, items in writes:
-            for key, value in items:
-                spec = keys[key]
-                if spec.reducer is None:
-                    if key in written_by:
-                        raise InvalidUpdateError(
-                            f"nodes {written_by[key]!r} and {node!r} both wrote last-value key {key!r} in the same "
-                            f"superstep; give {key!r} a reducer (Annotated[T, reducer]) or let one node write it"
-                        )
-                    written_by[key] = node
-                    self.values[key] = value
-                else:
-                    if key in self.values:
-                        self.values[key] = spec.reducer(self.values[key], value)
-                    elif spec.initial is not _MISSING:
-                        self.values[key] = spec.reducer(spec.initial, value)
-                    else:
-                        self.values[key] = value
-                changed.add(key)
-        return changed
+        return merge_writes(self.schema, self.values, writes)
 
     def plan(
         self,
         done: list[tuple[TaskSpec, TaskOutcome]],
-        extra: list[tuple[str, list[str | Send]]] = (),  # type: ignore[assignment]
+        extra: Iterable[tuple[str, list[str | Send]]] = (),
     ) -> list[TaskSpec]:
         """The tasks of the next superstep: edges, completed joins, routers and gotos of the finished tasks."""
         pull: set[str] = set()
         push: list[Send] = []
-        view: Any = _MISSING
+        view: Any = MISSING
         spec = self.spec
 
         def add(source: str, dest: str | Send) -> None:
@@ -321,15 +401,13 @@ class Run:
             for dest in outcome.goto:
                 add(node, dest)
             for branch in spec.branches.get(node, ()):
-                if view is _MISSING:
+                if view is MISSING:
                     view = self.schema.to_node_input(self.values)
                 try:
                     kwargs = {"config": self.config} if branch.takes_config else {}
                     result = branch.router(view, **kwargs)
                     if branch.is_async:
-                        import asyncio
-
-                        result = asyncio.run(result)
+                        result = run_sync(result)
                 except Exception as exc:
                     exc.add_note(f"in router {branch.name!r} of the conditional edge from {node!r}")
                     raise
@@ -353,6 +431,8 @@ class Run:
             value = self.values.get(key)
             if type(value) is list:
                 self._saved_lists[key] = list(value)
+            else:
+                self._saved_lists.pop(key, None)
         ckpt = Checkpoint(
             id=self.new_id(),
             parent_id=self.checkpoint_id,
@@ -368,16 +448,12 @@ class Run:
         self.saver.put(self.thread_id, self.ns, ckpt, delta)
         self.checkpoint_id = ckpt.id
         if "debug" in self.modes:
-            payload = {"config": self.checkpoint_config(), "values": self.output(), "next": self.next_nodes()}
+            payload = {"config": self.checkpoint_config(), "values": dict(self.values), "next": self.next_nodes()}
             self.emit("debug", self._debug("checkpoint", payload))
 
     def checkpoint_config(self) -> dict[str, Any]:
         return {
-            "configurable": {
-                "thread_id": self.thread_id,
-                "checkpoint_ns": self.ns,
-                "checkpoint_id": self.checkpoint_id,
-            }
+            "configurable": {"thread_id": self.thread_id, "checkpoint_ns": self.ns, "checkpoint_id": self.checkpoint_id}
         }
 
     def next_nodes(self) -> tuple[str, ...]:
@@ -399,3 +475,18 @@ class Run:
         else:
             msg += " If it is not, check the condition that should route to END."
         return GraphRecursionError(msg)
+
+
+def preview(
+    schema: StateSchema, values: Mapping[str, Any], tasks: list[TaskSpec], outcomes: Mapping[str, TaskOutcome]
+) -> dict[str, Any]:
+    """``values`` with the writes of the finished ``outcomes`` applied, on copies (the stored values stay)."""
+    writes = [
+        (t.node, outcomes[t.id].writes)
+        for t in tasks
+        if t.node != START and t.id in outcomes and outcomes[t.id].writes  # the input shows once applied
+    ]
+    touched = {k for _, items in writes for k, _ in items}
+    shown = {k: copy.copy(v) if k in touched else v for k, v in values.items()}
+    merge_writes(schema, shown, writes)
+    return shown

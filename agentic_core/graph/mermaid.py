@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -45,22 +46,33 @@ class DrawableGraph:
                 graph.edges.append(Edge(spec.name, target, conditional=True))
         return graph
 
-    @staticmethod
-    def _id(name: str) -> str:
-        return name if name in (START, END) else name.replace(" ", "_").replace("-", "_")
+    def _ids(self) -> dict[str, str]:
+        """Mermaid-safe ids, unique even where two names differ only in characters Mermaid cannot take."""
+        ids: dict[str, str] = {}
+        taken: set[str] = set()
+        for name in self.nodes:
+            base = name if name in (START, END) else re.sub(r"[^0-9A-Za-z_]", "_", name)
+            candidate, n = base, 1
+            while candidate in taken:
+                n += 1
+                candidate = f"{base}_{n}"
+            ids[name] = candidate
+            taken.add(candidate)
+        return ids
 
     def draw_mermaid(self) -> str:
         """Mermaid text; paste it into any Mermaid renderer (GitHub renders it in Markdown)."""
+        ids = self._ids()
         lines = ["---", "config:", "  flowchart:", "    curve: linear", "---", "graph TD;"]
         for node in self.nodes:
             if node == START:
-                lines.append(f"\t{self._id(node)}([<p>{START}</p>]):::first")
+                lines.append(f"\t{ids[node]}([<p>{START}</p>]):::first")
             elif node == END:
-                lines.append(f"\t{self._id(node)}([<p>{END}</p>]):::last")
+                lines.append(f"\t{ids[node]}([<p>{END}</p>]):::last")
             else:
-                lines.append(f"\t{self._id(node)}({node})")
+                lines.append(f'\t{ids[node]}("{node}")')
         for e in self.edges:
-            a, b = self._id(e.source), self._id(e.target)
+            a, b = ids[e.source], ids[e.target]
             if not e.conditional:
                 lines.append(f"\t{a} --> {b};")
             elif e.label:

@@ -7,6 +7,7 @@ checked against the declared types, so a wrong type fails at the node that wrote
 
 from __future__ import annotations
 
+import copy
 import inspect
 import typing
 from collections.abc import Callable, Mapping
@@ -47,36 +48,67 @@ class KeySpec:
     type_: Any
     reducer: Callable[[Any, Any], Any] | None
     adapter: TypeAdapter[Any] | None
-    default: Any = MISSING
-    initial: Any = MISSING  # what a reducer key starts from: the empty value of its type where there is one
+    default: Any = MISSING  # a model field's default; copied for every new thread
+    empty: type | None = None  # for a reducer key: the type whose empty value it starts from (list, dict, ...)
 
     @property
     def type_name(self) -> str:
         return _type_name(self.type_)
 
+    def initial(self) -> Any:
+        """A fresh starting value for a reducer key (a new list each time), or MISSING."""
+        return self.empty() if self.empty is not None else MISSING
+
+
+_REQUIRED_WRAPPERS = (
+    (typing.Required, typing.NotRequired, typing.ReadOnly)
+    if hasattr(typing, "ReadOnly")
+    else (
+        typing.Required,
+        typing.NotRequired,
+    )
+)
+
 
 def _split_annotated(annotation: Any) -> tuple[Any, Callable[[Any, Any], Any] | None]:
+    while get_origin(annotation) in _REQUIRED_WRAPPERS:  # TypedDict's Required[...] / NotRequired[...]
+        annotation = get_args(annotation)[0]
     if get_origin(annotation) is Annotated:
         base, *meta = get_args(annotation)
         if meta and _is_binop(meta[-1]):
-            return base, meta[-1]
-        return base, None
+            rest = [m for m in meta[:-1]]
+            return (Annotated[(base, *rest)] if rest else base), meta[-1]
+        return annotation, None
     return annotation, None
 
 
-def _empty_value(tp: Any) -> Any:
-    """``list()``, ``dict()``, ``int()``... for a reducer key's type, so the first write goes through the reducer."""
+def _empty_type(tp: Any) -> type | None:
+    """``list``, ``dict``, ``int``... for a reducer key's type, so the first write goes through the reducer."""
     origin = get_origin(tp) or tp
+    if get_origin(tp) is Annotated:
+        origin = get_origin(get_args(tp)[0]) or get_args(tp)[0]
     if origin in (list, dict, set, tuple, int, float, str, frozenset):
-        return origin()
-    return MISSING
+        return origin  # type: ignore[no-any-return]
+    return None
+
+
+def _adapter(base: Any) -> TypeAdapter[Any] | None:
+    """A validator for a TypedDict key's type; plain classes pydantic does not know are checked by isinstance."""
+    from pydantic import ConfigDict, TypeAdapter
+
+    if base is Any:
+        return None
+    try:
+        return TypeAdapter(base)
+    except Exception:
+        return TypeAdapter(base, config=ConfigDict(arbitrary_types_allowed=True))
 
 
 class StateSchema:
     """Introspects a TypedDict or pydantic model once and answers for it at run time."""
 
     def __init__(self, schema: Any) -> None:
-        from pydantic import BaseModel, TypeAdapter  # on first use: pydantic is most of the import time
+        from pydantic import BaseModel  # on first use: pydantic is most of the import time
 
         self.schema = schema
         self.is_model = isinstance(schema, type) and issubclass(schema, BaseModel)
@@ -94,13 +126,19 @@ class StateSchema:
             if self.is_model and name not in model_fields:
                 continue  # ClassVar and private attributes
             base, reducer = _split_annotated(annotation)
-            adapter = None if base is Any else TypeAdapter(base)
             default = MISSING
             if self.is_model:
                 field = model_fields[name]
                 if not field.is_required():
                     default = field.get_default(call_default_factory=True)
-            self.keys[name] = KeySpec(name, base, reducer, adapter, default, _empty_value(base) if reducer else MISSING)
+                adapter = None  # model fields are validated by pydantic's assignment validation (see check_value)
+            else:
+                try:
+                    adapter = _adapter(base)
+                except Exception as exc:
+                    msg = f"state key {name!r} of {self.name}: pydantic cannot validate {base!r}: {exc}"
+                    raise GraphError(msg) from exc
+            self.keys[name] = KeySpec(name, base, reducer, adapter, default, _empty_type(base) if reducer else None)
 
     @property
     def name(self) -> str:
@@ -116,44 +154,61 @@ class StateSchema:
                 f"(known keys: {known}); add it to the schema or stop writing it"
             ) from None
 
-    def check_value(self, node: str, spec: KeySpec, value: Any) -> Any:
-        """Validate one written value against its key's declared type; return the value to store."""
-        if spec.adapter is None:
-            return value
-        try:
-            return spec.adapter.validate_python(value, strict=True)
-        except Exception as strict_error:
-            from pydantic import ValidationError
+    def _validate(self, spec: KeySpec, value: Any, values: Mapping[str, Any], strict: bool) -> Any:
+        if self.is_model:
+            # Assignment validation runs the field's constraints and field validators, as setting it would.
+            probe = self.schema.model_construct(**values)
+            self.schema.__pydantic_validator__.validate_assignment(probe, spec.name, value, strict=strict)
+            return getattr(probe, spec.name)
+        assert spec.adapter is not None
+        return spec.adapter.validate_python(value, strict=strict)
 
-            if not isinstance(strict_error, ValidationError):
-                raise
+    def check_value(self, node: str, spec: KeySpec, value: Any, values: Mapping[str, Any]) -> Any:
+        """Validate one written value against its key's declared type; return the value to store."""
+        if spec.adapter is None and not self.is_model:
+            return value
+        from pydantic import ValidationError
+
+        try:
+            return self._validate(spec, value, values, strict=True)
+        except ValidationError as strict_error:
+            error = strict_error
             if isinstance(value, Mapping | list | tuple):
                 # Containers may be coerced structurally (a dict into a nested model); scalars never are.
                 try:
-                    return spec.adapter.validate_python(value)
-                except ValidationError:
-                    pass
-            first = strict_error.errors()[0]
-            where = ".".join(str(p) for p in first.get("loc", ()))
+                    return self._validate(spec, value, values, strict=False)
+                except ValidationError as lax_error:
+                    error = lax_error
+            first = error.errors()[0]
+            loc = [str(p) for p in first.get("loc", ())]
+            if loc and loc[0] == spec.name:
+                loc = loc[1:]
             detail = first.get("msg", "")
-            if where:
-                detail = f"at {where}: {detail}"
+            if loc:
+                detail = f"at {'.'.join(loc)}: {detail}"
             raise StateTypeError(node, spec.name, spec.type_name, type(value).__name__, detail) from None
 
-    def check_write(self, node: str, key: str, value: Any, current: Any = MISSING) -> Any:
+    def check_write(self, node: str, key: str, value: Any, values: Mapping[str, Any]) -> Any:
         """Validate a write. For a reducer key a value that is not itself of the key's type (one message for a
         list of messages) is accepted when the reducer turns it into one."""
         spec = self.spec(node, key)
-        if spec.reducer is None or spec.adapter is None:
-            return self.check_value(node, spec, value)
+        if spec.reducer is None:
+            return self.check_value(node, spec, value, values)
         try:
-            return self.check_value(node, spec, value)
+            return self.check_value(node, spec, value, values)
         except StateTypeError as first:
-            base = current if current is not MISSING else spec.initial
+            if type(value) is not list and spec.empty is list:
+                try:  # one item for a list key: validate it as the list it will be appended as
+                    self.check_value(node, spec, [value], values)
+                    return value
+                except StateTypeError:
+                    pass
+            base = values.get(key, MISSING)
+            base = spec.initial() if base is MISSING else copy.copy(base)  # a reducer may change its input
             if base is MISSING:
                 raise
             try:
-                spec.adapter.validate_python(spec.reducer(base, value))
+                self.check_value(node, spec, spec.reducer(base, value), values)
             except Exception:
                 raise first from None
             return value
@@ -174,19 +229,18 @@ class StateSchema:
         )
 
     def initial_values(self) -> dict[str, Any]:
-        """A new thread's values: model defaults, and the empty value of each reducer key (as LangGraph)."""
-        values = {k: s.initial for k, s in self.keys.items() if s.initial is not MISSING}
-        values.update(self.defaults())
-        return values
+        """A new thread's values: model defaults, and the empty value of each reducer key (as LangGraph).
 
-    def defaults(self) -> dict[str, Any]:
-        return {k: s.default for k, s in self.keys.items() if s.default is not MISSING}
+        Fresh objects every time: a default list appended to in one thread must not show up in another.
+        """
+        values = {k: s.initial() for k, s in self.keys.items() if s.empty is not None}
+        values.update({k: copy.deepcopy(s.default) for k, s in self.keys.items() if s.default is not MISSING})
+        return values
 
     def to_node_input(self, values: Mapping[str, Any]) -> Any:
         """The state as a node receives it: a dict for a TypedDict, a model instance for a model."""
         if self.is_model:
-            merged = {**self.defaults(), **values}
-            return self.schema.model_construct(**merged)
+            return self.schema.model_construct(**values)
         return dict(values)
 
     def check_complete(self, node: str, values: Mapping[str, Any]) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Generic, Literal, TypeVar
+from typing import Any, ClassVar, Generic, Literal, TypeVar, cast
 
 N = TypeVar("N")
 
@@ -53,20 +53,41 @@ class Interrupt:
     id: str = ""
 
 
-def _default_retry_on(exc: BaseException) -> bool:
-    """Retry everything but programming errors, which no retry fixes."""
-    return not isinstance(
-        exc,
-        ValueError | TypeError | KeyError | AttributeError | NameError | SyntaxError | ImportError | AssertionError,
-    )
+_NOT_RETRIED = (
+    ValueError,
+    TypeError,
+    ArithmeticError,
+    ImportError,
+    LookupError,
+    NameError,
+    SyntaxError,
+    RuntimeError,
+    ReferenceError,
+    StopIteration,
+    StopAsyncIteration,
+    OSError,
+)
+
+
+def default_retry_on(exc: BaseException) -> bool:
+    """LangGraph's rule: retry lost connections and HTTP 5xx answers, and any error that is not a programming
+    error or an OS error (bad values, missing keys, timeouts of our own and the like are not retried)."""
+    if isinstance(exc, ConnectionError):
+        return True
+    response = getattr(exc, "response", None)
+    status = getattr(response, "status_code", None)
+    if isinstance(status, int):
+        return status >= 500
+    return not isinstance(exc, _NOT_RETRIED)
 
 
 @dataclass(frozen=True)
 class RetryPolicy:
     """How a node is retried when it raises: attempts, exponential backoff with jitter, which exceptions.
 
-    ``retry_on`` is an exception class, a tuple of them, or a predicate. The default retries any exception
-    except the programming errors (``ValueError``, ``TypeError``, ``KeyError``, ...) that no retry fixes.
+    ``retry_on`` is an exception class, a list or tuple of them, or a predicate. The default
+    (:func:`default_retry_on`, LangGraph's rule) retries lost connections and HTTP 5xx errors and nothing that
+    a retry cannot fix (``ValueError``, ``KeyError``, ``RuntimeError``, ``OSError``, ...).
 
     >>> RetryPolicy(max_attempts=3, initial_interval=0.1).interval(2, jitter=False)
     0.2
@@ -77,20 +98,31 @@ class RetryPolicy:
     max_interval: float = 128.0
     max_attempts: int = 3
     jitter: bool = True
-    retry_on: type[BaseException] | tuple[type[BaseException], ...] | Callable[[BaseException], bool] = (
-        _default_retry_on
-    )
+    retry_on: (
+        type[BaseException]
+        | tuple[type[BaseException], ...]
+        | Sequence[type[BaseException]]
+        | Callable[[BaseException], bool]
+    ) = default_retry_on
 
     def __post_init__(self) -> None:
+        if isinstance(self.retry_on, list | tuple):
+            object.__setattr__(self, "retry_on", tuple(self.retry_on))
+        elif not callable(self.retry_on):
+            raise ValueError(
+                f"RetryPolicy.retry_on must be an exception class, a list of them or a predicate, got {self.retry_on!r}"
+            )
         if self.max_attempts < 1:
             raise ValueError(f"RetryPolicy.max_attempts must be >= 1, got {self.max_attempts}")
         if self.initial_interval < 0 or self.backoff_factor < 1:
             raise ValueError("RetryPolicy needs initial_interval >= 0 and backoff_factor >= 1")
 
     def should_retry(self, exc: BaseException) -> bool:
-        if isinstance(self.retry_on, type | tuple):
-            return isinstance(exc, self.retry_on)
-        return bool(self.retry_on(exc))
+        retry_on = self.retry_on
+        if isinstance(retry_on, type | tuple):
+            return isinstance(exc, retry_on)
+        predicate = cast(Callable[[BaseException], bool], retry_on)
+        return bool(predicate(exc))
 
     def interval(self, attempt: int, *, jitter: bool | None = None) -> float:
         """Seconds to wait after failed attempt number ``attempt`` (1-based)."""

@@ -7,15 +7,16 @@ grows linearly with the number of steps, where a full copy per checkpoint would 
 
 from __future__ import annotations
 
+import itertools
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from ..errors import CheckpointError
 from ..types import Interrupt, Send
 
-FULL, APPEND, DELETE = "full", "append", "delete"
+FULL, APPEND = "full", "append"
 
 
 class Serializer(Protocol):
@@ -110,9 +111,6 @@ def diff_values(saved: Mapping[str, Any], new: Mapping[str, Any], changed: set[s
     """
     delta: dict[str, tuple[Any, ...]] = {}
     for key in changed:
-        if key not in new:
-            delta[key] = (DELETE,)
-            continue
         value, before = new[key], saved.get(key)
         if (
             type(value) is list
@@ -187,51 +185,24 @@ class BaseCheckpointSaver:
             rows = self._rows(thread_id, ns)
         if not rows:
             return None
-        by_id = {r.id: r for r in rows}
+        reader = _ChainReader(self.serde, rows)
         if checkpoint_id is None:
             target = rows[-1]
-        elif checkpoint_id in by_id:
-            target = by_id[checkpoint_id]
+        elif checkpoint_id in reader.by_id:
+            target = reader.by_id[checkpoint_id]
         else:
             raise CheckpointError(f"thread {thread_id!r} has no checkpoint {checkpoint_id!r}")
-        chain: list[CheckpointRow] = []
-        row: CheckpointRow | None = target
-        while row is not None:
-            chain.append(row)
-            row = by_id.get(row.parent_id) if row.parent_id else None
-        values: dict[str, Any] = {}
-        for link in reversed(chain):
-            values = self._apply(values, self.serde.loads(link.body)["delta"])
-        return self._materialise(thread_id, ns, target, values)
+        return self._materialise(thread_id, ns, target, reader.values(target), reader.body(target))
 
     def list(self, thread_id: str, ns: str = "") -> Iterator[Checkpoint]:
-        """Every checkpoint of a thread, newest first (forks included)."""
+        """Every checkpoint of a thread, newest first (forks included); each is rebuilt only when reached."""
         with self._lock:
             rows = self._rows(thread_id, ns)
-        values_of: dict[str, dict[str, Any]] = {}
-        bodies: dict[str, dict[str, Any]] = {}
-        for row in rows:  # oldest first, so a parent is always rebuilt before its children
-            body = self.serde.loads(row.body)
-            bodies[row.id] = body
-            base = values_of.get(row.parent_id, {}) if row.parent_id else {}
-            values_of[row.id] = self._apply(base, body["delta"])
+        reader = _ChainReader(self.serde, rows)
         for row in reversed(rows):
-            yield self._materialise(thread_id, ns, row, values_of[row.id], bodies[row.id])
+            yield self._materialise(thread_id, ns, row, reader.values(row), reader.body(row))
 
     # --- helpers ---
-    @staticmethod
-    def _apply(values: dict[str, Any], delta: Mapping[str, tuple[Any, ...]]) -> dict[str, Any]:
-        out = dict(values)
-        for key, record in delta.items():
-            kind = record[0]
-            if kind == FULL:
-                out[key] = record[1]
-            elif kind == APPEND:
-                out[key] = [*out.get(key, []), *record[1]]
-            else:
-                out.pop(key, None)
-        return out
-
     def _materialise(
         self,
         thread_id: str,
@@ -257,3 +228,46 @@ class BaseCheckpointSaver:
             metadata=body["metadata"],
             outcomes=outcomes,
         )
+
+
+def values_from_deltas(deltas_newest_first: Iterable[Mapping[str, tuple[Any, ...]]]) -> dict[str, Any]:
+    """Rebuild values from a chain of deltas, newest first: each key stops at its newest full record, and the
+    items appended since are joined once (linear in the chain, however long the lists grow)."""
+    values: dict[str, Any] = {}
+    appended: dict[str, list[list[Any]]] = {}
+    for delta in deltas_newest_first:
+        for key, record in delta.items():
+            if key in values:
+                continue
+            if record[0] == APPEND:
+                appended.setdefault(key, []).append(record[1])
+                continue
+            parts = appended.pop(key, None)
+            values[key] = [*record[1], *itertools.chain.from_iterable(reversed(parts))] if parts else record[1]
+    for key, parts in appended.items():
+        values[key] = list(itertools.chain.from_iterable(reversed(parts)))
+    return values
+
+
+class _ChainReader:
+    """Rows of one thread, with bodies unpickled once each, rebuilding any checkpoint along its parent chain."""
+
+    def __init__(self, serde: Serializer, rows: list[CheckpointRow]) -> None:
+        self.serde = serde
+        self.by_id = {r.id: r for r in rows}
+        self._bodies: dict[str, dict[str, Any]] = {}
+
+    def body(self, row: CheckpointRow) -> dict[str, Any]:
+        body = self._bodies.get(row.id)
+        if body is None:
+            body = self._bodies[row.id] = self.serde.loads(row.body)
+        return body
+
+    def values(self, row: CheckpointRow) -> dict[str, Any]:
+        def chain() -> Iterator[Mapping[str, tuple[Any, ...]]]:
+            link: CheckpointRow | None = row
+            while link is not None:
+                yield self.body(link)["delta"]
+                link = self.by_id.get(link.parent_id) if link.parent_id else None
+
+        return values_from_deltas(chain())

@@ -43,7 +43,9 @@ MISSION = textwrap.dedent(
     def release_kit(s):
         import sqlite3
         probe = sqlite3.connect(db)
-        while not probe.execute("SELECT COUNT(*) FROM agentic_writes").fetchone()[0]:
+        latest = "SELECT checkpoint_id FROM agentic_checkpoints ORDER BY seq DESC LIMIT 1"
+        saved = f"SELECT COUNT(*) FROM agentic_writes WHERE checkpoint_id = ({latest})"
+        while not probe.execute(saved).fetchone()[0]:
             time.sleep(0.01)  # wait until photograph (same superstep) has finished and its outcome is saved
         if os.environ.get("CRASH_IN_PARALLEL"):
             os.kill(os.getpid(), signal.SIGKILL)

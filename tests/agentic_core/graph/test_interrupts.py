@@ -56,9 +56,11 @@ def test_only_the_interrupted_node_reruns_and_no_other_side_effect_repeats(saver
 
     first = app.invoke({"log": []}, cfg())
     assert [i.value for i in first["__interrupt__"]] == ["land near the crowd?"]
-    assert first["log"] == []  # the barrier was not passed; deploy's write is held as a pending write
+    # the barrier was not passed: deploy's write is held as a pending write, shown (as LangGraph shows it)
+    assert first["log"] == ["deployed"]
     snap = app.get_state(cfg())
-    assert snap.next == ("ask", "deploy")  # a superstep's tasks are ordered by node name, as in LangGraph
+    assert snap.values["log"] == ["deployed"]
+    assert snap.next == ("ask",)  # deploy finished; only the paused task is still to run
     assert [i.value for i in snap.interrupts] == ["land near the crowd?"]
 
     final = app.invoke(Command(resume="yes"), cfg())
@@ -145,12 +147,20 @@ def test_interrupt_after_stops_after_the_node(saver: BaseCheckpointSaver) -> Non
     assert app.invoke(None, cfg())["log"] == ["takeoff", "land", "report"]
 
 
-def test_breakpoint_holds_after_a_crash_like_restart(saver: BaseCheckpointSaver) -> None:
-    """Loading the checkpoint before a breakpoint node (as a restarted process would) still stops there."""
-    app = breakpoints(saver, interrupt_before=["land"])
-    app.invoke({"log": []}, cfg())
-    before_land = [h for h in app.get_state_history(cfg()) if h.next == ("land",)][-1]  # the oldest, pre-breakpoint
-    assert app.invoke(None, before_land.config) == {"log": ["takeoff"]}  # stops again at the breakpoint
+def test_a_breakpoint_pause_is_in_the_checkpoint_so_a_new_process_sees_it(saver: BaseCheckpointSaver) -> None:
+    """A restarted process (here: a freshly compiled graph on the same saver) finds the run paused before the
+    breakpoint node, and one invoke(None) continues it; no duplicate checkpoint is written for the pause."""
+    breakpoints(saver, interrupt_before=["land"]).invoke({"log": []}, cfg())
+    restarted = breakpoints(saver, interrupt_before=["land"])
+    assert restarted.get_state(cfg()).next == ("land",)
+    assert [h.next for h in restarted.get_state_history(cfg())] == [("land",), ("takeoff",), ("__start__",)]
+    assert restarted.invoke(None, cfg()) == {"log": ["takeoff", "land", "report"]}
+
+
+def test_interrupt_after_then_before_is_one_pause(saver: BaseCheckpointSaver) -> None:
+    app = breakpoints(saver, interrupt_after=["takeoff"], interrupt_before=["land"])
+    assert app.invoke({"log": []}, cfg()) == {"log": ["takeoff"]}
+    assert app.invoke(None, cfg()) == {"log": ["takeoff", "land", "report"]}
 
 
 def test_interrupt_needs_a_checkpointer() -> None:

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agentic_core.graph import END, START, InMemorySaver, StateGraph
-from agentic_core.graph.checkpoint.base import BaseCheckpointSaver, PickleSerializer, diff_values
+from agentic_core.graph.checkpoint.base import PickleSerializer, diff_values, values_from_deltas
 
 
 class S(TypedDict, total=False):
@@ -66,8 +66,8 @@ op = st.one_of(
 def test_deltas_rebuild_every_state(ops: list[tuple[str, Any]]) -> None:
     values: dict[str, Any] = {"items": [], "n": 0}
     saved: dict[str, list[Any]] = {"items": []}
-    rebuilt: dict[str, Any] = {"items": [], "n": 0}
     serde = PickleSerializer()
+    chain = [serde.loads(serde.dumps({"items": ("full", []), "n": ("full", 0)}))]  # oldest first
     for kind, arg in ops:
         if kind == "append":
             values["items"].extend(arg)  # in place, the hardest case for prefix detection
@@ -78,10 +78,9 @@ def test_deltas_rebuild_every_state(ops: list[tuple[str, Any]]) -> None:
         else:
             values["n"] = arg
             changed = {"n"}
-        delta = serde.loads(serde.dumps(diff_values(saved, values, changed)))  # as a saver stores it
+        chain.append(serde.loads(serde.dumps(diff_values(saved, values, changed))))  # as a saver stores it
         saved["items"] = list(values["items"])
-        rebuilt = BaseCheckpointSaver._apply(rebuilt, delta)
-        assert rebuilt == values
+        assert values_from_deltas(reversed(chain)) == values
 
 
 def test_in_place_reducer_is_checkpointed_correctly() -> None:
