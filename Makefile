@@ -34,6 +34,7 @@ test: lint typecheck pytest
 
 bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/graph_overhead.py
+	$(PY) benchmarks/stats_pipeline.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
