@@ -9,6 +9,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any, NoReturn
 
 from . import __version__
 
@@ -37,6 +38,73 @@ def _run_eval(command: str, argv: Sequence[str]) -> int:
     return paper_main(argv)
 
 
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from .mission.source import MissionError
+    from .mission.validate import iter_steps, load_mission
+
+    failed = 0
+    for name in args.files:
+        try:
+            plan = load_mission(Path(name))
+        except MissionError as exc:
+            failed += 1
+            print(exc, file=sys.stderr)
+            continue
+        nested = sum(1 for _ in iter_steps(plan)) - len(plan.steps)
+        print(
+            f"{name}: ok: plan {plan.plan_id!r}, {len(plan.steps)} steps"
+            + (f" (+{nested} nested or in triggers)" if nested else "")
+            + f", {len(plan.triggers)} triggers (tools not checked: no tool registry yet)"
+        )
+    return 2 if failed else 0
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from .mission import Environment, MissionError, compile_mission, load_mission
+    from .mission.compile import initial_state, layers
+
+    try:
+        plan = load_mission(Path(args.file))
+        overrides = dict(_split_param(p) for p in args.param)
+        params = initial_state(plan, overrides)["params"]
+    except MissionError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        print(f"agentic-uav plan: error: {exc}", file=sys.stderr)
+        return 2
+    if args.mermaid:
+
+        def no_dispatch(tool: str, arguments: dict[str, Any], timeout_s: float | None) -> NoReturn:
+            raise RuntimeError("plan only draws the graph; nothing is dispatched")
+
+        print(compile_mission(plan, Environment(dispatch=no_dispatch)).get_graph().draw_mermaid(), end="")
+        return 0
+    print(f"{plan.plan_id}: {plan.goal}")
+    print(f"params: {params}")
+    for i, layer in enumerate(layers(plan)):
+        print(f"  superstep {i + 1}: {', '.join(layer)}")
+    for trigger in plan.triggers:
+        print(f"  trigger {trigger.id}: when {trigger.when} -> {', '.join(s.id for s in trigger.steps)}")
+    return 0
+
+
+def _split_param(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise ValueError(f"--param takes name=value, got {text!r}")
+    return name.strip(), value.strip()
+
+
+def _cmd_schema(args: argparse.Namespace) -> int:
+    import json
+
+    from .mission.model import mission_json_schema
+
+    print(json.dumps(mission_json_schema(), indent=2))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="agentic-uav", description="Drones as agents: missions, tools, flight, eval.")
     parser.add_argument("--version", action="version", version=f"agentic-uavs {__version__}")
@@ -45,6 +113,20 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--runs-dir", default="runs", help="where run folders go (default: runs)")
     demo.add_argument("--decline", action="store_true", help="answer the operator approval with 'decline'")
     demo.set_defaults(func=_cmd_demo)
+
+    validate = sub.add_parser("validate", help="check mission files; every problem as file:line:col: message")
+    validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files")
+    validate.set_defaults(func=_cmd_validate)
+
+    plan = sub.add_parser("plan", help="show how a mission runs: its supersteps, or the compiled graph")
+    plan.add_argument("file", metavar="MISSION")
+    plan.add_argument("--mermaid", action="store_true", help="print the compiled graph as Mermaid text")
+    plan.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a parameter")
+    plan.set_defaults(func=_cmd_plan)
+
+    schema = sub.add_parser("schema", help="print a JSON Schema (for editors: autocomplete and lint)")
+    schema.add_argument("which", choices=["mission"], help="which schema")
+    schema.set_defaults(func=_cmd_schema)
 
     evaluate = sub.add_parser("eval", help="statistics on results files; reproduce the paper's statistics")
     eval_sub = evaluate.add_subparsers(dest="eval_command", metavar="EVAL_COMMAND", required=True)

@@ -12,6 +12,9 @@ MODULES = [
     "agentic_core.graph.checkpoint.memory",
     "agentic_core.graph.checkpoint.sqlite",
     "agentic_core.demo",
+    "agentic_core.mission.expressions",
+    "agentic_core.mission.model",
+    "agentic_core.mission.validate",
 ]
 
 

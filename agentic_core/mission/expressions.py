@@ -1,0 +1,639 @@
+"""Safe expressions for missions: preconditions, conditions and ``${...}`` argument templates.
+
+An expression is one Python-syntax expression, parsed with :mod:`ast`, checked against a whitelist and run by a
+small tree-walking interpreter; it is never handed to ``eval``. The language:
+
+* literals: numbers, strings, ``True``/``False``/``None`` (also ``true``/``false``/``null``), lists, tuples, dicts;
+* names read from the scope (``params``, ``steps``, ``vehicle``, ``world``, ``event``, step ids, ...);
+* ``a.b`` (a dict key, or a field of a pydantic model, dataclass, named tuple or ``SimpleNamespace``), ``a[0]``,
+  ``a["k"]``, ``a[1:3]``; names and fields starting with ``_`` are refused;
+* comparisons (chained too, ``in``/``not in``), ``and``/``or``/``not``, ``+ - * / // % **``, unary ``-``/``+`` and
+  ``x if c else y``;
+* calls to :data:`FUNCTIONS` only: ``min max abs len round sum any all``, ``distance_m(a, b)`` and
+  ``count(items, **filters)`` and ``find(world, relation=..., **filters)`` (filters ``field=value`` or
+  ``field__gte=value`` and the like; ``class_=``/``cls=`` filter on the ``class`` field).
+
+Syntax errors and refused constructs raise :class:`ExpressionError` from :meth:`Expression.parse`, unknown names
+from :meth:`Expression.check_names`, so a bad mission fails when it is loaded. Evaluation failures raise
+:class:`ExpressionError` naming the failing part. ``**`` and string repetition are bounded; expressions are at most
+1,000 characters and 50 levels deep. In templates, ``$${`` stands for a literal ``${``.
+
+>>> Expression.parse("steps.scan.persons >= 2 and vehicle.battery_pct > 30").evaluate(
+...     {"steps": {"scan": {"persons": 3}}, "vehicle": {"battery_pct": 55}})
+True
+>>> render({"alt_m": "${params.alt + 5}", "note": "found ${steps.scan.persons} people"},
+...        {"params": {"alt": 40}, "steps": {"scan": {"persons": 3}}})
+{'alt_m': 45, 'note': 'found 3 people'}
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import datetime
+import difflib
+import functools
+import keyword
+import math
+import operator
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from types import MappingProxyType, SimpleNamespace
+from typing import Any
+
+__all__ = ["FUNCTIONS", "Expression", "ExpressionError", "count", "distance_m", "find", "find_templates", "render"]
+
+MAX_SOURCE_CHARS = 1000
+MAX_DEPTH = 50
+MAX_POWER_BITS = 10_000
+MAX_REPEAT_CHARS = 10_000
+EARTH_RADIUS_M = 6_371_000.0
+_MISSING: Any = object()
+_ALIASES: dict[str, Any] = {"true": True, "false": False, "null": None}
+
+
+class ExpressionError(ValueError):
+    """A bad expression: ``source`` (its text), ``col`` (0-based column of the fault, or None) and ``message``
+    (the one-line text of ``str(error)``, which quotes the expression)."""
+
+    def __init__(self, message: str, source: str = "", col: int | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.source = source
+        self.col = col
+
+
+def _quote(text: str, limit: int = 80) -> str:
+    return repr(text if len(text) <= limit else text[: limit - 1] + "…")
+
+
+def _short(value: Any) -> str:
+    try:
+        text = repr(value)
+    except Exception:  # e.g. an int too long to print
+        return f"<{type(value).__name__}>"
+    return text if len(text) <= 40 else text[:39] + "…"
+
+
+def _listing(names: Iterable[str], limit: int = 30) -> str:
+    items = list(names)
+    return (", ".join(items[:limit]) + (", …" if len(items) > limit else "")) if items else "none"
+
+
+def _suggest(name: str, candidates: Iterable[Any]) -> str:
+    match = difflib.get_close_matches(name, [c for c in candidates if isinstance(c, str)], n=1)
+    return f"; did you mean {match[0]!r}?" if match else ""
+
+
+# ---- field access on dicts and records ----
+
+
+def _is_record(obj: Any) -> bool:
+    """Objects whose public attributes may be read: pydantic models, dataclasses, named tuples, namespaces, dates."""
+    return (
+        (dataclasses.is_dataclass(obj) and not isinstance(obj, type))
+        or isinstance(getattr(type(obj), "model_fields", None), Mapping)
+        or (isinstance(obj, tuple) and hasattr(type(obj), "_fields"))
+        or isinstance(obj, SimpleNamespace | datetime.date | datetime.time | datetime.timedelta)
+    )
+
+
+def _record_fields(obj: Any) -> list[str]:
+    if isinstance(obj, Mapping):
+        return [key for key in obj if isinstance(key, str)]
+    if dataclasses.is_dataclass(obj):
+        return [field.name for field in dataclasses.fields(obj)]
+    if isinstance(getattr(type(obj), "model_fields", None), Mapping):
+        return list(type(obj).model_fields)
+    names: Iterable[str] = getattr(obj, "_fields", None) or getattr(obj, "__dict__", None) or ()
+    return [name for name in names if not name.startswith("_")]
+
+
+def _get_field(obj: Any, name: str) -> Any:
+    """``obj[name]`` for a mapping, the public non-method attribute (or pydantic alias) for a record, else _MISSING."""
+    if isinstance(obj, Mapping):
+        return obj.get(name, _MISSING)
+    if name.startswith("_") or not _is_record(obj):
+        return _MISSING
+    value = getattr(obj, name, _MISSING)
+    if value is _MISSING:
+        fields = getattr(type(obj), "model_fields", {})
+        real = [field for field, info in fields.items() if getattr(info, "alias", None) == name]
+        value = getattr(obj, real[0] if real else name + "_" if keyword.iskeyword(name) else name, _MISSING)
+    return _MISSING if callable(value) else value  # methods are not fields
+
+
+def _no_field(obj: Any, name: str) -> str:
+    if isinstance(obj, Mapping) or _is_record(obj):
+        fields = _record_fields(obj)
+        return f"no field {name!r} (fields: {_listing(fields)}{_suggest(name, fields)})"
+    return f"a value of type {type(obj).__name__} has no fields (cannot read {name!r})"
+
+
+# ---- the whitelisted functions ----
+
+
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise TypeError(f"{what} must be a number, not {type(value).__name__}")
+    return float(value)
+
+
+def _pair(position: Any, keys: tuple[tuple[str, str], ...]) -> tuple[float, float] | None:
+    for first, second in keys:
+        a, b = _get_field(position, first), _get_field(position, second)
+        if a is not _MISSING and b is not _MISSING:
+            return _number(a, first), _number(b, second)
+    return None
+
+
+def _haversine_m(a: tuple[float, float], b: tuple[float, float]) -> float:
+    if not (abs(a[0]) <= 90 and abs(b[0]) <= 90):
+        raise ValueError("latitude must be between -90 and 90 degrees")
+    lat1, lon1, lat2, lon2 = (math.radians(v) for v in (*a, *b))
+    h = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
+    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(h)))
+
+
+def distance_m(a: Any, b: Any) -> float:
+    """Horizontal distance in metres between two positions (dicts or records). Both with ``lat``/``lon`` (or
+    ``latitude``/``longitude``): great circle on a 6,371 km sphere; else both with ``north``/``east`` (or
+    ``north_m``/``east_m``, local NED): Euclidean. One of each is refused."""
+    geo = _pair(a, (("lat", "lon"), ("latitude", "longitude"))), _pair(b, (("lat", "lon"), ("latitude", "longitude")))
+    if geo[0] is not None and geo[1] is not None:
+        return _haversine_m(geo[0], geo[1])
+    ned = _pair(a, (("north", "east"), ("north_m", "east_m"))), _pair(b, (("north", "east"), ("north_m", "east_m")))
+    if ned[0] is not None and ned[1] is not None:
+        return math.hypot(ned[0][0] - ned[1][0], ned[0][1] - ned[1][1])
+    for i, which in enumerate(("first", "second")):
+        if geo[i] is None and ned[i] is None:
+            raise ValueError(
+                f"the {which} position has neither lat/lon (latitude/longitude) nor north/east (north_m/east_m)"
+            )
+    raise ValueError("cannot measure between a lat/lon position and a local north/east one")
+
+
+def _filter_keys(name: str) -> tuple[str, ...]:
+    if name == "cls" or (name.endswith("_") and keyword.iskeyword(name[:-1])):
+        return (name, "class") if name == "cls" else (name[:-1], name)
+    return (name,)
+
+
+_LOOKUPS: dict[str, Callable[[Any, Any], bool]] = {
+    "eq": operator.eq,
+    "ne": operator.ne,
+    "gt": operator.gt,
+    "gte": operator.ge,
+    "lt": operator.lt,
+    "lte": operator.le,
+    "in": lambda value, options: value in options,
+}
+
+
+def _lookup(name: str) -> tuple[tuple[str, ...], Callable[[Any, Any], bool]]:
+    """``stationary_s__gte`` -> (the field's keys, >=); a plain name compares with ==."""
+    field, _, op = name.rpartition("__")
+    if field and op in _LOOKUPS:
+        return _filter_keys(field), _LOOKUPS[op]
+    return _filter_keys(name), _LOOKUPS["eq"]
+
+
+def _matches(item: Any, keys: tuple[str, ...], test: Callable[[Any, Any], bool], wanted: Any) -> bool:
+    values = [value for value in (_get_field(item, key) for key in keys) if value is not _MISSING]
+    try:
+        return bool(values) and bool(test(values[0], wanted))
+    except TypeError:  # None >= 10 and the like: not a match
+        return False
+
+
+def _select(items: Iterable[Any], filters: Mapping[str, Any]) -> list[Any]:
+    wanted = [(*_lookup(name), value) for name, value in filters.items()]
+    return [item for item in items if all(_matches(item, keys, test, value) for keys, test, value in wanted)]
+
+
+def count(items: Iterable[Any], **filters: Any) -> int:
+    """How many items match every filter; ``count(items)`` is their number. A filter is ``field=value``, or
+    ``field__op=value`` with op one of eq, ne, gt, gte, lt, lte, in. ``class`` is a Python keyword, so filter on
+    it with ``class_=`` (or ``cls=``)."""
+    return len(_select(items, filters))
+
+
+def find(world: Any, relation: str | None = None, **filters: Any) -> list[Any]:
+    """The world model's objects that match the filters (as :func:`count`), and with ``relation=`` only those that
+    are the subject of such a relation: ``find(world, class_='person', stationary_s__gte=10,
+    relation='isolated_from')``. An empty list is false, so it reads as a condition; a trigger's event is the
+    first object found."""
+    objects = _get_field(world, "objects")
+    found = _select([] if objects is _MISSING or objects is None else objects, filters)
+    if relation is None:
+        return found
+    relations = _get_field(world, "relations")
+    subjects = {
+        _get_field(r, "subj")
+        for r in ([] if relations is _MISSING or relations is None else relations)
+        if _get_field(r, "pred") == relation
+    }
+    return [o for o in found if _get_field(o, "id") in subjects]
+
+
+def _round(number: Any, ndigits: int | None = None) -> Any:
+    if ndigits is not None and abs(ndigits) > 100:
+        raise ValueError("round() takes at most 100 digits")
+    return round(number, ndigits)
+
+
+_FUNCTIONS: dict[str, Callable[..., Any]] = {"min": min, "max": max, "abs": abs, "len": len, "round": _round}
+_FUNCTIONS |= {"sum": sum, "any": any, "all": all, "distance_m": distance_m, "count": count, "find": find}
+_TAKES_FILTERS = frozenset({"count", "find"})
+FUNCTIONS: Mapping[str, Callable[..., Any]] = MappingProxyType(_FUNCTIONS)
+_ARITY = {"min": (1, 99), "max": (1, 99), "round": (1, 2), "distance_m": (2, 2)}  # the others take exactly one
+_BINARY: dict[type[ast.operator], Callable[[Any, Any], Any]] = {
+    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+    ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod, ast.Pow: operator.pow,
+}  # fmt: skip
+_UNARY: dict[type[ast.unaryop], Callable[[Any], Any]] = {
+    ast.Not: operator.not_,
+    ast.USub: operator.neg,
+    ast.UAdd: operator.pos,
+}
+_COMPARE: dict[type[ast.cmpop], Callable[[Any, Any], Any]] = {
+    ast.Eq: operator.eq, ast.NotEq: operator.ne, ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt,
+    ast.GtE: operator.ge, ast.In: lambda a, b: a in b, ast.NotIn: lambda a, b: a not in b,
+}  # fmt: skip
+_PLAIN: tuple[type[ast.AST], ...] = (ast.Attribute, ast.BinOp, ast.UnaryOp, ast.Compare, ast.Dict, ast.BoolOp)
+_PLAIN += (ast.IfExp, ast.Subscript, ast.Slice, ast.List, ast.Tuple)
+_REFUSED = {
+    ast.Lambda: "lambda", ast.NamedExpr: "':=' (walrus)", ast.JoinedStr: "an f-string", ast.Set: "a set (use a list)",
+    ast.ListComp: "a comprehension", ast.SetComp: "a comprehension", ast.DictComp: "a comprehension",
+    ast.GeneratorExp: "a comprehension", ast.Starred: "'*' unpacking", ast.Await: "await", ast.Yield: "yield",
+}  # fmt: skip
+_ALLOWED = (
+    "allowed: literals, names, a.b, a[i], comparisons, and/or/not, + - * / // % **, x if c else y, "
+    f"calls to {', '.join(FUNCTIONS)}"
+)
+
+
+# ---- parsing and checking ----
+
+
+class Expression:
+    """A parsed, whitelisted expression; build one with :meth:`parse`."""
+
+    __slots__ = ("_names", "_offset", "_text", "_tree", "source")
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+        if len(source) > MAX_SOURCE_CHARS:
+            raise ExpressionError(
+                f"expression too long ({len(source)} characters, at most {MAX_SOURCE_CHARS}): {_quote(source)}", source
+            )
+        flat = source.replace("\r", " ").replace("\n", " ")  # YAML folding may leave line breaks; offsets unchanged
+        self._text = flat.strip()
+        self._offset = len(flat) - len(flat.lstrip())
+        if not self._text:
+            raise ExpressionError(f"empty expression {_quote(source)}", source, 0)
+        try:
+            self._tree = ast.parse(self._text, mode="eval")
+        except SyntaxError as exc:
+            col = min(len(source), self._offset + max(0, (exc.offset or 1) - 1))
+            why = " ".join(str(exc.msg).split())
+            raise ExpressionError(f"invalid syntax at column {col} in {_quote(source)}: {why}", source, col) from None
+        except (ValueError, RecursionError, MemoryError) as exc:
+            raise ExpressionError(f"cannot parse {_quote(source)}: {exc}", source) from None
+        self._names = _Checker(self).run()
+
+    @classmethod
+    def parse(cls, source: str) -> Expression:
+        """Parse and check ``source``; ExpressionError (with ``col``) for bad syntax or a refused construct."""
+        return cls(source)
+
+    @property
+    def root_names(self) -> frozenset[str]:
+        """The top-level names the expression reads (function names excluded)."""
+        return frozenset(name for name, _ in self._names)
+
+    def check_names(self, known: Iterable[str]) -> None:
+        """Raise ExpressionError for the first name not in ``known``, suggesting the closest known one."""
+        names = list(dict.fromkeys(known))
+        for name, col in self._names:
+            if name not in names:
+                hint = f"known: {_listing(names)}{_suggest(name, names)}"
+                raise ExpressionError(f"unknown name {name!r} in {_quote(self.source)} ({hint})", self.source, col)
+
+    def evaluate(self, scope: Mapping[str, Any]) -> Any:
+        """Run the expression over ``scope``; any failure is an ExpressionError naming the failing part."""
+        return _Evaluator(self, scope).eval(self._tree.body)
+
+    def _col(self, node: ast.AST) -> int:
+        """The 0-based column of ``node`` in ``source``."""
+        prefix = self._text.encode()[: getattr(node, "col_offset", 0)]
+        return self._offset + len(prefix.decode(errors="ignore"))
+
+    def _fail(self, node: ast.AST, problem: str, hint: str = "") -> ExpressionError:
+        """An ExpressionError at ``node``: 'problem at <part> in <expression> (hint)'."""
+        part = ast.get_source_segment(self._text, node) or ast.unparse(node)
+        where = "" if part == self._text else f" at {_quote(part, 60)}"
+        tail = f" ({hint})" if hint else ""
+        return ExpressionError(f"{problem}{where} in {_quote(self.source)}{tail}", self.source, self._col(node))
+
+    def __repr__(self) -> str:
+        return f"Expression({self.source!r})"
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Expression) and other.source == self.source
+
+    def __hash__(self) -> int:
+        return hash(self.source)
+
+
+class _Checker:
+    """Walks the tree once: refuses what is not whitelisted, bounds the depth, collects root names."""
+
+    def __init__(self, expr: Expression) -> None:
+        self.expr = expr
+        self.names: list[tuple[str, int]] = []
+
+    def run(self) -> tuple[tuple[str, int], ...]:
+        stack: list[tuple[ast.AST, int]] = [(self.expr._tree.body, 1)]
+        while stack:
+            node, depth = stack.pop()
+            if depth > MAX_DEPTH:
+                raise self.expr._fail(node, f"expression nested more than {MAX_DEPTH} levels deep")
+            stack.extend((child, depth + 1) for child in self.children(node))
+        return tuple(dict.fromkeys(sorted(self.names, key=lambda item: item[1])))
+
+    def children(self, node: ast.AST) -> list[ast.AST]:
+        fail = self.expr._fail
+        if isinstance(node, ast.Constant):
+            if not isinstance(node.value, bool | int | float | str | None):
+                raise fail(node, f"{type(node.value).__name__} literals are not allowed", _ALLOWED)
+        elif isinstance(node, ast.Name):
+            if node.id.startswith("_"):
+                raise fail(node, f"names starting with '_' are not allowed ({node.id!r})")
+            if node.id not in _ALIASES:
+                self.names.append((node.id, self.expr._col(node)))
+        elif isinstance(node, ast.Attribute) and node.attr.startswith("_"):
+            raise fail(node, f"fields starting with '_' are not allowed ({node.attr!r})")
+        elif isinstance(node, ast.Call):
+            return self.call(node)
+        elif isinstance(node, ast.Dict) and None in node.keys:
+            raise fail(node, "'**' unpacking is not allowed", _ALLOWED)
+        elif isinstance(node, ast.Compare) and any(isinstance(op, ast.Is | ast.IsNot) for op in node.ops):
+            raise fail(node, "'is' is not allowed", "use == or != instead")
+        elif isinstance(node, ast.BinOp | ast.UnaryOp) and type(node.op) not in _BINARY | _UNARY:
+            raise fail(node, f"the operator {type(node.op).__name__} is not allowed", _ALLOWED)
+        elif not isinstance(node, _PLAIN):
+            raise fail(node, f"{_REFUSED.get(type(node), type(node).__name__)} is not allowed", _ALLOWED)
+        return [child for child in ast.iter_child_nodes(node) if isinstance(child, ast.expr)]
+
+    def call(self, node: ast.Call) -> list[ast.AST]:
+        fail = self.expr._fail
+        if isinstance(node.func, ast.Attribute):
+            raise fail(node, "method calls are not allowed", f"functions: {', '.join(FUNCTIONS)}")
+        name = node.func.id if isinstance(node.func, ast.Name) else ""
+        if name not in FUNCTIONS:
+            hint = f"functions: {', '.join(FUNCTIONS)}{_suggest(name, FUNCTIONS)}"
+            raise fail(node, f"unknown function {name or ast.unparse(node.func)!r}", hint)
+        if any(kw.arg is None for kw in node.keywords) or (node.keywords and name not in _TAKES_FILTERS):
+            raise fail(
+                node, f"{name}() takes no keyword arguments" if name not in _TAKES_FILTERS else "'**' is not allowed"
+            )
+        low, high = _ARITY.get(name, (1, 1))
+        if not low <= len(node.args) <= high:
+            raise fail(
+                node, f"{name}() takes {low if low == high else f'{low} or more'} argument(s), not {len(node.args)}"
+            )
+        return [*node.args, *(kw.value for kw in node.keywords)]
+
+
+# ---- evaluation ----
+
+
+def _check_binary(op: ast.operator, left: Any, right: Any) -> None:
+    if isinstance(op, ast.Pow) and isinstance(left, int) and isinstance(right, int) and right > 0:
+        if abs(left) > 1 and math.log2(abs(left)) * right > MAX_POWER_BITS:
+            raise ValueError(f"result of ** too large (over {MAX_POWER_BITS} bits)")
+    elif isinstance(op, ast.Mult) and any(isinstance(v, list | tuple | bytes) for v in (left, right)):
+        raise TypeError("repeating a list or tuple with * is not allowed")
+    elif isinstance(op, ast.Mult) and isinstance(left, str) != isinstance(right, str):
+        text, times = (left, right) if isinstance(left, str) else (right, left)
+        if isinstance(times, int) and len(text) * times > MAX_REPEAT_CHARS:
+            raise ValueError(f"repeated string longer than {MAX_REPEAT_CHARS} characters")
+    elif isinstance(op, ast.Mod) and not isinstance(left, int | float):
+        raise TypeError(f"% needs numbers, not {type(left).__name__}")
+
+
+def _describe(exc: Exception) -> str:
+    if isinstance(exc, ZeroDivisionError):
+        return "division by zero"
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if isinstance(exc, TypeError | ValueError) else f"{type(exc).__name__}: {text}"
+
+
+class _Evaluator:
+    def __init__(self, expr: Expression, scope: Mapping[str, Any]) -> None:
+        self.expr = expr
+        self.scope = scope
+
+    def eval(self, node: ast.AST) -> Any:
+        try:
+            return getattr(self, f"_{type(node).__name__}")(node)
+        except ExpressionError:
+            raise
+        except Exception as exc:  # anything raised by an operator, function or field is the expression's fault
+            raise self.expr._fail(node, _describe(exc)) from exc
+
+    def _Constant(self, node: ast.Constant) -> Any:
+        return node.value
+
+    def _Name(self, node: ast.Name) -> Any:
+        if node.id in _ALIASES:
+            return _ALIASES[node.id]
+        if node.id not in self.scope:
+            names = list(self.scope)
+            raise self.expr._fail(
+                node, f"unknown name {node.id!r}", f"available: {_listing(names)}{_suggest(node.id, names)}"
+            )
+        return self.scope[node.id]
+
+    def _Attribute(self, node: ast.Attribute) -> Any:
+        obj = self.eval(node.value)
+        value = _get_field(obj, node.attr)
+        if value is _MISSING:
+            raise self.expr._fail(node, _no_field(obj, node.attr))
+        return value
+
+    def _Subscript(self, node: ast.Subscript) -> Any:
+        obj, key = self.eval(node.value), self.eval(node.slice)
+        if isinstance(key, str) and (isinstance(obj, Mapping) or _is_record(obj)):
+            value = _get_field(obj, key)
+            if value is _MISSING:
+                raise self.expr._fail(node, _no_field(obj, key))
+            return value
+        if isinstance(obj, list | tuple | str) and isinstance(key, int) and not -len(obj) <= key < len(obj):
+            raise self.expr._fail(node, f"index {key} out of range (length {len(obj)})")
+        if isinstance(obj, Mapping) and key not in obj:
+            raise self.expr._fail(node, f"no key {_short(key)} (keys: {_listing(_short(k) for k in obj)})")
+        return obj[key]
+
+    def _Slice(self, node: ast.Slice) -> slice:
+        return slice(*(None if part is None else self.eval(part) for part in (node.lower, node.upper, node.step)))
+
+    def _BinOp(self, node: ast.BinOp) -> Any:
+        left, right = self.eval(node.left), self.eval(node.right)
+        _check_binary(node.op, left, right)
+        return _BINARY[type(node.op)](left, right)
+
+    def _UnaryOp(self, node: ast.UnaryOp) -> Any:
+        return _UNARY[type(node.op)](self.eval(node.operand))
+
+    def _BoolOp(self, node: ast.BoolOp) -> Any:
+        value: Any = None
+        for operand in node.values:
+            value = self.eval(operand)
+            if bool(value) == isinstance(node.op, ast.Or):
+                return value
+        return value
+
+    def _Compare(self, node: ast.Compare) -> Any:
+        left, result = self.eval(node.left), True
+        for op, comparator in zip(node.ops, node.comparators, strict=True):
+            right = self.eval(comparator)
+            result = _COMPARE[type(op)](left, right)
+            if not result:
+                return result
+            left = right
+        return result
+
+    def _IfExp(self, node: ast.IfExp) -> Any:
+        return self.eval(node.body) if self.eval(node.test) else self.eval(node.orelse)
+
+    def _Call(self, node: ast.Call) -> Any:
+        assert isinstance(node.func, ast.Name)
+        args = [self.eval(arg) for arg in node.args]
+        kwargs = {kw.arg: self.eval(kw.value) for kw in node.keywords if kw.arg is not None}
+        return FUNCTIONS[node.func.id](*args, **kwargs)
+
+    def _List(self, node: ast.List) -> list[Any]:
+        return [self.eval(item) for item in node.elts]
+
+    def _Tuple(self, node: ast.Tuple) -> tuple[Any, ...]:
+        return tuple(self.eval(item) for item in node.elts)
+
+    def _Dict(self, node: ast.Dict) -> dict[Any, Any]:
+        pairs = zip(node.keys, node.values, strict=True)
+        return {self.eval(key): self.eval(value) for key, value in pairs if key is not None}
+
+
+# ---- ${...} templates ----
+
+
+def _template_end(text: str, start: int) -> int:
+    """Index of the '}' closing the template whose expression starts at ``start`` (brackets, quotes aware), or -1."""
+    depth, quote, i = 0, "", start
+    while i < len(text):
+        char = text[i]
+        if quote:
+            i += char == "\\"
+            quote = "" if char == quote else quote
+        elif char in "'\"":
+            quote = char
+        elif char in "([{":
+            depth += 1
+        elif char in ")]}":
+            if char == "}" and depth == 0:
+                return i
+            depth -= 1
+        i += 1
+    return -1
+
+
+@functools.lru_cache(maxsize=1024)
+def _split(text: str) -> tuple[str | Expression, ...]:
+    """A string as literal pieces and parsed ``${...}`` expressions; ``$${`` is a literal ``${``."""
+    parts: list[str | Expression] = []
+    literal, i = "", 0
+    while (start := text.find("${", i)) >= 0:
+        if start > 0 and text[start - 1] == "$":
+            literal, i = literal + text[i : start - 1] + "${", start + 2
+            continue
+        end = _template_end(text, start + 2)
+        if end < 0:
+            raise ExpressionError(
+                f"unterminated template at column {start} in {_quote(text)}: no closing '}}'", text, start
+            )
+        if literal or start > i:
+            parts.append(literal + text[i:start])
+        parts.append(Expression(text[start + 2 : end]))
+        literal, i = "", end + 1
+    if literal or i < len(text):
+        parts.append(literal + text[i:])
+    return tuple(parts)
+
+
+def _child(path: str, key: Any) -> str:
+    if isinstance(key, str) and key.isidentifier():
+        return f"{path}.{key}" if path else key
+    return f"{path}[{key!r}]"
+
+
+def _at(path: str, exc: ExpressionError) -> ExpressionError:
+    return ExpressionError(f"{exc.message} (template at {path or 'the top level'})", exc.source, exc.col)
+
+
+def _strings(value: Any, path: str) -> Iterator[tuple[str, str]]:
+    if isinstance(value, str):
+        yield path, value
+    elif isinstance(value, Mapping):
+        for key, item in value.items():
+            yield from _strings(item, _child(path, key))
+    elif isinstance(value, list | tuple):
+        for index, item in enumerate(value):
+            yield from _strings(item, f"{path}[{index}]")
+
+
+def find_templates(value: Any) -> list[tuple[str, Expression]]:
+    """Every ``${...}`` in a nested dict/list/str as (path like ``args.points[2]``, parsed expression)."""
+    found: list[tuple[str, Expression]] = []
+    for path, text in _strings(value, ""):
+        try:
+            found.extend((path, part) for part in _split(text) if isinstance(part, Expression))
+        except ExpressionError as exc:
+            raise _at(path, exc) from None
+    return found
+
+
+def _render_text(text: str, scope: Mapping[str, Any], path: str) -> Any:
+    try:
+        parts = _split(text) if "${" in text else (text,)
+        if len(parts) == 1 and isinstance(parts[0], Expression):
+            return parts[0].evaluate(scope)
+        return "".join(part if isinstance(part, str) else _format(part, scope) for part in parts)
+    except ExpressionError as exc:
+        raise _at(path, exc) from None
+
+
+def _format(expr: Expression, scope: Mapping[str, Any]) -> str:
+    value = expr.evaluate(scope)
+    try:
+        return str(value)
+    except Exception as exc:
+        raise ExpressionError(
+            f"cannot format the value of {_quote(expr.source)}: {_describe(exc)}", expr.source
+        ) from exc
+
+
+def _render(value: Any, scope: Mapping[str, Any], path: str) -> Any:
+    if isinstance(value, str):
+        return _render_text(value, scope, path)
+    if isinstance(value, Mapping):
+        return {key: _render(item, scope, _child(path, key)) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        items = [_render(item, scope, f"{path}[{i}]") for i, item in enumerate(value)]
+        return items if isinstance(value, list) else tuple(items)
+    return value
+
+
+def render(value: Any, scope: Mapping[str, Any]) -> Any:
+    """A copy of ``value`` with templates filled in: a string that is exactly ``${expr}`` becomes the raw value,
+    text around templates gives a string (values via ``str``); dicts, lists and tuples are rebuilt, others kept."""
+    return _render(value, scope, "")

@@ -1,0 +1,79 @@
+"""Small geodesy for missions: distances, geofence containment and lawnmower survey legs.
+
+Areas a small UAV flies are a few kilometres across, so positions are projected onto a local tangent plane
+(equirectangular about a reference point); the error is far below GPS noise at that scale.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+EARTH_RADIUS_M = 6_371_000.0
+LatLonPoint = tuple[float, float]
+
+
+def haversine_m(a: LatLonPoint, b: LatLonPoint) -> float:
+    """Great-circle distance in metres between two (lat, lon) points in degrees."""
+    lat1, lon1, lat2, lon2 = map(math.radians, (*a, *b))
+    h = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
+    return 2 * EARTH_RADIUS_M * math.asin(math.sqrt(h))
+
+
+def to_local(point: LatLonPoint, origin: LatLonPoint) -> tuple[float, float]:
+    """(north_m, east_m) of ``point`` relative to ``origin``."""
+    north = math.radians(point[0] - origin[0]) * EARTH_RADIUS_M
+    east = math.radians(point[1] - origin[1]) * EARTH_RADIUS_M * math.cos(math.radians(origin[0]))
+    return north, east
+
+
+def from_local(north: float, east: float, origin: LatLonPoint) -> LatLonPoint:
+    lat = origin[0] + math.degrees(north / EARTH_RADIUS_M)
+    lon = origin[1] + math.degrees(east / (EARTH_RADIUS_M * math.cos(math.radians(origin[0]))))
+    return lat, lon
+
+
+def inside_polygon(point: LatLonPoint, polygon: Sequence[LatLonPoint]) -> bool:
+    """Ray casting on the local plane; points on an edge count as inside."""
+    origin = polygon[0]
+    x, y = to_local(point, origin)
+    verts = [to_local(p, origin) for p in polygon]
+    inside = False
+    for (x1, y1), (x2, y2) in zip(verts, verts[1:] + verts[:1], strict=True):
+        if min(y1, y2) <= y <= max(y1, y2) and min(x1, x2) <= x <= max(x1, x2):
+            cross = (x2 - x1) * (y - y1) - (y2 - y1) * (x - x1)
+            if abs(cross) < 1e-6:
+                return True
+        if (y1 > y) != (y2 > y):
+            x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
+            if x < x_at:
+                inside = not inside
+    return inside
+
+
+def lawnmower(polygon: Sequence[LatLonPoint], spacing_m: float) -> list[LatLonPoint]:
+    """Waypoints of a back-and-forth survey covering ``polygon``: lines running east-west, ``spacing_m`` apart,
+    each clipped to the polygon, flown in alternating directions."""
+    if len(polygon) < 3:
+        raise ValueError("a survey polygon needs at least three points")
+    if spacing_m <= 0:
+        raise ValueError("survey spacing_m must be positive")
+    origin = polygon[0]
+    verts = [to_local(p, origin) for p in polygon]
+    norths = [n for n, _ in verts]
+    south, north = min(norths), max(norths)
+    legs: list[LatLonPoint] = []
+    line = 0
+    y = south + spacing_m / 2
+    while y <= north:
+        xs = []
+        for (n1, e1), (n2, e2) in zip(verts, verts[1:] + verts[:1], strict=True):
+            if (n1 <= y < n2) or (n2 <= y < n1):
+                xs.append(e1 + (y - n1) * (e2 - e1) / (n2 - n1))
+        if len(xs) >= 2:
+            west, east = min(xs), max(xs)
+            ends = [(y, west), (y, east)] if line % 2 == 0 else [(y, east), (y, west)]
+            legs.extend(from_local(n, e, origin) for n, e in ends)
+            line += 1
+        y += spacing_m
+    return legs

@@ -1,0 +1,164 @@
+"""Running one mission step: preconditions, operator approval, argument templates, retries, the tool call.
+
+Every action goes through ``dispatch(tool, args, timeout_s)``: the compiler is given that callable (the tools
+executor, once the tools layer lands; a recording stand-in in tests), so physical and digital actions take one
+path. ``wait_until``, ``repeat`` and ``branch`` call no tool of their own; a ``survey`` flies its lawnmower legs
+as ``flight.fly_to`` calls.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from ..graph import interrupt
+from .expressions import Expression, ExpressionError, render
+from .geometry import lawnmower
+from .model import ACTION_TOOLS, BranchStep, CallToolStep, RepeatStep, Step, SurveyStep, WaitUntilStep, step_args
+
+
+class ToolOutcome(Protocol):
+    """What a dispatcher returns: the ToolResult contract's ``status``, ``output`` and ``error``."""
+
+    @property
+    def status(self) -> str: ...
+    @property
+    def output(self) -> Any: ...
+    @property
+    def error(self) -> str | None: ...
+
+
+Dispatch = Callable[[str, dict[str, Any], float | None], ToolOutcome]
+Provider = Callable[[], Any]
+
+
+@dataclass
+class Environment:
+    """What steps need from outside the graph: the dispatcher, live state providers and policies."""
+
+    dispatch: Dispatch
+    vehicle: Provider = dict
+    world: Provider = field(default=lambda: {"objects": [], "relations": []})  # an empty world model
+    approve: Callable[[dict[str, Any]], Any] | None = None  # headless approval policy; None: ask via interrupt()
+    clock: Callable[[], float] = time.monotonic
+    sleep: Callable[[float], None] = time.sleep
+
+
+class StepFailed(Exception):
+    """The step did not achieve its action; ``reason`` is what the agent (and the log) see."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict[str, Any]:
+    """What expressions may read: params, step outputs (as ``steps.<id>`` and as ``<id>``), vehicle, world."""
+    outputs = dict(state.get("outputs") or {})
+    return {
+        **outputs,
+        "params": dict(state.get("params") or {}),
+        "steps": outputs,
+        "vehicle": env.vehicle(),
+        "world": env.world(),
+        "event": event if event is not None else state.get("event"),
+        "mission": {"status": dict(state.get("status") or {})},
+    }
+
+
+def check(text: str, where: Mapping[str, Any]) -> bool:
+    try:
+        return bool(Expression.parse(text).evaluate(where))
+    except ExpressionError as exc:
+        raise StepFailed(f"cannot evaluate {text!r}: {exc}") from None
+
+
+def _call(env: Environment, tool: str, args: dict[str, Any], timeout_s: float | None) -> Any:
+    result = env.dispatch(tool, args, timeout_s)
+    if result.status != "ok":
+        raise StepFailed(f"{tool} returned {result.status}: {result.error or 'no detail'}")
+    return result.output
+
+
+def _approve(step: Step, args: Any, env: Environment) -> None:
+    request = {"step": step.id, "action": step.action, "args": args, "question": f"approve {step.action} ({step.id})?"}
+    answer = env.approve(request) if env.approve is not None else interrupt(request)
+    if answer not in (True, "approve", "approved", "yes", "y"):
+        raise StepFailed(f"operator did not approve {step.id} (answered {answer!r})")
+
+
+def run_action(step: Step, state: Mapping[str, Any], env: Environment) -> Any:
+    """Run one step once (no retries): preconditions, approval, templates, then the action. Returns its output."""
+    where = scope(state, env)
+    for text in step.preconditions:
+        if not check(text, where):
+            raise StepFailed(f"precondition {text!r} is false")
+    try:
+        args = render(step_args(step), where)
+    except ExpressionError as exc:
+        raise StepFailed(f"cannot fill in the arguments: {exc}") from None
+    if step.approval:
+        _approve(step, args, env)
+    if isinstance(step, CallToolStep):
+        return _call(env, step.tool, args, step.timeout_s)
+    if isinstance(step, SurveyStep):
+        legs = lawnmower([(float(p["lat"]), float(p["lon"])) for p in args["polygon"]], float(args["spacing_m"]))
+        for lat, lon in legs:
+            leg = {"lat": lat, "lon": lon, "alt_m": args["altitude_m"]}
+            if args.get("speed_mps") is not None:
+                leg["speed_mps"] = args["speed_mps"]
+            _call(env, "flight.fly_to", leg, step.timeout_s)
+        return {"legs": len(legs)}
+    if isinstance(step, WaitUntilStep):
+        deadline = None if step.timeout_s is None else env.clock() + step.timeout_s
+        while not check(step.condition, scope(state, env)):
+            if deadline is not None and env.clock() >= deadline:
+                raise StepFailed(f"{step.condition!r} still false after {step.timeout_s:g} s")
+            env.sleep(step.poll_s)
+        return {"waited": True}
+    if isinstance(step, BranchStep):
+        chosen = step.then if check(step.if_, where) else step.else_
+        return run_sequence(chosen, state, env)
+    if isinstance(step, RepeatStep):
+        raise AssertionError("repeat steps run one iteration at a time: see run_iteration")
+    return _call(env, ACTION_TOOLS[step.action], args, step.timeout_s)
+
+
+def run_with_retries(step: Step, state: Mapping[str, Any], env: Environment) -> tuple[Any, int]:
+    """Run a step, retrying up to ``max_retries`` times; returns (output, attempts) or raises StepFailed."""
+    attempts = 0
+    while True:
+        attempts += 1
+        try:
+            return run_action(step, state, env), attempts
+        except StepFailed as failed:
+            if attempts > step.max_retries:
+                failed.reason += f" (after {attempts} attempt{'s' if attempts > 1 else ''})"
+                raise
+
+
+def run_sequence(steps: list[Step], state: Mapping[str, Any], env: Environment) -> dict[str, Any]:
+    """Run nested steps in order (a branch arm or one repeat iteration); a nested ``skip`` failure is passed over,
+    any other nested failure fails the parent."""
+    outputs = dict(state.get("outputs") or {})
+    for step in steps:
+        local = {**state, "outputs": outputs}
+        try:
+            outputs[step.id], _ = run_with_retries(step, local, env)
+        except StepFailed as failed:
+            if step.on_fail != "skip":
+                raise StepFailed(f"{step.id}: {failed.reason}") from None
+    return {s.id: outputs[s.id] for s in steps if s.id in outputs}
+
+
+def run_iteration(
+    step: RepeatStep, state: Mapping[str, Any], env: Environment, done: int
+) -> tuple[dict[str, Any], bool]:
+    """One pass of a repeat's body; returns (output, finished) — finished when ``until`` holds or at the limit."""
+    body = run_sequence(step.steps, state, env)
+    output = {"iterations": done + 1, "last": body}
+    outputs = {**(state.get("outputs") or {}), **body, step.id: output}
+    finished = check(step.until, scope({**state, "outputs": outputs}, env)) or done + 1 >= step.max_iterations
+    return output, finished

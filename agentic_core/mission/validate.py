@@ -1,0 +1,349 @@
+"""Validating missions: every problem of a file at once, each as ``file:line:col: message``.
+
+Checks, in order: YAML syntax; the schema (mapped back to the line of the offending field); duplicate step
+ids; ``depends_on`` naming steps that do not exist or that cannot be waited for; dependency cycles (printed as
+the cycle); steps that can never run; expressions (syntax and unknown names); tools unknown to the registry;
+and limits a step already breaks (a ``fly_to`` outside the geofence or above the maximum altitude).
+
+>>> from agentic_core.mission.validate import load_mission
+>>> load_mission("plan_id: P-1\\ngoal: hover\\nsteps:\\n  - {id: up, action: takeoff}\\n").plan_id
+'P-1'
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path as FilePath
+from typing import Any
+
+import networkx as nx
+from pydantic import ValidationError
+
+from .expressions import Expression, ExpressionError, find_templates
+from .geometry import haversine_m, inside_polygon
+from .model import ACTIONS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
+from .source import MissionError, Path, Problem, SourceMap, load_document
+
+SCOPE_ROOTS = ("params", "steps", "vehicle", "world", "event", "mission")
+"""What expressions may read: parameters, step outputs (``steps.<id>`` or ``<id>`` alone), the vehicle's state,
+the world model, the event that fired a trigger, and the mission itself."""
+
+ToolCheck = Callable[[str], bool]
+
+
+@dataclass(frozen=True)
+class StepSite:
+    """A step and where it sits: its path in the document, and the container it belongs to."""
+
+    step: Step
+    path: Path
+    scope: str  # "plan", "nested:<parent id>" or "trigger:<trigger id>"
+
+
+def iter_steps(plan: PolicyGraph) -> Iterator[StepSite]:
+    """Every step of a mission, nested ones and trigger sub-plans included, with its document path."""
+
+    def walk(steps: list[Step], base: Path, scope: str) -> Iterator[StepSite]:
+        for i, step in enumerate(steps):
+            path = (*base, i)
+            yield StepSite(step, path, scope)
+            if isinstance(step, RepeatStep):
+                yield from walk(step.steps, (*path, "steps"), f"nested:{step.id}")
+            elif isinstance(step, BranchStep):
+                yield from walk(step.then, (*path, "then"), f"nested:{step.id}")
+                yield from walk(step.else_, (*path, "else"), f"nested:{step.id}")
+
+    yield from walk(plan.steps, ("steps",), "plan")
+    for t, trigger in enumerate(plan.triggers):
+        yield from walk(trigger.steps, ("triggers", t, "steps"), f"trigger:{trigger.id}")
+
+
+def _suggest(word: str, choices: Iterable[str]) -> str:
+    match = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {match[0]!r}?)" if match else ""
+
+
+def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
+    """Turn a pydantic error location into a document path, skipping union tags and resolving aliases."""
+    path: list[str | int] = []
+    node = data
+    for part in loc:
+        if isinstance(node, list) and isinstance(part, int) and part < len(node):  # noqa: SIM114 - apart, so mypy narrows each
+            path.append(part)
+            node = node[part]
+        elif isinstance(node, dict) and part in node:
+            path.append(part)
+            node = node[part]
+        elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
+            path.append(part.rstrip("_"))  # if_ / else_ are written if / else
+            node = node[part.rstrip("_")]
+        elif isinstance(part, str) and isinstance(node, dict) and part not in ACTIONS:
+            path.append(part)  # a missing field: its parent's position is used
+            break
+    return tuple(path)
+
+
+def _template_path(where: str) -> Path:
+    """``points[2].lat`` or ``['odd key']`` (as find_templates writes them) -> a document path."""
+    parts: list[str | int] = []
+    for name, index, quoted in re.findall(r"([A-Za-z_]\w*)|\[(\d+)\]|\['((?:[^'\\]|\\.)*)'\]", where):
+        parts.append(name or (int(index) if index else quoted))
+    return tuple(parts)
+
+
+def _schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[Problem]:
+    problems = []
+    for err in error.errors():
+        loc = tuple(err["loc"])
+        path = _data_path(data, loc)
+        where = ".".join(str(p) for p in path) or "the mission"
+        kind = err["type"]
+        if kind == "union_tag_invalid":
+            given = err["input"].get("action") if isinstance(err["input"], dict) else None
+            problems.append(smap.problem((*path, "action"), f"unknown action {given!r}{_suggest(str(given), ACTIONS)}"))
+            continue
+        if kind == "union_tag_not_found":
+            problems.append(smap.problem(path, "a step needs an 'action'", key=False))
+            continue
+        if kind == "extra_forbidden":
+            field = str(path[-1]) if path else "?"
+            problems.append(smap.problem(path, f"unknown field {field!r} in {'.'.join(map(str, path[:-1]))}", key=True))
+            continue
+        if kind == "missing":
+            missing = str(loc[-1])
+            problems.append(smap.problem(path, f"{where}: missing required field {missing!r}"))
+            continue
+        message = str(err["msg"]).removeprefix("Value error, ")
+        problems.append(smap.problem(path, f"{where}: {message}"))
+    return problems
+
+
+class _Checker:
+    """The semantic checks, run on a mission that passed the schema."""
+
+    def __init__(self, plan: PolicyGraph, smap: SourceMap, tool_exists: ToolCheck | None) -> None:
+        self.plan = plan
+        self.smap = smap
+        self.tool_exists = tool_exists
+        self.problems: list[Problem] = []
+        self.sites = list(iter_steps(plan))
+        self.by_id: dict[str, StepSite] = {}
+
+    def add(self, path: Path, message: str) -> None:
+        self.problems.append(self.smap.problem(path, message))
+
+    def run(self) -> list[Problem]:
+        self.check_ids()
+        self.check_dependencies()
+        self.check_expressions()
+        self.check_nesting()
+        self.check_tools()
+        self.check_limits()
+        return self.problems
+
+    def check_ids(self) -> None:
+        for site in self.sites:
+            first = self.by_id.get(site.step.id)
+            if first is not None:
+                line = self.smap.at((*first.path, "id"))[0]
+                self.add((*site.path, "id"), f"duplicate step id {site.step.id!r} (first at line {line})")
+            else:
+                self.by_id[site.step.id] = site
+        trigger_ids = [t.id for t in self.plan.triggers]
+        for t, trigger in enumerate(self.plan.triggers):
+            if trigger.id in self.by_id or trigger_ids.index(trigger.id) != t:
+                self.add(("triggers", t, "id"), f"trigger id {trigger.id!r} is already used")
+
+    def deps_of(self, site: StepSite) -> list[tuple[str, Path]]:
+        deps = [(d, (*site.path, "depends_on", j)) for j, d in enumerate(site.step.depends_on)]
+        extra = self.plan.dependencies.get(site.step.id, [])
+        deps += [(d, ("dependencies", site.step.id, j)) for j, d in enumerate(extra)]
+        return deps
+
+    def check_dependencies(self) -> None:
+        for key in self.plan.dependencies:
+            if key not in self.by_id:
+                self.add(("dependencies", key), f"dependencies names unknown step {key!r}{_suggest(key, self.by_id)}")
+        graph = nx.DiGraph()
+        for site in self.sites:
+            graph.add_node(site.step.id)
+            for dep, path in self.deps_of(site):
+                target = self.by_id.get(dep)
+                if target is None:
+                    self.add(path, f"step {site.step.id!r} depends on unknown step {dep!r}{_suggest(dep, self.by_id)}")
+                elif dep == site.step.id:
+                    self.add(path, f"step {site.step.id!r} depends on itself")
+                elif target.scope != site.scope:
+                    where = "inside " + target.scope.split(":", 1)[1] if target.scope != "plan" else "in the main plan"
+                    self.add(
+                        path,
+                        f"step {site.step.id!r} depends on {dep!r}, which runs {where}: a step can only wait for "
+                        "steps of the same list",
+                    )
+                else:
+                    graph.add_edge(dep, site.step.id)
+        in_cycle: set[str] = set()
+        for cycle in nx.simple_cycles(graph):
+            if len(cycle) < 2 or set(cycle) <= in_cycle:
+                continue
+            in_cycle |= set(cycle)
+            first = min(cycle, key=lambda s: self.smap.at((*self.by_id[s].path, "id")))
+            i = cycle.index(first)
+            ordered = [*cycle[i:], *cycle[:i]]
+            text = " -> ".join([*ordered, ordered[0]])  # edges run from a dependency to the step that waits for it
+            self.add(
+                (*self.by_id[first].path, "depends_on"),
+                f"dependency cycle: {text} (each must finish before the next, so none can start)",
+            )
+        blocked = set().union(*(nx.descendants(graph, n) for n in in_cycle)) if in_cycle else set()
+        for step_id in sorted(blocked):
+            if step_id not in in_cycle:
+                self.add(
+                    (*self.by_id[step_id].path, "id"),
+                    f"step {step_id!r} can never run: it waits (through depends_on) for a dependency cycle",
+                )
+
+    def expressions_of(self, site: StepSite) -> Iterator[tuple[Path, str]]:
+        step = site.step
+        for j, text in enumerate(step.preconditions):
+            yield (*site.path, "preconditions", j), text
+        if isinstance(step, WaitUntilStep):
+            yield (*site.path, "condition"), step.condition
+        if isinstance(step, RepeatStep):
+            yield (*site.path, "until"), step.until
+        if isinstance(step, BranchStep):
+            yield (*site.path, "if"), step.if_
+
+    def check_expression(self, path: Path, text: str, known: list[str]) -> None:
+        try:
+            expr = Expression.parse(text)
+            expr.check_names(known)
+        except ExpressionError as exc:
+            self.add(path, str(exc))
+            return
+        for name in re.findall(r"\bparams\.([A-Za-z_]\w*)", text):
+            if name not in self.plan.params:
+                self.add(path, f"unknown parameter {name!r} in {text!r}{_suggest(name, list(self.plan.params))}")
+
+    def check_expressions(self) -> None:
+        known = [*SCOPE_ROOTS, *self.by_id]
+        for site in self.sites:
+            for path, text in self.expressions_of(site):
+                self.check_expression(path, text, known)
+            try:
+                templates = find_templates(step_args(site.step))
+            except ExpressionError as exc:
+                self.add((*site.path, "args"), str(exc))
+                continue
+            for where, expr in templates:
+                self.check_expression((*site.path, "args", *_template_path(where)), expr.source, known)
+        for t, trigger in enumerate(self.plan.triggers):
+            self.check_expression(("triggers", t, "when"), trigger.when, known)
+
+    def check_nesting(self) -> None:
+        for site in self.sites:
+            if site.scope.startswith("nested:") and site.step.approval:
+                parent = site.scope.split(":", 1)[1]
+                self.add(
+                    (*site.path, "approval"),
+                    f"step {site.step.id!r} inside {parent!r} cannot ask for approval: the steps of a repeat or "
+                    "branch run in one go, and a pause would run the earlier ones again; move it to the plan",
+                )
+            if site.scope.startswith("nested:") and site.step.action in ("repeat",):
+                self.add((*site.path, "action"), f"a repeat inside {site.scope.split(':', 1)[1]!r} is not supported")
+
+    def check_tools(self) -> None:
+        if self.tool_exists is None:
+            return
+        for site in self.sites:
+            tool = getattr(site.step, "tool", None)
+            if tool is not None and not self.tool_exists(tool):
+                self.add((*site.path, "tool"), f"unknown tool {tool!r}: no such tool is registered")
+
+    def check_limits(self) -> None:
+        limits = self.plan.limits
+        for site in self.sites:
+            args = getattr(site.step, "args", None)
+            for field in ("altitude_m", "alt_m"):
+                value = getattr(args, field, None)
+                if (
+                    limits.max_altitude_m is not None
+                    and isinstance(value, int | float)
+                    and value > limits.max_altitude_m
+                ):
+                    self.add(
+                        (*site.path, "args", field),
+                        f"{site.step.action} to {value:g} m is above the mission's max_altitude_m "
+                        f"({limits.max_altitude_m:g} m)",
+                    )
+            for label, point, path in self.points_of(site):
+                if not self.inside_geofence(point):
+                    self.add(
+                        path, f"{site.step.action} {label} ({point[0]:.6f}, {point[1]:.6f}) is outside the geofence"
+                    )
+
+    def points_of(self, site: StepSite) -> Iterator[tuple[str, tuple[float, float], Path]]:
+        args = getattr(site.step, "args", None)
+        lat, lon = getattr(args, "lat", None), getattr(args, "lon", None)
+        if isinstance(lat, int | float) and isinstance(lon, int | float):
+            yield "destination", (float(lat), float(lon)), (*site.path, "args", "lat")
+        polygon = getattr(args, "polygon", None)
+        if isinstance(polygon, list):
+            for j, p in enumerate(polygon):
+                if isinstance(p.lat, int | float) and isinstance(p.lon, int | float):
+                    yield f"polygon point {j}", (float(p.lat), float(p.lon)), (*site.path, "args", "polygon", j)
+        center = getattr(args, "center", None)
+        if center is not None and isinstance(center.lat, int | float) and isinstance(center.lon, int | float):
+            yield "center", (float(center.lat), float(center.lon)), (*site.path, "args", "center")
+
+    def inside_geofence(self, point: tuple[float, float]) -> bool:
+        fence = self.plan.limits.geofence
+        if fence is None:
+            return True
+        if isinstance(fence, Circle):
+            if not isinstance(fence.center.lat, int | float) or not isinstance(fence.center.lon, int | float):
+                return True
+            return haversine_m(point, (float(fence.center.lat), float(fence.center.lon))) <= fence.radius_m
+        vertices = [(float(p.lat), float(p.lon)) for p in fence if isinstance(p.lat, int | float | str)]
+        return inside_polygon(point, vertices)
+
+
+def validate_document(data: Any, smap: SourceMap, tool_exists: ToolCheck | None = None) -> PolicyGraph:
+    """Validate parsed mission data; raises :class:`MissionError` with every problem found."""
+    if not isinstance(data, Mapping):
+        raise MissionError(
+            [smap.problem((), f"a mission is a mapping with plan_id, goal and steps, not {type(data).__name__}")]
+        )
+    try:
+        plan = PolicyGraph.model_validate(data)
+    except ValidationError as exc:
+        raise MissionError(_schema_problems(data, smap, exc)) from None
+    problems = _Checker(plan, smap, tool_exists).run()
+    if problems:
+        raise MissionError(problems)
+    return plan
+
+
+def load_mission(
+    source: str | FilePath, *, file: str | None = None, tool_exists: ToolCheck | None = None
+) -> PolicyGraph:
+    """Load and validate a mission from a path, or from YAML/JSON text (then ``file`` names it in messages).
+
+    ``tool_exists`` answers whether a ``call_tool`` tool is registered; without it tools are not checked.
+    """
+    if isinstance(source, FilePath) or (
+        isinstance(source, str) and "\n" not in source and source.endswith((".yaml", ".yml", ".json"))
+    ):
+        path = FilePath(source)
+        name = file or str(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise MissionError([Problem(name, 1, 1, f"cannot read the file: {exc.strerror or exc}")]) from None
+    else:
+        text, name = str(source), file or "<mission>"
+    data, smap = load_document(text, name)
+    return validate_document(data, smap, tool_exists)
