@@ -66,3 +66,30 @@ def test_eval_stats_and_paper_are_wired(tmp_path: Path, capsys: pytest.CaptureFi
 def test_eval_subcommand_help_comes_from_the_evaluation_package(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["eval", "stats", "--help"]) == 0
     assert "usage: agentic-uav eval stats" in capsys.readouterr().out
+
+
+MISSIONS = Path(__file__).resolve().parents[2] / "missions"
+
+
+def test_plan_prints_supersteps_and_mermaid(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", str(MISSIONS / "inspect_perimeter.yaml"), "--param", "wind_limit_mps=12"]) == 0
+    out = capsys.readouterr().out
+    assert "superstep 1: check_weather, climb" in out and "'wind_limit_mps': 12.0" in out
+    assert main(["plan", str(MISSIONS / "hajj_emergency.yaml"), "--mermaid"]) == 0
+    drawing = capsys.readouterr().out
+    assert "graph TD;" in drawing and "\tpatrol --> go_home;" in drawing and "__reflect__" in drawing
+
+
+def test_plan_refuses_a_bad_parameter(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", str(MISSIONS / "hajj_patrol.yaml"), "--param", "rounds=many"]) == 2
+    assert "parameter 'rounds' is an integer, not 'many'" in capsys.readouterr().err
+    assert main(["plan", str(MISSIONS / "hajj_patrol.yaml"), "--param", "rounds"]) == 2
+    assert "--param takes name=value" in capsys.readouterr().err
+
+
+def test_schema_mission_is_json(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    assert main(["schema", "mission"]) == 0
+    schema = json.loads(capsys.readouterr().out)
+    assert schema["title"] == "agentic-uavs mission (PolicyGraph)" and "steps" in schema["properties"]
