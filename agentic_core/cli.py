@@ -51,10 +51,11 @@ def _cmd_validate(args: argparse.Namespace) -> int:
             print(exc, file=sys.stderr)
             continue
         nested = sum(1 for _ in iter_steps(plan)) - len(plan.steps)
+        steps = f"{len(plan.steps)} step{'s' if len(plan.steps) != 1 else ''}"
+        triggers = f"{len(plan.triggers)} trigger{'s' if len(plan.triggers) != 1 else ''}"
+        extra = f" (+{nested} nested or in triggers)" if nested else ""
         print(
-            f"{name}: ok: plan {plan.plan_id!r}, {len(plan.steps)} steps"
-            + (f" (+{nested} nested or in triggers)" if nested else "")
-            + f", {len(plan.triggers)} triggers (tools not checked: no tool registry yet)"
+            f"{name}: ok: plan {plan.plan_id!r}, {steps}{extra}, {triggers} (tools not checked: no tool registry yet)"
         )
     return 2 if failed else 0
 

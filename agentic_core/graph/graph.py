@@ -26,11 +26,15 @@ def _closest(name: str, choices: Sequence[str]) -> str:
     return f" (did you mean {match[0]!r}?)" if match else ""
 
 
-def _takes(fn: Callable[..., Any], param: str) -> bool:
+def _parameters(fn: Callable[..., Any]) -> frozenset[str]:
+    """The parameter names of a node or router (read off the code object of a plain function: it is cheap)."""
+    if inspect.isfunction(fn):
+        code = fn.__code__
+        return frozenset(code.co_varnames[: code.co_argcount + code.co_kwonlyargcount])
     try:
-        return param in inspect.signature(fn).parameters
+        return frozenset(inspect.signature(fn).parameters)
     except (TypeError, ValueError):
-        return False
+        return frozenset()
 
 
 def _literal_values(annotation: Any) -> tuple[str, ...] | None:
@@ -44,15 +48,16 @@ def _literal_values(annotation: Any) -> tuple[str, ...] | None:
 
 
 def _return_annotation(fn: Callable[..., Any]) -> Any:
-    """The resolved return annotation; the raw text when it cannot be resolved (a forward reference to a class
-    defined inside a function, under ``from __future__ import annotations``)."""
+    """The return annotation, resolved only when it can matter (it mentions Literal or Command); the raw text
+    when it cannot be resolved (a forward reference to a class defined inside a function)."""
+    target = fn if inspect.isfunction(fn) or inspect.ismethod(fn) else getattr(fn, "__call__", fn)  # noqa: B004
+    raw = getattr(target, "__annotations__", {}).get("return")
+    if raw is None or (isinstance(raw, str) and "Literal" not in raw and "Command" not in raw):
+        return None
     try:
-        hints = typing.get_type_hints(fn)
+        return typing.get_type_hints(fn).get("return")
     except Exception:
-        target = fn if inspect.isfunction(fn) or inspect.ismethod(fn) else getattr(fn, "__call__", fn)  # noqa: B004
-        raw = getattr(target, "__annotations__", {}).get("return")
         return raw if isinstance(raw, str) else None
-    return hints.get("return")
 
 
 def _literal_values_from_text(text: str) -> tuple[tuple[str, ...] | None, bool]:
@@ -240,8 +245,9 @@ class StateGraph:
             given: object = action  # users pass anything; the annotation is what we accept
             if not callable(given):
                 raise GraphError(f"node {name!r}: {given!r} is not callable")
-            spec.takes_config = _takes(action, "config")
-            spec.takes_writer = _takes(action, "writer")
+            params = _parameters(action)
+            spec.takes_config = "config" in params
+            spec.takes_writer = "writer" in params
             spec.is_async = inspect.iscoroutinefunction(action) or inspect.iscoroutinefunction(
                 getattr(action, "__call__", None)  # noqa: B004 - async callable objects
             )
@@ -295,7 +301,7 @@ class StateGraph:
                 router=path,
                 path_map=mapping,
                 literal=literal,
-                takes_config=_takes(path, "config"),
+                takes_config="config" in _parameters(path),
                 is_async=inspect.iscoroutinefunction(path),
             )
         )

@@ -294,9 +294,13 @@ class Expression:
         try:
             self._tree = ast.parse(self._text, mode="eval")
         except SyntaxError as exc:
-            col = min(len(source), self._offset + max(0, (exc.offset or 1) - 1))
             why = " ".join(str(exc.msg).split())
-            raise ExpressionError(f"invalid syntax at column {col} in {_quote(source)}: {why}", source, col) from None
+            if not exc.offset:  # CPython gives no offset for an expression cut short
+                col, where = self._offset + len(self._text), "at the end"
+            else:
+                col = min(len(source), self._offset + exc.offset - 1)
+                where = f"at column {col}"
+            raise ExpressionError(f"invalid syntax {where} of {_quote(source)}: {why}", source, col) from None
         except (ValueError, RecursionError, MemoryError) as exc:
             raise ExpressionError(f"cannot parse {_quote(source)}: {exc}", source) from None
         self._names = _Checker(self).run()
@@ -304,18 +308,31 @@ class Expression:
     @classmethod
     def parse(cls, source: str) -> Expression:
         """Parse and check ``source``; ExpressionError (with ``col``) for bad syntax or a refused construct."""
-        return cls(source)
+        return _parse_cached(source) if cls is Expression else cls(source)
 
     @property
     def root_names(self) -> frozenset[str]:
         """The top-level names the expression reads (function names excluded)."""
         return frozenset(name for name, _ in self._names)
 
+    def fields_of(self, root: str) -> frozenset[str]:
+        """The fields read directly off a root name: ``{"alt"}`` for ``params.alt + 1`` and root ``params``."""
+        return _fields_of(self, root)
+
+    def _fields_of(self, root: str) -> frozenset[str]:
+        return frozenset(
+            node.attr
+            for node in ast.walk(self._tree)
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == root
+        )
+
     def check_names(self, known: Iterable[str]) -> None:
         """Raise ExpressionError for the first name not in ``known``, suggesting the closest known one."""
-        names = list(dict.fromkeys(known))
+        names = known if isinstance(known, tuple) else tuple(known)
+        lookup = _name_set(names)
         for name, col in self._names:
-            if name not in names:
+            if name not in lookup:
+                names = tuple(dict.fromkeys(names))
                 hint = f"known: {_listing(names)}{_suggest(name, names)}"
                 raise ExpressionError(f"unknown name {name!r} in {_quote(self.source)} ({hint})", self.source, col)
 
@@ -589,6 +606,22 @@ def _strings(value: Any, path: str) -> Iterator[tuple[str, str]]:
     elif isinstance(value, list | tuple):
         for index, item in enumerate(value):
             yield from _strings(item, f"{path}[{index}]")
+
+
+@functools.lru_cache(maxsize=4096)
+def _parse_cached(source: str) -> Expression:
+    """Expressions are immutable once parsed: the same text (a template used by many steps) parses once."""
+    return Expression(source)
+
+
+@functools.lru_cache(maxsize=4096)
+def _fields_of(expr: Expression, root: str) -> frozenset[str]:
+    return expr._fields_of(root)
+
+
+@functools.lru_cache(maxsize=16)
+def _name_set(names: tuple[str, ...]) -> frozenset[str]:
+    return frozenset(names)
 
 
 def find_templates(value: Any) -> list[tuple[str, Expression]]:

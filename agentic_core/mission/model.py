@@ -16,6 +16,7 @@ JSON Schema tells an editor exactly which arguments an action takes. Wherever a 
 
 from __future__ import annotations
 
+import typing
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
@@ -24,7 +25,11 @@ TEMPLATE_PATTERN = r"^\$\{.+\}$"
 Template = Annotated[str, StringConstraints(pattern=TEMPLATE_PATTERN)]
 """A value computed when the step runs: ``"${params.altitude_m + 10}"``."""
 
-Number = float | Template
+Number = Annotated[float, Field(allow_inf_nan=False)] | Template
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)] | Template
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)] | Template
+Latitude = Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False)] | Template
+Longitude = Annotated[float, Field(ge=-180, le=180, allow_inf_nan=False)] | Template
 StepId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 OnFail = Literal["trigger_reflection", "retry", "skip", "abort", "rtl"]
 
@@ -32,12 +37,12 @@ OnFail = Literal["trigger_reflection", "retry", "skip", "abort", "rtl"]
 class Contract(BaseModel):
     """Base of every mission model: unknown fields are errors, not silently ignored."""
 
-    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", strict=True)  # "30" is not a number here: as in the JSON Schema
 
 
 class LatLon(Contract):
-    lat: Number = Field(description="latitude, degrees (WGS-84)")
-    lon: Number = Field(description="longitude, degrees (WGS-84)")
+    lat: Latitude = Field(description="latitude, degrees (WGS-84)")
+    lon: Longitude = Field(description="longitude, degrees (WGS-84)")
 
 
 class Circle(Contract):
@@ -48,18 +53,12 @@ class Circle(Contract):
 class Limits(Contract):
     """Safety limits every step is checked against at load time and by the flight envelope when it flies."""
 
-    geofence: list[LatLon] | Circle | None = Field(
+    geofence: Annotated[list[LatLon], Field(min_length=3)] | Circle | None = Field(
         default=None, description="a polygon of at least three points, or a circle"
     )
     max_altitude_m: float | None = Field(default=None, gt=0, description="above the home position")
     min_battery_pct: float | None = Field(default=None, ge=0, le=100)
     max_wind_mps: float | None = Field(default=None, gt=0)
-
-    @model_validator(mode="after")
-    def _polygon_has_three_points(self) -> Limits:
-        if isinstance(self.geofence, list) and len(self.geofence) < 3:
-            raise ValueError("a geofence polygon needs at least three points")
-        return self
 
 
 class Param(Contract):
@@ -71,22 +70,43 @@ class Param(Contract):
     minimum: float | None = None
     maximum: float | None = None
 
+    @model_validator(mode="after")
+    def _default_fits(self) -> Param:
+        value = self.default
+        if value is None:
+            return self
+        fits = {
+            "number": isinstance(value, int | float) and not isinstance(value, bool),
+            "integer": isinstance(value, int) and not isinstance(value, bool),
+            "string": isinstance(value, str),
+            "boolean": isinstance(value, bool),
+            "position": isinstance(value, dict) and {"lat", "lon"} <= set(value),
+        }[self.type]
+        if not fits:
+            raise ValueError(f"default {value!r} is not a {self.type}")
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            if self.minimum is not None and value < self.minimum:
+                raise ValueError(f"default {value!r} is below minimum {self.minimum:g}")
+            if self.maximum is not None and value > self.maximum:
+                raise ValueError(f"default {value!r} is above maximum {self.maximum:g}")
+        return self
+
 
 # --- arguments of each action ---
 class TakeoffArgs(Contract):
-    altitude_m: Number = Field(default=10.0, description="climb to this height above home")
+    altitude_m: Positive = Field(default=10.0, description="climb to this height above home")
 
 
 class FlyToArgs(Contract):
     """Exactly one way of saying where: ``lat``/``lon``, local ``north_m``/``east_m``, or a world-model object."""
 
-    lat: Number | None = None
-    lon: Number | None = None
+    lat: Latitude | None = None
+    lon: Longitude | None = None
     north_m: Number | None = None
     east_m: Number | None = None
     target_id: str | None = Field(default=None, description="an object id of the world model, e.g. P-12")
-    alt_m: Number | None = Field(default=None, description="height above home; default: keep the current one")
-    speed_mps: Number | None = Field(default=None, gt=0)
+    alt_m: NonNegative | None = Field(default=None, description="height above home; default: keep the current one")
+    speed_mps: Positive | None = None
 
     @model_validator(mode="after")
     def _one_destination(self) -> FlyToArgs:
@@ -106,17 +126,17 @@ class FlyToArgs(Contract):
 
 class SurveyArgs(Contract):
     polygon: list[LatLon] | Template = Field(description="the area, at least three points")
-    altitude_m: Number
-    spacing_m: Number = Field(default=20.0, description="distance between the lawnmower lines")
-    speed_mps: Number | None = None
+    altitude_m: Positive
+    spacing_m: Positive = Field(default=20.0, description="distance between the lawnmower lines")
+    speed_mps: Positive | None = None
 
 
 class OrbitArgs(Contract):
     center: LatLon | None = None
     target_id: str | None = None
-    radius_m: Number
-    turns: Number = 1.0
-    alt_m: Number | None = None
+    radius_m: Positive
+    turns: Positive = 1.0
+    alt_m: NonNegative | None = None
 
     @model_validator(mode="after")
     def _one_center(self) -> OrbitArgs:
@@ -126,16 +146,16 @@ class OrbitArgs(Contract):
 
 
 class HoverArgs(Contract):
-    duration_s: Number
+    duration_s: Positive
 
 
 class LandArgs(Contract):
     """Land here (no arguments), at a position, or beside a world-model object (``offset_m`` away from it)."""
 
-    lat: Number | None = None
-    lon: Number | None = None
+    lat: Latitude | None = None
+    lon: Longitude | None = None
     target_id: str | None = None
-    offset_m: Number = Field(default=0.0, description="keep this distance from the target when landing")
+    offset_m: NonNegative = Field(default=0.0, description="keep this distance from the target when landing")
 
 
 class NoArgs(Contract):
@@ -148,7 +168,7 @@ class DeployPayloadArgs(Contract):
 
 class AnalyzeSceneArgs(Contract):
     focus: str | None = Field(default=None, description="an object id, or a description of what to look at")
-    min_confidence: Number = 0.5
+    min_confidence: Annotated[float, Field(ge=0, le=1)] | Template = 0.5
 
 
 class NotifyArgs(Contract):
@@ -272,6 +292,11 @@ Step = Annotated[
     | BranchStep,
     Field(discriminator="action"),
 ]
+STEP_MODELS: dict[str, type[StepBase]] = {
+    typing.get_args(model.model_fields["action"].annotation)[0]: model
+    for model in typing.get_args(typing.get_args(Step)[0])
+}
+"""The step model of each action."""
 ACTIONS: tuple[str, ...] = (
     "takeoff",
     "fly_to",

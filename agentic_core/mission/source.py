@@ -38,11 +38,15 @@ class MissionError(ValueError):
 
 @dataclass
 class SourceMap:
-    """Where each value (and each mapping key) of a document starts, by path; 1-based lines and columns."""
+    """Where each value (and each mapping key) of a document starts, by path; 1-based lines and columns.
+
+    ``problems`` holds what was wrong but did not stop loading (a duplicate key); validation reports them with
+    everything else it finds."""
 
     file: str
     values: dict[Path, tuple[int, int]] = field(default_factory=dict)
     keys: dict[Path, tuple[int, int]] = field(default_factory=dict)
+    problems: list[Problem] = field(default_factory=list)
 
     def at(self, path: Path, *, key: bool = False) -> tuple[int, int]:
         """The position of ``path``, or of its nearest ancestor that exists (a missing field: its parent)."""
@@ -62,44 +66,91 @@ def _pos(node: yaml.Node) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
 
 
-def _walk(node: yaml.Node, path: Path, smap: SourceMap, problems: list[Problem]) -> None:
-    smap.values[path] = _pos(node)
+def _build(node: yaml.Node, path: Path, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> Any:
+    """Construct the value of ``node`` and record where it (and each key) sits, in one pass."""
+    if id(node) in active:
+        line, col = _pos(node)
+        raise MissionError(
+            [Problem(smap.file, line, col, "a YAML alias refers to itself: the document would be infinite")]
+        )
+    smap.values.setdefault(path, _pos(node))
     if isinstance(node, yaml.MappingNode):
-        seen: dict[str, tuple[int, int]] = {}
-        for key_node, value_node in node.value:
-            key = str(key_node.value)
+        seen: dict[Any, tuple[int, int]] = {}
+        for key_node, _ in node.value:  # duplicates among the keys as written (merged ones may be overridden)
+            if key_node.tag == "tag:yaml.org,2002:merge" or not isinstance(key_node, yaml.ScalarNode):
+                continue
+            key = key_node.value
             if key in seen:
                 line, col = _pos(key_node)
-                problems.append(Problem(smap.file, line, col, f"duplicate key {key!r} (first at line {seen[key][0]})"))
-                continue
+                message = f"duplicate key {key!r} (first at line {seen[key][0]}); the last wins"
+                smap.problems.append(Problem(smap.file, line, col, message))
             seen[key] = _pos(key_node)
-            smap.keys[(*path, key)] = _pos(key_node)
-            _walk(value_node, (*path, key), smap, problems)
-    elif isinstance(node, yaml.SequenceNode):
-        for i, item in enumerate(node.value):
-            _walk(item, (*path, i), smap, problems)
+        loader.flatten_mapping(node)  # YAML merge keys: <<: *defaults
+        active.add(id(node))
+        out: dict[Any, Any] = {}
+        for key_node, value_node in node.value:
+            key = loader.construct_object(key_node) if isinstance(key_node, yaml.ScalarNode) else None
+            if key is None or isinstance(key, list | dict):
+                line, col = _pos(key_node)
+                raise MissionError([Problem(smap.file, line, col, "a mapping key must be a plain name or number")])
+            smap.keys.setdefault((*path, key), _pos(key_node))
+            out[key] = _build(value_node, (*path, key), smap, loader, active)
+        active.discard(id(node))
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        active.add(id(node))
+        items = [_build(item, (*path, i), smap, loader, active) for i, item in enumerate(node.value)]
+        active.discard(id(node))
+        return items
+    if node.tag == _STR_TAG:
+        return node.value  # most scalars: no constructor needed
+    construct = loader.yaml_constructors.get(node.tag)
+    return construct(loader, node) if construct is not None else loader.construct_object(node)
+
+
+_STR_TAG = "tag:yaml.org,2002:str"
+
+
+_Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when present: 10x faster
+
+
+def _yaml_problem(file: str, exc: yaml.MarkedYAMLError) -> Problem:
+    mark = exc.problem_mark or exc.context_mark
+    line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+    message = f"YAML syntax error: {exc.problem or 'invalid YAML'}"
+    if exc.context:
+        started = f" at line {exc.context_mark.line + 1}" if exc.context_mark else ""
+        message += f" ({exc.context}{started})"
+    return Problem(file, line, col, message)
+
+
+def _position_of(text: str, index: int) -> tuple[int, int]:
+    before = text[:index]
+    return before.count("\n") + 1, index - (before.rfind("\n") + 1) + 1
 
 
 def load_document(text: str, file: str) -> tuple[Any, SourceMap]:
     """Parse YAML (or JSON, which is YAML) into plain data and its source map; raises :class:`MissionError`."""
     smap = SourceMap(file)
-    loader = yaml.SafeLoader(text)
+    loader: yaml.SafeLoader | None = None
     try:
+        loader = _Loader(text)
         node = loader.get_single_node()
         if node is None:
             raise MissionError([Problem(file, 1, 1, "the file is empty; a mission needs plan_id, goal and steps")])
-        problems: list[Problem] = []
-        _walk(node, (), smap, problems)
-        if problems:
-            raise MissionError(problems)
-        data = loader.construct_document(node)
+        data = _build(node, (), smap, loader, set())
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
-        what = " ".join(p for p in (exc.context, exc.problem) if p)
-        raise MissionError([Problem(file, line, col, f"YAML syntax error: {what}")]) from None
+        raise MissionError([_yaml_problem(file, exc)]) from None
+    except yaml.reader.ReaderError as exc:
+        line, col = _position_of(text, exc.position)
+        char = exc.character if isinstance(exc.character, int) else ord(str(exc.character)[:1] or "\0")
+        message = f"YAML cannot contain the character U+{char:04X} (a control character or an invalid byte)"
+        raise MissionError([Problem(file, line, col, message)]) from None
     except yaml.YAMLError as exc:
         raise MissionError([Problem(file, 1, 1, f"YAML error: {exc}")]) from None
+    except RecursionError:
+        raise MissionError([Problem(file, 1, 1, "the document is nested too deeply")]) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     return data, smap

@@ -14,17 +14,19 @@ from __future__ import annotations
 
 import difflib
 import re
+import types
+import typing
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path as FilePath
 from typing import Any
 
 import networkx as nx
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from .expressions import Expression, ExpressionError, find_templates
 from .geometry import haversine_m, inside_polygon
-from .model import ACTIONS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
+from .model import ACTIONS, STEP_MODELS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
 from .source import MissionError, Path, Problem, SourceMap, load_document
 
 SCOPE_ROOTS = ("params", "steps", "vehicle", "world", "event", "mission")
@@ -70,7 +72,11 @@ def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
     """Turn a pydantic error location into a document path, skipping union tags and resolving aliases."""
     path: list[str | int] = []
     node = data
+    tag_seen: Any = None
     for part in loc:
+        if isinstance(node, dict) and part == node.get("action") and part in ACTIONS and tag_seen is not node:
+            tag_seen = node  # the discriminator's tag (once: a step may also have a key of that name)
+            continue
         if isinstance(node, list) and isinstance(part, int) and part < len(node):  # noqa: SIM114 - apart, so mypy narrows each
             path.append(part)
             node = node[part]
@@ -80,10 +86,144 @@ def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
         elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
             path.append(part.rstrip("_"))  # if_ / else_ are written if / else
             node = node[part.rstrip("_")]
-        elif isinstance(part, str) and isinstance(node, dict) and part not in ACTIONS:
+        elif isinstance(part, str) and isinstance(node, dict) and part not in ACTIONS and part != "[key]":
             path.append(part)  # a missing field: its parent's position is used
             break
     return tuple(path)
+
+
+def _model_at(data: Any, path: Path) -> type[BaseModel] | None:
+    """The mission model that the mapping at ``path`` is validated as (for did-you-mean on unknown fields)."""
+    ann: Any = PolicyGraph
+    node: Any = data
+    for part in path:
+        ann = _narrow(ann, node)
+        if isinstance(part, int):
+            ann = _narrow(typing.get_args(ann)[0] if typing.get_args(ann) else Any, None)
+            node = node[part] if isinstance(node, list) and part < len(node) else None
+            continue
+        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
+            return None
+        fields = {f.alias or name: f for name, f in ann.model_fields.items()}
+        if part not in fields:
+            return None
+        ann = fields[part].annotation
+        node = node.get(part) if isinstance(node, dict) else None
+    ann = _narrow(ann, node)
+    return ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+
+
+def _narrow(ann: Any, node: Any) -> Any:
+    """Unwrap Annotated/Optional/unions to what ``node`` is: a step by its action, a model for a mapping."""
+    while typing.get_origin(ann) is typing.Annotated:
+        ann = typing.get_args(ann)[0]
+    members = typing.get_args(ann) if typing.get_origin(ann) in (typing.Union, types.UnionType) else (ann,)
+    action = node.get("action") if isinstance(node, dict) else None
+    if isinstance(action, str) and action in STEP_MODELS:
+        return STEP_MODELS[action]
+    for member in members:
+        while typing.get_origin(member) is typing.Annotated:
+            member = typing.get_args(member)[0]
+        if isinstance(node, dict) and isinstance(member, type) and issubclass(member, BaseModel):
+            return member
+        if isinstance(node, list) and typing.get_origin(member) is list:
+            return member
+    return members[0] if len(members) == 1 else ann
+
+
+def _describe(data: Any, path: Path) -> str:
+    """``steps.2.args`` as a person reads it: ``step 'go' args``."""
+    words: list[str] = []
+    node = data
+    for part in path:
+        if isinstance(node, dict):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+        else:
+            node = None
+        ident = node.get("id") if isinstance(part, int) and isinstance(node, dict) else None
+        if isinstance(ident, str) and words and words[-1] in ("steps", "then", "else", "triggers"):
+            words[-1] = f"{'trigger' if words[-1] == 'triggers' else 'step'} {ident!r}"
+        elif isinstance(part, int) and words:
+            words[-1] += f"[{part}]"
+        else:
+            words.append(str(part))
+    return " ".join(words) or "the mission"
+
+
+_KINDS = {
+    "float": "a number",
+    "int": "a whole number",
+    "list": "a list",
+    "dict": "a mapping",
+    "model": "a mapping",
+    "string": "text",
+    "bool": "true or false",
+}
+
+
+def _schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[Problem]:
+    problems: list[Problem] = []
+    grouped: dict[Path, list[Any]] = {}
+    for err in error.errors():
+        grouped.setdefault(_data_path(data, tuple(err["loc"])), []).append(err)
+    for path, group in grouped.items():
+        errs = _relevant(group)
+        kinds = [str(e["type"]) for e in errs]
+        where = _describe(data, path)
+        if any("[key]" in e["loc"] for e in errs):
+            problems.append(
+                smap.problem(
+                    path, f"{where}: a name must be letters, digits and _ (not starting with a digit)", key=True
+                )
+            )
+            continue
+        if "union_tag_invalid" in kinds:
+            err = errs[kinds.index("union_tag_invalid")]
+            given = err["input"].get("action") if isinstance(err["input"], dict) else None
+            problems.append(smap.problem((*path, "action"), f"unknown action {given!r}{_suggest(str(given), ACTIONS)}"))
+            continue
+        if "union_tag_not_found" in kinds:
+            problems.append(smap.problem(path, f"{where}: a step needs an 'action' (one of {', '.join(ACTIONS)})"))
+            continue
+        template = [
+            e
+            for e in errs
+            if (e["type"] == "string_pattern_mismatch" and "${" in str(e.get("ctx", {}).get("pattern", "")))
+            or (e["type"] == "string_pattern_mismatch" and "\\$" in str(e.get("ctx", {}).get("pattern", "")))
+        ]
+        if template and len(errs) > len(template):
+            wanted = sorted(
+                {_KINDS.get(k.split("_")[0], k.split("_")[0]) for k in kinds if k != "string_pattern_mismatch"}
+            )
+            others = [e for e in errs if e not in template]
+            detail = (
+                others[0]["msg"]
+                if len(others) == 1 and others[0]["type"] not in ("float_type", "float_parsing")
+                else ""
+            )
+            message = f"{where}: expected {' or '.join(wanted)} or a ${{...}} expression, got {errs[0]['input']!r}"
+            problems.append(smap.problem(path, message + (f" ({detail})" if detail else "")))
+            continue
+        for err in errs:
+            kind = err["type"]
+            if kind == "extra_forbidden":
+                field = str(path[-1]) if path else "?"
+                model = _model_at(data, path[:-1])
+                known = [f.alias or n for n, f in model.model_fields.items()] if model else []
+                hint = _suggest(field, known) or (f" (known: {', '.join(known)})" if known else "")
+                problems.append(
+                    smap.problem(path, f"unknown field {field!r} in {_describe(data, path[:-1])}{hint}", key=True)
+                )
+            elif kind == "missing":
+                missing = str(err["loc"][-1]).rstrip("_")
+                parent = path[:-1] if path and path[-1] == missing else path
+                problems.append(smap.problem(parent, f"{_describe(data, parent)}: missing required field {missing!r}"))
+            else:
+                message = str(err["msg"]).removeprefix("Value error, ")
+                problems.append(smap.problem(path, f"{where}: {message}"))
+    return problems
 
 
 def _template_path(where: str) -> Path:
@@ -94,31 +234,20 @@ def _template_path(where: str) -> Path:
     return tuple(parts)
 
 
-def _schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[Problem]:
-    problems = []
-    for err in error.errors():
-        loc = tuple(err["loc"])
-        path = _data_path(data, loc)
-        where = ".".join(str(p) for p in path) or "the mission"
-        kind = err["type"]
-        if kind == "union_tag_invalid":
-            given = err["input"].get("action") if isinstance(err["input"], dict) else None
-            problems.append(smap.problem((*path, "action"), f"unknown action {given!r}{_suggest(str(given), ACTIONS)}"))
-            continue
-        if kind == "union_tag_not_found":
-            problems.append(smap.problem(path, "a step needs an 'action'", key=False))
-            continue
-        if kind == "extra_forbidden":
-            field = str(path[-1]) if path else "?"
-            problems.append(smap.problem(path, f"unknown field {field!r} in {'.'.join(map(str, path[:-1]))}", key=True))
-            continue
-        if kind == "missing":
-            missing = str(loc[-1])
-            problems.append(smap.problem(path, f"{where}: missing required field {missing!r}"))
-            continue
-        message = str(err["msg"]).removeprefix("Value error, ")
-        problems.append(smap.problem(path, f"{where}: {message}"))
-    return problems
+_MAPPING_ERRORS = frozenset({"dict_type", "model_type", "model_attributes_type"})
+
+
+def _relevant(errors: list[Any]) -> list[Any]:
+    """Of the errors a union gives for one value, those of the member the value's shape chose (a list is not
+    told it should have been a mapping)."""
+    value = errors[0].get("input")
+    if isinstance(value, list):
+        kept = [e for e in errors if e["type"] not in _MAPPING_ERRORS]
+    elif isinstance(value, dict):
+        kept = [e for e in errors if e["type"] != "list_type"]
+    else:
+        kept = errors
+    return kept or errors
 
 
 class _Checker:
@@ -166,14 +295,21 @@ class _Checker:
     def check_dependencies(self) -> None:
         for key in self.plan.dependencies:
             if key not in self.by_id:
-                self.add(("dependencies", key), f"dependencies names unknown step {key!r}{_suggest(key, self.by_id)}")
+                self.problems.append(
+                    self.smap.problem(
+                        ("dependencies", key),
+                        f"dependencies names unknown step {key!r}{_suggest(key, self.by_id)}",
+                        key=True,
+                    )
+                )
         graph = nx.DiGraph()
         for site in self.sites:
             graph.add_node(site.step.id)
             for dep, path in self.deps_of(site):
                 target = self.by_id.get(dep)
                 if target is None:
-                    self.add(path, f"step {site.step.id!r} depends on unknown step {dep!r}{_suggest(dep, self.by_id)}")
+                    others = [i for i in self.by_id if i != site.step.id]
+                    self.add(path, f"step {site.step.id!r} depends on unknown step {dep!r}{_suggest(dep, others)}")
                 elif dep == site.step.id:
                     self.add(path, f"step {site.step.id!r} depends on itself")
                 elif target.scope != site.scope:
@@ -217,19 +353,19 @@ class _Checker:
         if isinstance(step, BranchStep):
             yield (*site.path, "if"), step.if_
 
-    def check_expression(self, path: Path, text: str, known: list[str]) -> None:
+    def check_expression(self, path: Path, text: str, known: tuple[str, ...]) -> None:
         try:
             expr = Expression.parse(text)
             expr.check_names(known)
         except ExpressionError as exc:
             self.add(path, str(exc))
             return
-        for name in re.findall(r"\bparams\.([A-Za-z_]\w*)", text):
+        for name in sorted(expr.fields_of("params")):
             if name not in self.plan.params:
                 self.add(path, f"unknown parameter {name!r} in {text!r}{_suggest(name, list(self.plan.params))}")
 
     def check_expressions(self) -> None:
-        known = [*SCOPE_ROOTS, *self.by_id]
+        known = (*SCOPE_ROOTS, *self.by_id)
         for site in self.sites:
             for path, text in self.expressions_of(site):
                 self.check_expression(path, text, known)
@@ -307,24 +443,31 @@ class _Checker:
             if not isinstance(fence.center.lat, int | float) or not isinstance(fence.center.lon, int | float):
                 return True
             return haversine_m(point, (float(fence.center.lat), float(fence.center.lon))) <= fence.radius_m
-        vertices = [(float(p.lat), float(p.lon)) for p in fence if isinstance(p.lat, int | float | str)]
-        return inside_polygon(point, vertices)
+        if not all(isinstance(p.lat, int | float) and isinstance(p.lon, int | float) for p in fence):
+            return True  # a vertex given as ${...} is only known when the mission runs
+        return inside_polygon(point, [(float(p.lat), float(p.lon)) for p in fence])
 
 
 def validate_document(data: Any, smap: SourceMap, tool_exists: ToolCheck | None = None) -> PolicyGraph:
     """Validate parsed mission data; raises :class:`MissionError` with every problem found."""
     if not isinstance(data, Mapping):
+        kind = type(data).__name__
         raise MissionError(
-            [smap.problem((), f"a mission is a mapping with plan_id, goal and steps, not {type(data).__name__}")]
+            [*smap.problems, smap.problem((), f"a mission is a mapping with plan_id, goal and steps, not a {kind}")]
         )
     try:
         plan = PolicyGraph.model_validate(data)
     except ValidationError as exc:
-        raise MissionError(_schema_problems(data, smap, exc)) from None
-    problems = _Checker(plan, smap, tool_exists).run()
+        raise MissionError([*smap.problems, *_schema_problems(data, smap, exc)]) from None
+    problems = [*smap.problems, *_Checker(plan, smap, tool_exists).run()]
     if problems:
         raise MissionError(problems)
     return plan
+
+
+def _line_col(raw: bytes, index: int) -> tuple[int, int]:
+    before = raw[:index]
+    return before.count(b"\n") + 1, index - (before.rfind(b"\n") + 1) + 1
 
 
 def load_mission(
@@ -343,6 +486,10 @@ def load_mission(
             text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise MissionError([Problem(name, 1, 1, f"cannot read the file: {exc.strerror or exc}")]) from None
+        except UnicodeDecodeError as exc:
+            line, col = _line_col(exc.object, exc.start)
+            message = f"not UTF-8 text: byte 0x{exc.object[exc.start]:02x} cannot be read; save the file as UTF-8"
+            raise MissionError([Problem(name, line, col, message)]) from None
     else:
         text, name = str(source), file or "<mission>"
     data, smap = load_document(text, name)

@@ -439,7 +439,7 @@ def test_templates_may_contain_braces_and_quotes() -> None:
 @pytest.mark.parametrize(
     ("value", "message"),
     [
-        ({"args": {"alt_m": "${1 +}"}}, "invalid syntax at column 0 in '1 +': invalid syntax (template at args.alt_m)"),
+        ({"args": {"alt_m": "${1 +}"}}, "invalid syntax at the end of '1 +': invalid syntax (template at args.alt_m)"),
         ({"args": {"points": ["ok", "${open('x')}"]}}, "unknown function 'open'"),
         ({"args": {"n": "value ${x"}}, "unterminated template at column 6 in 'value ${x': no closing '}'"),
         ({"args": {"n": "${}"}}, "empty expression"),
@@ -588,9 +588,9 @@ def test_filters_with_lookups(source: str, expected: int | None) -> None:
 
 
 def test_find_objects_by_relation() -> None:
-    found = Expression.parse(
-        "find(world, class_='person', stationary_s__gte=10, relation='isolated_from')"
-    ).evaluate({"world": WORLD})
+    found = Expression.parse("find(world, class_='person', stationary_s__gte=10, relation='isolated_from')").evaluate(
+        {"world": WORLD}
+    )
     assert [o["id"] for o in found] == ["P-1"]
     assert Expression.parse("find(world, relation='isolated_from')[1].id").evaluate({"world": WORLD}) == "V-1"
     assert Expression.parse("find(world, class_='boat')").evaluate({"world": WORLD}) == []
