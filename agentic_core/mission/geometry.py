@@ -33,22 +33,33 @@ def from_local(north: float, east: float, origin: LatLonPoint) -> LatLonPoint:
     return lat, lon
 
 
+class Polygon:
+    """A polygon projected once onto the local plane, for many containment tests."""
+
+    def __init__(self, vertices: Sequence[LatLonPoint]) -> None:
+        self.origin = vertices[0]
+        self.local = [to_local(p, self.origin) for p in vertices]
+        self.edges = list(zip(self.local, self.local[1:] + self.local[:1], strict=True))
+
+    def contains(self, point: LatLonPoint) -> bool:
+        """Ray casting on the local plane; points on an edge count as inside."""
+        x, y = to_local(point, self.origin)
+        inside = False
+        for (x1, y1), (x2, y2) in self.edges:
+            if min(y1, y2) <= y <= max(y1, y2) and min(x1, x2) <= x <= max(x1, x2):
+                cross = (x2 - x1) * (y - y1) - (y2 - y1) * (x - x1)
+                if abs(cross) < 1e-6:
+                    return True
+            if (y1 > y) != (y2 > y):
+                x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
+                if x < x_at:
+                    inside = not inside
+        return inside
+
+
 def inside_polygon(point: LatLonPoint, polygon: Sequence[LatLonPoint]) -> bool:
     """Ray casting on the local plane; points on an edge count as inside."""
-    origin = polygon[0]
-    x, y = to_local(point, origin)
-    verts = [to_local(p, origin) for p in polygon]
-    inside = False
-    for (x1, y1), (x2, y2) in zip(verts, verts[1:] + verts[:1], strict=True):
-        if min(y1, y2) <= y <= max(y1, y2) and min(x1, x2) <= x <= max(x1, x2):
-            cross = (x2 - x1) * (y - y1) - (y2 - y1) * (x - x1)
-            if abs(cross) < 1e-6:
-                return True
-        if (y1 > y) != (y2 > y):
-            x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-            if x < x_at:
-                inside = not inside
-    return inside
+    return Polygon(polygon).contains(point)
 
 
 def lawnmower(polygon: Sequence[LatLonPoint], spacing_m: float) -> list[LatLonPoint]:

@@ -40,22 +40,36 @@ class MissionError(ValueError):
 class SourceMap:
     """Where each value (and each mapping key) of a document starts, by path; 1-based lines and columns.
 
-    ``problems`` holds what was wrong but did not stop loading (a duplicate key); validation reports them with
-    everything else it finds."""
+    Positions are looked up in the composed YAML tree only when a problem needs one, so loading a valid
+    mission pays nothing for them. ``problems`` holds what was wrong but did not stop loading (a duplicate
+    key); validation reports them with everything else it finds."""
 
     file: str
-    values: dict[Path, tuple[int, int]] = field(default_factory=dict)
-    keys: dict[Path, tuple[int, int]] = field(default_factory=dict)
+    root: yaml.Node | None = None
     problems: list[Problem] = field(default_factory=list)
+
+    def _find(self, path: Path) -> tuple[yaml.Node | None, yaml.Node | None, int]:
+        """The value node and key node at ``path`` (the deepest that exists), and how many parts matched."""
+        node, key_node, depth = self.root, None, 0
+        for part in path:
+            nxt = key = None
+            if isinstance(node, yaml.MappingNode):
+                for k, v in reversed(node.value):  # the last of duplicate keys wins, as when loading
+                    if isinstance(k, yaml.ScalarNode) and (k.value == part or k.value == str(part)):
+                        nxt, key = v, k
+                        break
+            elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and part < len(node.value):
+                nxt = node.value[part]
+            if nxt is None:
+                break
+            node, key_node, depth = nxt, key, depth + 1
+        return node, key_node, depth
 
     def at(self, path: Path, *, key: bool = False) -> tuple[int, int]:
         """The position of ``path``, or of its nearest ancestor that exists (a missing field: its parent)."""
-        table = self.keys if key else self.values
-        for cut in range(len(path), -1, -1):
-            pos = table.get(path[:cut]) or self.values.get(path[:cut])
-            if pos is not None:
-                return pos
-        return (1, 1)
+        node, key_node, depth = self._find(path)
+        target = key_node if key and key_node is not None and depth == len(path) else node
+        return _pos(target) if target is not None else (1, 1)
 
     def problem(self, path: Path, message: str, *, key: bool = False) -> Problem:
         line, col = self.at(path, key=key)
@@ -66,14 +80,13 @@ def _pos(node: yaml.Node) -> tuple[int, int]:
     return node.start_mark.line + 1, node.start_mark.column + 1
 
 
-def _build(node: yaml.Node, path: Path, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> Any:
-    """Construct the value of ``node`` and record where it (and each key) sits, in one pass."""
+def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> Any:
+    """Construct the value of ``node``, noting duplicate keys and refusing aliases that refer to themselves."""
     if id(node) in active:
         line, col = _pos(node)
         raise MissionError(
             [Problem(smap.file, line, col, "a YAML alias refers to itself: the document would be infinite")]
         )
-    smap.values.setdefault(path, _pos(node))
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, tuple[int, int]] = {}
         for key_node, _ in node.value:  # duplicates among the keys as written (merged ones may be overridden)
@@ -93,13 +106,12 @@ def _build(node: yaml.Node, path: Path, smap: SourceMap, loader: yaml.SafeLoader
             if key is None or isinstance(key, list | dict):
                 line, col = _pos(key_node)
                 raise MissionError([Problem(smap.file, line, col, "a mapping key must be a plain name or number")])
-            smap.keys.setdefault((*path, key), _pos(key_node))
-            out[key] = _build(value_node, (*path, key), smap, loader, active)
+            out[key] = _build(value_node, smap, loader, active)
         active.discard(id(node))
         return out
     if isinstance(node, yaml.SequenceNode):
         active.add(id(node))
-        items = [_build(item, (*path, i), smap, loader, active) for i, item in enumerate(node.value)]
+        items = [_build(item, smap, loader, active) for item in node.value]
         active.discard(id(node))
         return items
     if node.tag == _STR_TAG:
@@ -138,7 +150,8 @@ def load_document(text: str, file: str) -> tuple[Any, SourceMap]:
         node = loader.get_single_node()
         if node is None:
             raise MissionError([Problem(file, 1, 1, "the file is empty; a mission needs plan_id, goal and steps")])
-        data = _build(node, (), smap, loader, set())
+        smap.root = node
+        data = _build(node, smap, loader, set())
     except yaml.MarkedYAMLError as exc:
         raise MissionError([_yaml_problem(file, exc)]) from None
     except yaml.reader.ReaderError as exc:

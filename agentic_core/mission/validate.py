@@ -25,7 +25,7 @@ import networkx as nx
 from pydantic import BaseModel, ValidationError
 
 from .expressions import Expression, ExpressionError, find_templates
-from .geometry import haversine_m, inside_polygon
+from .geometry import Polygon, haversine_m
 from .model import ACTIONS, STEP_MODELS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
 from .source import MissionError, Path, Problem, SourceMap, load_document
 
@@ -226,6 +226,11 @@ def _schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list
     return problems
 
 
+def _fields(model: Any) -> dict[str, Any]:
+    """A model's field values without pydantic's slow ``__getattr__`` for absent names (None gives {})."""
+    return model.__dict__ if isinstance(model, BaseModel) else {}
+
+
 def _template_path(where: str) -> Path:
     """``points[2].lat`` or ``['odd key']`` (as find_templates writes them) -> a document path."""
     parts: list[str | int] = []
@@ -260,6 +265,7 @@ class _Checker:
         self.problems: list[Problem] = []
         self.sites = list(iter_steps(plan))
         self.by_id: dict[str, StepSite] = {}
+        self._fence: Polygon | None = None
 
     def add(self, path: Path, message: str) -> None:
         self.problems.append(self.smap.problem(path, message))
@@ -402,9 +408,9 @@ class _Checker:
     def check_limits(self) -> None:
         limits = self.plan.limits
         for site in self.sites:
-            args = getattr(site.step, "args", None)
+            args = _fields(site.step).get("args")
             for field in ("altitude_m", "alt_m"):
-                value = getattr(args, field, None)
+                value = _fields(args).get(field)
                 if (
                     limits.max_altitude_m is not None
                     and isinstance(value, int | float)
@@ -422,16 +428,16 @@ class _Checker:
                     )
 
     def points_of(self, site: StepSite) -> Iterator[tuple[str, tuple[float, float], Path]]:
-        args = getattr(site.step, "args", None)
-        lat, lon = getattr(args, "lat", None), getattr(args, "lon", None)
+        args = _fields(_fields(site.step).get("args"))
+        lat, lon = args.get("lat"), args.get("lon")
         if isinstance(lat, int | float) and isinstance(lon, int | float):
             yield "destination", (float(lat), float(lon)), (*site.path, "args", "lat")
-        polygon = getattr(args, "polygon", None)
+        polygon = args.get("polygon")
         if isinstance(polygon, list):
             for j, p in enumerate(polygon):
                 if isinstance(p.lat, int | float) and isinstance(p.lon, int | float):
                     yield f"polygon point {j}", (float(p.lat), float(p.lon)), (*site.path, "args", "polygon", j)
-        center = getattr(args, "center", None)
+        center = args.get("center")
         if center is not None and isinstance(center.lat, int | float) and isinstance(center.lon, int | float):
             yield "center", (float(center.lat), float(center.lon)), (*site.path, "args", "center")
 
@@ -443,9 +449,11 @@ class _Checker:
             if not isinstance(fence.center.lat, int | float) or not isinstance(fence.center.lon, int | float):
                 return True
             return haversine_m(point, (float(fence.center.lat), float(fence.center.lon))) <= fence.radius_m
-        if not all(isinstance(p.lat, int | float) and isinstance(p.lon, int | float) for p in fence):
-            return True  # a vertex given as ${...} is only known when the mission runs
-        return inside_polygon(point, [(float(p.lat), float(p.lon)) for p in fence])
+        if self._fence is None:
+            if not all(isinstance(p.lat, int | float) and isinstance(p.lon, int | float) for p in fence):
+                return True  # a vertex given as ${...} is only known when the mission runs
+            self._fence = Polygon([(float(p.lat), float(p.lon)) for p in fence])
+        return self._fence.contains(point)
 
 
 def validate_document(data: Any, smap: SourceMap, tool_exists: ToolCheck | None = None) -> PolicyGraph:

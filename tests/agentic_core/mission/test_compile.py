@@ -327,3 +327,14 @@ def test_parameters_are_typed_and_checked() -> None:
         initial_state(plan, {"rounds": "0"})
     with pytest.raises(ValueError, match="unknown parameter 'round'"):
         initial_state(plan, {"round": "3"})
+
+
+def test_call_tool_tools_are_checked_against_a_registry_when_one_is_given() -> None:
+    from agentic_core.mission import MissionError
+
+    text = (MISSIONS / "inspect_perimeter.yaml").read_text()
+    assert load_mission(text, tool_exists=lambda name: name == "weather.get_forecast").plan_id == "P-789"
+    with pytest.raises(MissionError) as err:
+        load_mission(text, file="p.yaml", tool_exists=lambda name: False)
+    (problem,) = err.value.problems
+    assert (problem.line, problem.message) == (31, "unknown tool 'weather.get_forecast': no such tool is registered")
