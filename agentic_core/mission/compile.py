@@ -377,11 +377,9 @@ def parse_param(plan: PolicyGraph, name: str, text: Any) -> Any:
     except (TypeError, ValueError):
         article = "an" if spec.type[0] in "aeiou" else "a"
         raise ValueError(f"parameter {name!r} is {article} {spec.type}, not {text!r}") from None
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        if spec.minimum is not None and value < spec.minimum:
-            raise ValueError(f"parameter {name!r} must be at least {spec.minimum:g}, got {value:g}")
-        if spec.maximum is not None and value > spec.maximum:
-            raise ValueError(f"parameter {name!r} must be at most {spec.maximum:g}, got {value:g}")
+    problem = spec.out_of_bounds(value)
+    if problem:
+        raise ValueError(f"parameter {name!r} {problem}")
     return value
 
 

@@ -84,12 +84,19 @@ class Param(Contract):
         }[self.type]
         if not fits:
             raise ValueError(f"default {value!r} is not a {self.type}")
+        problem = self.out_of_bounds(value)
+        if problem:
+            raise ValueError(f"the default {problem}")
+        return self
+
+    def out_of_bounds(self, value: Any) -> str | None:
+        """Why a number breaks this parameter's minimum or maximum, or None."""
         if isinstance(value, int | float) and not isinstance(value, bool):
             if self.minimum is not None and value < self.minimum:
-                raise ValueError(f"default {value!r} is below minimum {self.minimum:g}")
+                return f"must be at least {self.minimum:g}, got {value:g}"
             if self.maximum is not None and value > self.maximum:
-                raise ValueError(f"default {value!r} is above maximum {self.maximum:g}")
-        return self
+                return f"must be at most {self.maximum:g}, got {value:g}"
+        return None
 
 
 # --- arguments of each action ---
