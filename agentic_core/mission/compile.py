@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import math
 import operator
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -26,7 +27,7 @@ from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
 from .model import PolicyGraph, RepeatStep, Step, Trigger
 from .steps import Environment, StepFailed, run_iteration, run_with_retries, scope
-from .validate import SCOPE_ROOTS
+from .validate import SCOPE_ROOTS, iter_steps
 
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
 DONE = frozenset({"ok", "skipped"})
@@ -38,6 +39,17 @@ def merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:
     return {**left, **right}
 
 
+def merge_status(left: dict[str, str], right: dict[str, str]) -> dict[str, str]:
+    """A finished step stays finished: a 'scheduled' or 'blocked' written in the same superstep as its end
+    (whatever the order writes are applied in) does not bring it back."""
+    out = dict(left)
+    for step_id, status in right.items():
+        if out.get(step_id) in FINISHED and status not in FINISHED:
+            continue
+        out[step_id] = status
+    return out
+
+
 def worst(left: str | None, right: str | None) -> str | None:
     """Two halts in one superstep: returning home beats stopping in place."""
     return "rtl" if "rtl" in (left, right) else left or right
@@ -46,12 +58,13 @@ def worst(left: str | None, right: str | None) -> str | None:
 class MissionState(TypedDict, total=False):
     params: dict[str, Any]
     outputs: Annotated[dict[str, Any], merge]  # step id -> what its action returned
-    status: Annotated[dict[str, str], merge]  # step id -> ok | skipped | failed | blocked | scheduled | replaced ...
+    status: Annotated[dict[str, str], merge_status]  # ok | skipped | failed | blocked | scheduled | replaced ...
     errors: Annotated[dict[str, str], merge]
     attempts: Annotated[dict[str, int], merge]
     spliced: Annotated[dict[str, dict[str, Any]], merge]  # id -> {"step": ..., "deps": [...], "origin": ...}
     waits_for: Annotated[dict[str, list[str]], merge]  # step id -> replaced dependencies
     fired: Annotated[list[str], operator.add]
+    events: Annotated[dict[str, Any], merge]  # trigger id -> the event it last fired for
     reflections: int
     halt: Annotated[str | None, worst]
     preempted_by: str | None  # a trigger that took over: the rest of the plan is cancelled
@@ -84,10 +97,12 @@ class MissionRuntime:
     reflector: Reflector = abort_reflector
     max_reflections: int = 3
     static: dict[str, Step] = field(default_factory=dict)
+    document_ids: set[str] = field(default_factory=set)
     dependents: dict[str, list[str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.static = {s.id: s for s in self.plan.steps}
+        self.document_ids = {site.step.id for site in iter_steps(self.plan)} | {t.id for t in self.plan.triggers}
         for step in self.plan.steps:
             for dep in self.deps(step.id, {}):
                 self.dependents.setdefault(dep, []).append(step.id)
@@ -110,8 +125,10 @@ class MissionRuntime:
         status = state.get("status") or {}
         if status.get(step_id) in FINISHED:
             return {}  # triggered again (by an edge and by the scheduler): it ran once, that is enough
-        if state.get("halt") or not self.may_run(step_id, state):
+        if state.get("halt"):
             return {"status": {step_id: "cancelled"}}
+        if not self.may_run(step_id, state):
+            return {"status": {step_id: "blocked"}}  # paused while a trigger's sub-plan runs
         waiting = [d for d in self.deps(step_id, state) if status.get(d) not in DONE]
         if waiting:
             return {"status": {step_id: "blocked"}}
@@ -121,14 +138,7 @@ class MissionRuntime:
         try:
             output, attempts = run_with_retries(step, state, self.env)
         except StepFailed as failed:
-            outcome = "skipped" if step.on_fail == "skip" else "failed"
-            attempts = step.max_retries + 1
-            return {
-                "status": {step_id: outcome},
-                "errors": {step_id: failed.reason},
-                "attempts": {step_id: attempts},
-                "log": [{"step": step_id, "status": outcome, "error": failed.reason}],
-            }
+            return {**self.failure(step, failed.reason), "attempts": {step_id: step.max_retries + 1}}
         return {
             "status": {step_id: "ok"},
             "outputs": {step_id: output},
@@ -141,17 +151,26 @@ class MissionRuntime:
         try:
             output, finished = run_iteration(step, state, self.env, done)
         except StepFailed as failed:
-            outcome = "skipped" if step.on_fail == "skip" else "failed"
-            return {
-                "status": {step.id: outcome},
-                "errors": {step.id: failed.reason},
-                "log": [{"step": step.id, "status": outcome, "error": failed.reason, "iteration": done + 1}],
-            }
+            return self.failure(step, failed.reason, iteration=done + 1)
         return {
             "status": {step.id: "ok" if finished else "repeating"},
             "outputs": {step.id: output},
             "log": [{"step": step.id, "status": "ok", "iteration": done + 1, "finished": finished}],
         }
+
+    def failure(self, step: Step, reason: str, **extra: Any) -> dict[str, Any]:
+        """A failed step's update. Its policy halts the mission at once when it ends it (abort, rtl, retry), so
+        that no step starts beside the abort or return-to-launch."""
+        outcome = "skipped" if step.on_fail == "skip" else "failed"
+        update: dict[str, Any] = {
+            "status": {step.id: outcome},
+            "errors": {step.id: reason},
+            "log": [{"step": step.id, "status": outcome, "error": reason, **extra}],
+        }
+        halt = {"abort": "abort", "retry": "abort", "rtl": "rtl"}.get(step.on_fail)
+        if halt:
+            update["halt"] = halt
+        return update
 
     def may_run(self, step_id: str, state: Mapping[str, Any]) -> bool:
         """Once a pre-empting trigger fired, only its own sub-plan (and what replaces its steps) runs."""
@@ -181,21 +200,32 @@ class MissionRuntime:
         update: dict[str, Any] = {}
         spliced = dict(state.get("spliced") or {})
         preempted = state.get("preempted_by")
+        if preempted:
+            owned = [sid for sid in spliced if self.may_run(sid, {**state, "spliced": spliced})]
+            if owned and all(status.get(sid) in FINISHED for sid in owned):
+                if self.landed(owned, spliced, status):  # the sub-plan ended the flight: so does the mission
+                    halted = {sid: "preempted" for sid in self.static if status.get(sid) not in FINISHED}
+                    return Command(update={"status": halted, "halt": "landed"}, goto=END)
+                preempted = update["preempted_by"] = ""  # its sub-plan is done: the plan goes on
         for trigger in self.plan.triggers:
-            event = None if preempted else self.fires(trigger, state)
+            event = None if preempted else self.fires(trigger, {**state, "spliced": spliced})
             if event is None:
                 continue
-            new = self.splice(trigger.steps, origin=f"trigger:{trigger.id}", existing=spliced, event=event)
+            count = (state.get("fired") or []).count(trigger.id)
+            try:
+                new = self.splice(
+                    trigger.steps, origin=f"trigger:{trigger.id}", existing=spliced, event=event, firing=count + 1
+                )
+            except StepFailed as exc:
+                update.setdefault("log", []).append({"step": trigger.id, "status": "not fired", "error": exc.reason})
+                continue
             spliced.update(new)
             update.setdefault("spliced", {}).update(new)
             update.setdefault("fired", []).append(trigger.id)
+            update.setdefault("events", {})[trigger.id] = event
             update.setdefault("log", []).append({"step": trigger.id, "status": "fired", "event": event})
             if trigger.preempt:
                 preempted = update["preempted_by"] = trigger.id
-        if preempted:  # the main plan's unfinished steps, also those that wrote 'blocked' in the same superstep
-            halted = {sid: "preempted" for sid in self.static if status.get(sid) in (None, "blocked", "repeating")}
-            if halted:
-                update.setdefault("status", {}).update(halted)
         goto: list[str | Send] = []
         marks: dict[str, str] = {}
         view: dict[str, Any] = {**state, "spliced": spliced, "preempted_by": preempted}
@@ -221,35 +251,57 @@ class MissionRuntime:
         return Command(update=update, goto=goto or END)
 
     def fires(self, trigger: Trigger, state: Mapping[str, Any]) -> Any:
-        if trigger.once and trigger.id in (state.get("fired") or []):
+        """The event a trigger fires for now, or None. A trigger that may fire again does so for a new event
+        only, once the sub-plan of its last firing has finished."""
+        fired = trigger.id in (state.get("fired") or [])
+        if fired and trigger.once:
             return None
+        if fired:
+            status = state.get("status") or {}
+            origin = f"trigger:{trigger.id}"
+            running = [s for s, i in (state.get("spliced") or {}).items() if i.get("origin") == origin]
+            if any(status.get(s) not in FINISHED for s in running):
+                return None
         try:
             value = check_value(trigger.when, scope(state, self.env))
         except StepFailed:
             return None
         if not value:
             return None
-        return value[0] if isinstance(value, list) else value
+        event = value[0] if isinstance(value, list) else value
+        if fired and event == (state.get("events") or {}).get(trigger.id):
+            return None
+        return event
+
+    def landed(self, owned: list[str], spliced: Mapping[str, Any], status: Mapping[str, str]) -> bool:
+        return any(status.get(sid) == "ok" and spliced[sid]["step"].get("action") in ("land", "rtl") for sid in owned)
 
     def splice(
-        self, steps: list[Step], *, origin: str, existing: Mapping[str, Any], event: Any = None
+        self,
+        steps: list[Step],
+        *,
+        origin: str,
+        existing: Mapping[str, Any],
+        event: Any = None,
+        firing: int = 1,
     ) -> dict[str, dict[str, Any]]:
-        taken = {*self.static, *existing}
-        clash = [s.id for s in steps if s.id in taken]
+        """Steps to run as tasks of ``__dynamic__``: a trigger's sub-plan (its ids get ``_<n>`` from its second
+        firing on) or a reflection's revision (whose ids may not be any id of the mission)."""
+        own = {s.id for s in steps} if origin.startswith("trigger:") else set()
+        taken = (self.document_ids - own) | set(existing)
+        rename = {s.id: s.id if firing == 1 else f"{s.id}_{firing}" for s in steps}
+        clash = sorted(new for new in rename.values() if new in taken)
         if clash:
-            raise StepFailed(f"revised steps reuse ids already in the mission: {', '.join(clash)}")
-        ids = {s.id for s in steps}
+            raise StepFailed(f"the steps reuse ids already in the mission: {', '.join(clash)}")
         out = {}
         for s in steps:
-            unknown = [d for d in s.depends_on if d not in ids]
+            deps = [*s.depends_on, *self.plan.dependencies.get(s.id, [])]
+            unknown = [d for d in deps if d not in rename]
             if unknown:
-                raise StepFailed(f"revised step {s.id!r} depends on {unknown}, which are not among the revised steps")
-            out[s.id] = {
-                "step": s.model_dump(mode="json", by_alias=True),
-                "deps": list(s.depends_on),
-                "origin": origin,
-                "event": event,
-            }
+                raise StepFailed(f"step {s.id!r} depends on {unknown}, which are not among the spliced steps")
+            data = s.model_dump(mode="json", by_alias=True)
+            data["id"], data["depends_on"] = rename[s.id], [rename[d] for d in s.depends_on]
+            out[rename[s.id]] = {"step": data, "deps": [rename[d] for d in deps], "origin": origin, "event": event}
         return out
 
     # --- policies ---
@@ -258,6 +310,7 @@ class MissionRuntime:
         count = int(state.get("reflections") or 0)
         update: dict[str, Any] = {"status": {}, "spliced": {}, "waits_for": {}, "log": []}
         spliced = dict(state.get("spliced") or {})
+        waits = dict(state.get("waits_for") or {})  # kept up to date, so several failures compose
         for step_id, st in status.items():
             if st != "failed":
                 continue
@@ -280,16 +333,18 @@ class MissionRuntime:
             update["spliced"].update(new)
             update["status"][step_id] = "replaced"
             leaves = [s.id for s in steps if not any(s.id in o.depends_on for o in steps)]
-            for dependent in self.dependents_of(step_id, spliced):
-                others = [d for d in self.deps(dependent, state) if d != step_id]
-                update["waits_for"][dependent] = [*others, *leaves]
+            view = {**state, "spliced": spliced, "waits_for": waits}
+            for dependent in self.dependents_of(step_id, spliced, waits):
+                others = [d for d in self.deps(dependent, view) if d != step_id]
+                waits[dependent] = update["waits_for"][dependent] = [*others, *leaves]
             update["log"].append({"step": step_id, "status": "replaced", "by": [s.id for s in steps]})
         return Command(update={**update, "reflections": count}, goto=SCHEDULE)
 
-    def dependents_of(self, step_id: str, spliced: Mapping[str, Any]) -> list[str]:
-        found = list(self.dependents.get(step_id, []))
-        found += [sid for sid, info in spliced.items() if step_id in info.get("deps", [])]
-        return found
+    def dependents_of(self, step_id: str, spliced: Mapping[str, Any], waits: Mapping[str, list[str]]) -> list[str]:
+        """Who waits for ``step_id``: by depends_on, in a splice, or since an earlier replacement."""
+        found = [*self.dependents.get(step_id, []), *(sid for sid, i in spliced.items() if step_id in i["deps"])]
+        found += [sid for sid, deps in waits.items() if step_id in deps]
+        return list(dict.fromkeys(found))
 
     def abort(self, state: MissionState) -> dict[str, Any]:
         failed = sorted(k for k, v in (state.get("status") or {}).items() if v == "failed")
@@ -367,6 +422,8 @@ def parse_param(plan: PolicyGraph, name: str, text: Any) -> Any:
     try:
         if spec.type == "number":
             value = float(text)
+            if not math.isfinite(value):
+                raise ValueError
         elif spec.type == "integer":
             value = int(text)
         elif spec.type == "boolean":
@@ -388,6 +445,10 @@ def initial_state(plan: PolicyGraph, overrides: Mapping[str, Any] | None = None)
     params = {name: p.default for name, p in plan.params.items()}
     for name, value in (overrides or {}).items():
         params[name] = parse_param(plan, name, value)
+    missing = [name for name, value in params.items() if value is None]
+    if missing:
+        given = " ".join(f"--param {name}=..." for name in missing)
+        raise ValueError(f"parameter(s) {', '.join(missing)} have no default and were not given: {given}")
     return {"params": params, "outputs": {}, "status": {}, "fired": [], "log": [], "reflections": 0}
 
 

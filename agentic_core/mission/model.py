@@ -16,6 +16,7 @@ JSON Schema tells an editor exactly which arguments an action takes. Wherever a 
 
 from __future__ import annotations
 
+import math
 import typing
 from typing import Annotated, Any, Literal
 
@@ -90,12 +91,15 @@ class Param(Contract):
         return self
 
     def out_of_bounds(self, value: Any) -> str | None:
-        """Why a number breaks this parameter's minimum or maximum, or None."""
+        """Why a number breaks this parameter's minimum or maximum (or is not finite), or None."""
         if isinstance(value, int | float) and not isinstance(value, bool):
+            shown = f"{value:g}" if isinstance(value, float) else str(value) if abs(value) < 10**20 else "a huge number"
+            if isinstance(value, float) and not math.isfinite(value):
+                return f"must be a finite number, got {value}"
             if self.minimum is not None and value < self.minimum:
-                return f"must be at least {self.minimum:g}, got {value:g}"
+                return f"must be at least {self.minimum:g}, got {shown}"
             if self.maximum is not None and value > self.maximum:
-                return f"must be at most {self.maximum:g}, got {value:g}"
+                return f"must be at most {self.maximum:g}, got {shown}"
         return None
 
 
@@ -132,9 +136,11 @@ class FlyToArgs(Contract):
 
 
 class SurveyArgs(Contract):
-    polygon: list[LatLon] | Template = Field(description="the area, at least three points")
+    polygon: Annotated[list[LatLon], Field(min_length=3)] | Template = Field(description="the area, 3+ points")
     altitude_m: Positive
-    spacing_m: Positive = Field(default=20.0, description="distance between the lawnmower lines")
+    spacing_m: Annotated[float, Field(ge=1, allow_inf_nan=False)] | Template = Field(
+        default=20.0, description="distance between the lawnmower lines, at least 1 m"
+    )
     speed_mps: Positive | None = None
 
 
@@ -163,6 +169,14 @@ class LandArgs(Contract):
     lon: Longitude | None = None
     target_id: str | None = None
     offset_m: NonNegative = Field(default=0.0, description="keep this distance from the target when landing")
+
+    @model_validator(mode="after")
+    def _one_place(self) -> LandArgs:
+        if (self.lat is None) != (self.lon is None):
+            raise ValueError("lat and lon go together")
+        if self.lat is not None and self.target_id is not None:
+            raise ValueError("give lat and lon, or target_id, not both")
+        return self
 
 
 class NoArgs(Contract):

@@ -163,6 +163,8 @@ def load_document(text: str, file: str) -> tuple[Any, SourceMap]:
         raise MissionError([Problem(file, 1, 1, f"YAML error: {exc}")]) from None
     except RecursionError:
         raise MissionError([Problem(file, 1, 1, "the document is nested too deeply")]) from None
+    except ValueError as exc:  # a scalar YAML resolves but Python cannot hold (an integer of 5,000 digits)
+        raise MissionError([Problem(file, 1, 1, f"a value cannot be read: {exc}")]) from None
     finally:
         if loader is not None:
             loader.dispose()

@@ -13,7 +13,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from ..graph import interrupt
+from ..graph import GraphInterrupt, interrupt
 from .expressions import Expression, ExpressionError, render
 from .geometry import lawnmower
 from .model import ACTION_TOOLS, BranchStep, CallToolStep, RepeatStep, Step, SurveyStep, WaitUntilStep, step_args
@@ -75,11 +75,24 @@ def check(text: str, where: Mapping[str, Any]) -> bool:
         raise StepFailed(f"cannot evaluate {text!r}: {exc}") from None
 
 
+MAX_SURVEY_LEGS = 2_000
+
+
 def _call(env: Environment, tool: str, args: dict[str, Any], timeout_s: float | None) -> Any:
-    result = env.dispatch(tool, args, timeout_s)
-    if result.status != "ok":
-        raise StepFailed(f"{tool} returned {result.status}: {result.error or 'no detail'}")
-    return result.output
+    """One dispatch. A dispatcher that raises, or answers with something that is not a result, fails the step:
+    the mission's on_fail decides what happens, it never crashes."""
+    try:
+        result = env.dispatch(tool, args, timeout_s)
+    except GraphInterrupt:
+        raise
+    except Exception as exc:
+        raise StepFailed(f"{tool} raised {type(exc).__name__}: {exc}") from None
+    status = getattr(result, "status", None)
+    if not isinstance(status, str):
+        raise StepFailed(f"{tool}: the dispatcher answered {type(result).__name__}, not a result with a status")
+    if status != "ok":
+        raise StepFailed(f"{tool} returned {status}: {getattr(result, 'error', None) or 'no detail'}")
+    return getattr(result, "output", None)
 
 
 def _approve(step: Step, args: Any, env: Environment) -> None:
@@ -89,22 +102,38 @@ def _approve(step: Step, args: Any, env: Environment) -> None:
         raise StepFailed(f"operator did not approve {step.id} (answered {answer!r})")
 
 
-def run_action(step: Step, state: Mapping[str, Any], env: Environment) -> Any:
-    """Run one step once (no retries): preconditions, approval, templates, then the action. Returns its output."""
+def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str, Any]:
+    """What runs once per step, before any attempt: preconditions, argument templates, operator approval."""
     where = scope(state, env)
     for text in step.preconditions:
         if not check(text, where):
             raise StepFailed(f"precondition {text!r} is false")
     try:
-        args = render(step_args(step), where)
+        args: dict[str, Any] = render(step_args(step), where)
     except ExpressionError as exc:
         raise StepFailed(f"cannot fill in the arguments: {exc}") from None
     if step.approval:
         _approve(step, args, env)
+    return args
+
+
+def _survey_legs(args: Mapping[str, Any]) -> list[tuple[float, float]]:
+    try:
+        polygon = [(float(p["lat"]), float(p["lon"])) for p in args["polygon"]]
+        legs = lawnmower(polygon, float(args["spacing_m"]))
+    except (TypeError, ValueError, KeyError) as exc:
+        raise StepFailed(f"survey: bad polygon or spacing ({exc})") from None
+    if len(legs) > MAX_SURVEY_LEGS:
+        raise StepFailed(f"survey: {len(legs)} legs is more than {MAX_SURVEY_LEGS}; widen spacing_m")
+    return legs
+
+
+def perform(step: Step, args: dict[str, Any], state: Mapping[str, Any], env: Environment) -> Any:
+    """One attempt of a step's action, with arguments already filled in. Returns its output."""
     if isinstance(step, CallToolStep):
         return _call(env, step.tool, args, step.timeout_s)
     if isinstance(step, SurveyStep):
-        legs = lawnmower([(float(p["lat"]), float(p["lon"])) for p in args["polygon"]], float(args["spacing_m"]))
+        legs = _survey_legs(args)
         for lat, lon in legs:
             leg = {"lat": lat, "lon": lon, "alt_m": args["altitude_m"]}
             if args.get("speed_mps") is not None:
@@ -119,7 +148,7 @@ def run_action(step: Step, state: Mapping[str, Any], env: Environment) -> Any:
             env.sleep(step.poll_s)
         return {"waited": True}
     if isinstance(step, BranchStep):
-        chosen = step.then if check(step.if_, where) else step.else_
+        chosen = step.then if check(step.if_, scope(state, env)) else step.else_
         return run_sequence(chosen, state, env)
     if isinstance(step, RepeatStep):
         raise AssertionError("repeat steps run one iteration at a time: see run_iteration")
@@ -127,12 +156,14 @@ def run_action(step: Step, state: Mapping[str, Any], env: Environment) -> Any:
 
 
 def run_with_retries(step: Step, state: Mapping[str, Any], env: Environment) -> tuple[Any, int]:
-    """Run a step, retrying up to ``max_retries`` times; returns (output, attempts) or raises StepFailed."""
+    """Run a step: prepare it once (an approval is asked once), then up to ``1 + max_retries`` attempts.
+    Returns (output, attempts) or raises StepFailed."""
+    args = prepare(step, state, env)
     attempts = 0
     while True:
         attempts += 1
         try:
-            return run_action(step, state, env), attempts
+            return perform(step, args, state, env), attempts
         except StepFailed as failed:
             if attempts > step.max_retries:
                 failed.reason += f" (after {attempts} attempt{'s' if attempts > 1 else ''})"
@@ -156,7 +187,10 @@ def run_sequence(steps: list[Step], state: Mapping[str, Any], env: Environment) 
 def run_iteration(
     step: RepeatStep, state: Mapping[str, Any], env: Environment, done: int
 ) -> tuple[dict[str, Any], bool]:
-    """One pass of a repeat's body; returns (output, finished) — finished when ``until`` holds or at the limit."""
+    """One pass of a repeat's body; returns (output, finished) — finished when ``until`` holds or at the limit.
+    The repeat's own preconditions and approval are checked before its first pass."""
+    if done == 0:
+        prepare(step, state, env)
     body = run_sequence(step.steps, state, env)
     output = {"iterations": done + 1, "last": body}
     outputs = {**(state.get("outputs") or {}), **body, step.id: output}

@@ -246,6 +246,8 @@ def _relevant(errors: list[Any]) -> list[Any]:
     """Of the errors a union gives for one value, those of the member the value's shape chose (a list is not
     told it should have been a mapping)."""
     value = errors[0].get("input")
+    if isinstance(value, int | float) and not isinstance(value, bool) and len(errors) > 1:
+        return [e for e in errors if e["type"] != "string_type"]  # a number is not told it should be a ${...}
     if isinstance(value, list):
         kept = [e for e in errors if e["type"] not in _MAPPING_ERRORS]
     elif isinstance(value, dict):
@@ -281,6 +283,8 @@ class _Checker:
 
     def check_ids(self) -> None:
         for site in self.sites:
+            if site.step.id in SCOPE_ROOTS:
+                self.add((*site.path, "id"), f"step id {site.step.id!r} would hide the expression name of that name")
             first = self.by_id.get(site.step.id)
             if first is not None:
                 line = self.smap.at((*first.path, "id"))[0]
@@ -372,16 +376,18 @@ class _Checker:
 
     def check_expressions(self) -> None:
         known = (*SCOPE_ROOTS, *self.by_id)
+        outside = tuple(n for n in known if n != "event")  # only a trigger's steps have an event
         for site in self.sites:
+            names = known if site.scope.startswith("trigger:") else outside
             for path, text in self.expressions_of(site):
-                self.check_expression(path, text, known)
+                self.check_expression(path, text, names)
             try:
                 templates = find_templates(step_args(site.step))
             except ExpressionError as exc:
                 self.add((*site.path, "args"), str(exc))
                 continue
             for where, expr in templates:
-                self.check_expression((*site.path, "args", *_template_path(where)), expr.source, known)
+                self.check_expression((*site.path, "args", *_template_path(where)), expr.source, names)
         for t, trigger in enumerate(self.plan.triggers):
             self.check_expression(("triggers", t, "when"), trigger.when, known)
 
@@ -394,8 +400,22 @@ class _Checker:
                     f"step {site.step.id!r} inside {parent!r} cannot ask for approval: the steps of a repeat or "
                     "branch run in one go, and a pause would run the earlier ones again; move it to the plan",
                 )
-            if site.scope.startswith("nested:") and site.step.action in ("repeat",):
-                self.add((*site.path, "action"), f"a repeat inside {site.scope.split(':', 1)[1]!r} is not supported")
+            if not site.scope.startswith("nested:"):
+                continue
+            parent = site.scope.split(":", 1)[1]
+            if site.step.action == "repeat":
+                self.add((*site.path, "action"), f"a repeat inside {parent!r} is not supported")
+            if site.step.depends_on:
+                self.add(
+                    (*site.path, "depends_on"),
+                    f"steps inside {parent!r} run in the order they are listed; depends_on has no meaning there",
+                )
+            if site.step.on_fail not in ("skip", "retry", "abort"):
+                self.add(
+                    (*site.path, "on_fail"),
+                    f"inside {parent!r} on_fail is skip, retry or abort: a failure fails {parent!r}, whose own "
+                    "on_fail decides what happens next",
+                )
 
     def check_tools(self) -> None:
         if self.tool_exists is None:

@@ -1,0 +1,305 @@
+"""Edge cases of running missions, each found in review and fixed: halts that stop parallel work, steps that
+must run exactly once, splices that compose, pre-emption that resumes the plan, a dispatcher that raises."""
+
+from typing import Any
+
+import pytest
+
+from agentic_core.graph import Command, InMemorySaver
+from agentic_core.mission import Environment, MissionError, compile_mission, initial_state, load_mission
+
+from .test_compile import Recorder, Result, flaky, run
+
+BOOM = {"svc.check": lambda args: Result("error", error="boom")}
+
+
+@pytest.mark.parametrize("policy", ["abort", "rtl"])
+def test_a_halting_failure_stops_what_would_start_beside_it(policy: str) -> None:
+    rec = Recorder(BOOM)
+    out = run(
+        f"""
+plan_id: p
+goal: g
+steps:
+  - {{id: check, action: call_tool, tool: svc.check, on_fail: {policy}}}
+  - {{id: up, action: takeoff}}
+  - {{id: go, action: fly_to, depends_on: [up], args: {{north_m: 100, east_m: 0}}}}
+""",
+        rec,
+    )
+    assert "flight.fly_to" not in rec.tools()
+    assert out["halt"] == policy and out["status"]["go"] == "cancelled"
+    assert ("flight.rtl" in rec.tools()) is (policy == "rtl")
+
+
+def test_a_step_whose_id_sorts_before_the_scheduler_runs_once() -> None:
+    rec = Recorder()
+    run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: climb, action: takeoff}
+  - id: patrol
+    action: repeat
+    depends_on: [climb]
+    until: "patrol.iterations >= 2"
+    steps: [{id: look, action: hover, args: {duration_s: 1}}]
+  - {id: GoHome, action: rtl, depends_on: [patrol]}
+""",
+        rec,
+    )
+    assert rec.tools().count("flight.rtl") == 1
+
+
+def test_a_trigger_that_may_fire_again_does_so_for_a_new_event_under_fresh_ids() -> None:
+    world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
+    looks = [0]
+
+    def look(args: dict[str, Any]) -> Result:
+        looks[0] += 1
+        if looks[0] == 2:
+            world["objects"] = [{"id": "P-2", "class": "person"}]
+        return Result("ok", {})
+
+    rec = Recorder({"flight.hover": look})
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: a, action: hover, args: {duration_s: 1}}
+  - {id: b, action: hover, depends_on: [a], args: {duration_s: 1}}
+  - {id: c, action: hover, depends_on: [b], args: {duration_s: 1}}
+triggers:
+  - id: t
+    when: "find(world, class_='person')"
+    once: false
+    preempt: false
+    steps: [{id: warn, action: notify, args: {subject: "${event.id}", body: seen}}]
+""",
+        rec,
+        env={"world": lambda: world},
+    )
+    subjects = [args["subject"] for tool, args in rec.calls if tool == "alerts.notify"]
+    assert subjects == ["P-1", "P-2"]
+    assert out["status"]["warn"] == "ok" and out["status"]["warn_2"] == "ok"
+
+
+def test_approval_is_asked_once_even_with_retries() -> None:
+    rec = Recorder({"flight.deploy_payload": flaky(1)})
+    plan = load_mission(
+        "plan_id: p\ngoal: g\nsteps:\n  - {id: drop, action: deploy_payload, approval: true, max_retries: 1}\n",
+        file="t.yaml",
+    )
+    app = compile_mission(plan, Environment(rec), checkpointer=InMemorySaver())
+    cfg = {"configurable": {"thread_id": "t"}}
+    assert app.invoke(initial_state(plan), cfg)["__interrupt__"]
+    out = app.invoke(Command(resume="approve"), cfg)
+    assert rec.tools() == ["flight.deploy_payload", "flight.deploy_payload"]  # two attempts, one approval
+    assert out["status"]["drop"] == "ok"
+
+
+def test_a_repeat_checks_its_preconditions_before_its_first_pass() -> None:
+    rec = Recorder()
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - id: patrol
+    action: repeat
+    preconditions: ["vehicle.battery_pct > 50"]
+    until: "patrol.iterations >= 2"
+    steps: [{id: leg, action: fly_to, args: {north_m: 10, east_m: 0}}]
+""",
+        rec,
+        env={"vehicle": lambda: {"battery_pct": 10}},
+    )
+    assert rec.tools() == [] and "is false" in out["errors"]["patrol"]
+
+
+def test_a_dispatcher_that_raises_fails_the_step_and_its_policy_applies() -> None:
+    def broken(args: dict[str, Any]) -> Result:
+        raise ConnectionError("link down")
+
+    rec = Recorder({"svc.x": broken})
+    out = run("plan_id: p\ngoal: g\nsteps:\n  - {id: ask, action: call_tool, tool: svc.x, on_fail: rtl}\n", rec)
+    assert out["errors"]["ask"].startswith("svc.x raised ConnectionError: link down")
+    assert out["halt"] == "rtl" and rec.tools()[-1] == "flight.rtl"
+
+
+def reflector_fixing(failed: str) -> Any:
+    def reflect(failure: Any) -> list[dict[str, Any]]:
+        return [{"id": f"{failure.step.id}_fix", "action": "hover", "args": {"duration_s": 1}}]
+
+    return reflect
+
+
+def test_several_reflections_in_one_superstep_compose() -> None:
+    rec = Recorder({"svc.a": flaky(9), "svc.b": flaky(9)})
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: a, action: call_tool, tool: svc.a, on_fail: trigger_reflection}
+  - {id: b, action: call_tool, tool: svc.b, on_fail: trigger_reflection}
+  - {id: c, action: land, depends_on: [a, b]}
+""",
+        rec,
+        reflector=reflector_fixing("any"),
+    )
+    assert out["waits_for"]["c"] == ["a_fix", "b_fix"]
+    assert out["status"]["c"] == "ok" and rec.tools()[-1] == "flight.land"
+
+
+def test_a_replacement_can_itself_be_replaced() -> None:
+    answers = iter(
+        [
+            [{"id": "fix1", "action": "call_tool", "tool": "svc.a", "on_fail": "trigger_reflection"}],
+            [{"id": "fix2", "action": "hover", "args": {"duration_s": 1}}],
+        ]
+    )
+    rec = Recorder({"svc.a": flaky(9)})
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: a, action: call_tool, tool: svc.a, on_fail: trigger_reflection}
+  - {id: c, action: land, depends_on: [a]}
+""",
+        rec,
+        reflector=lambda failure: next(answers),
+    )
+    assert out["status"] == {"a": "replaced", "fix1": "replaced", "fix2": "ok", "c": "ok"}
+
+
+def test_a_revision_may_not_reuse_an_id_of_the_mission() -> None:
+    rec = Recorder({"svc.a": flaky(9)})
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: a, action: call_tool, tool: svc.a, on_fail: trigger_reflection}
+triggers:
+  - {id: t, when: "false", steps: [{id: help, action: hover, args: {duration_s: 1}}]}
+""",
+        rec,
+        reflector=lambda failure: [{"id": "help", "action": "hover", "args": {"duration_s": 2}}],
+    )
+    assert out["halt"] == "abort"
+    assert any("reuse ids already in the mission: help" in str(e.get("error")) for e in out["log"])
+
+
+def test_dependencies_given_for_trigger_steps_are_kept() -> None:
+    rec = Recorder()
+    run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: up, action: takeoff}
+triggers:
+  - id: t
+    when: "true"
+    preempt: false
+    steps:
+      - {id: approach, action: fly_to, args: {north_m: 1, east_m: 1}}
+      - {id: drop, action: deploy_payload}
+dependencies: {drop: [approach]}
+""",
+        rec,
+    )
+    tools = rec.tools()
+    assert tools.index("flight.fly_to") < tools.index("flight.deploy_payload")
+
+
+def test_a_preempting_trigger_pauses_the_plan_which_goes_on_unless_the_sub_plan_landed() -> None:
+    rec = Recorder()
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: up, action: takeoff}
+  - {id: look, action: hover, depends_on: [up], args: {duration_s: 1}}
+  - {id: home, action: rtl, depends_on: [look]}
+triggers:
+  - {id: t, when: "true", steps: [{id: note, action: notify, args: {subject: s, body: b}}]}
+""",
+        rec,
+    )
+    assert rec.tools()[-1] == "flight.rtl" and out["status"]["home"] == "ok"
+
+
+def test_bad_survey_values_fail_the_step_not_the_mission() -> None:
+    rec = Recorder()
+    out = run(
+        """
+plan_id: p
+goal: g
+params: {spacing: {default: 0}}
+steps:
+  - id: cover
+    action: survey
+    args:
+      polygon: [{lat: 21.42, lon: 39.82}, {lat: 21.42, lon: 39.83}, {lat: 21.43, lon: 39.83}]
+      altitude_m: 40
+      spacing_m: "${params.spacing}"
+""",
+        rec,
+    )
+    assert out["status"]["cover"] == "failed" and "survey: bad polygon or spacing" in out["errors"]["cover"]
+
+
+def test_parameters_need_a_value_and_must_be_finite() -> None:
+    plan = load_mission("plan_id: p\ngoal: g\nparams: {alt: {}}\nsteps: [{id: up, action: takeoff}]\n", file="t")
+    with pytest.raises(ValueError, match="no default and were not given: --param alt"):
+        initial_state(plan)
+    with pytest.raises(ValueError, match="is a number, not 'nan'"):
+        initial_state(plan, {"alt": "nan"})
+    assert initial_state(plan, {"alt": "12"})["params"]["alt"] == 12.0
+
+
+@pytest.mark.parametrize(
+    ("steps", "message"),
+    [
+        ("  - {id: vehicle, action: takeoff}\n", "would hide the expression name"),
+        ("  - {id: go, action: fly_to, args: {target_id: '${event.id}'}}\n", "unknown name 'event'"),
+        ("  - {id: l, action: land, args: {lat: 21.4}}\n", "lat and lon go together"),
+        (
+            "  - id: r\n    action: repeat\n    until: 'true'\n    steps:\n"
+            "      - {id: x, action: hover, args: {duration_s: 1}}\n"
+            "      - {id: y, action: hover, depends_on: [x], args: {duration_s: 1}}\n",
+            "depends_on has no meaning there",
+        ),
+        (
+            "  - id: r\n    action: branch\n    if: 'true'\n    then: [{id: x, action: rtl, on_fail: rtl}]\n",
+            "on_fail is skip, retry or abort",
+        ),
+        (
+            "  - {id: s, action: survey, args: {altitude_m: 20, spacing_m: 0.5,"
+            " polygon: [{lat: 1, lon: 1}, {lat: 1, lon: 2}, {lat: 2, lon: 2}]}}\n",
+            "greater than or equal to 1",
+        ),
+    ],
+)
+def test_the_validator_catches_what_would_misbehave_at_run_time(steps: str, message: str) -> None:
+    with pytest.raises(MissionError) as err:
+        load_mission(f"plan_id: p\ngoal: g\nsteps:\n{steps}", file="t.yaml")
+    assert any(message in p.message for p in err.value.problems), str(err.value)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "plan_id: p\ngoal: g\nparams: {n: {type: integer, default: " + "9" * 401 + ", maximum: 3}}\nsteps: []\n",
+        "plan_id: p\ngoal: g\nsteps: [{id: h, action: hover, args: {duration_s: " + "9" * 5000 + "}}]\n",
+    ],
+)
+def test_huge_numbers_are_problems_not_tracebacks(text: str) -> None:
+    with pytest.raises(MissionError):
+        load_mission(text, file="t.yaml")
