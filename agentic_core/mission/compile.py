@@ -26,7 +26,7 @@ from ..graph import END, START, Command, CompiledStateGraph, Send, StateGraph
 from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
 from .model import PolicyGraph, RepeatStep, Step, Trigger
-from .steps import Environment, StepFailed, run_iteration, run_with_retries, scope
+from .steps import Environment, StepFailed, evaluate, run_iteration, run_with_retries, scope
 from .validate import SCOPE_ROOTS, iter_steps
 
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
@@ -263,7 +263,7 @@ class MissionRuntime:
             if any(status.get(s) not in FINISHED for s in running):
                 return None
         try:
-            value = check_value(trigger.when, scope(state, self.env))
+            value = evaluate(trigger.when, scope(state, self.env))
         except StepFailed:
             return None
         if not value:
@@ -357,15 +357,6 @@ class MissionRuntime:
         except Exception as exc:  # the last resort must not raise past the mission
             entry = {"step": RTL, "status": "error", "error": f"{type(exc).__name__}: {exc}"}
         return {"halt": "rtl", "log": [entry]}
-
-
-def check_value(text: str, where: Mapping[str, Any]) -> Any:
-    from .expressions import Expression
-
-    try:
-        return Expression.parse(text).evaluate(where)
-    except ExpressionError as exc:
-        raise StepFailed(str(exc)) from None
 
 
 def compile_mission(

@@ -40,13 +40,14 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from types import MappingProxyType, SimpleNamespace
 from typing import Any
 
+from .geometry import haversine_m
+
 __all__ = ["FUNCTIONS", "Expression", "ExpressionError", "count", "distance_m", "find", "find_templates", "render"]
 
 MAX_SOURCE_CHARS = 1000
 MAX_DEPTH = 50
 MAX_POWER_BITS = 10_000
 MAX_REPEAT_CHARS = 10_000
-EARTH_RADIUS_M = 6_371_000.0
 _MISSING: Any = object()
 _ALIASES: dict[str, Any] = {"true": True, "false": False, "null": None}
 
@@ -149,9 +150,7 @@ def _pair(position: Any, keys: tuple[tuple[str, str], ...]) -> tuple[float, floa
 def _haversine_m(a: tuple[float, float], b: tuple[float, float]) -> float:
     if not (abs(a[0]) <= 90 and abs(b[0]) <= 90):
         raise ValueError("latitude must be between -90 and 90 degrees")
-    lat1, lon1, lat2, lon2 = (math.radians(v) for v in (*a, *b))
-    h = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(h)))
+    return haversine_m(a, b)
 
 
 def distance_m(a: Any, b: Any) -> float:

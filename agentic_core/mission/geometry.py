@@ -17,7 +17,7 @@ def haversine_m(a: LatLonPoint, b: LatLonPoint) -> float:
     """Great-circle distance in metres between two (lat, lon) points in degrees."""
     lat1, lon1, lat2, lon2 = map(math.radians, (*a, *b))
     h = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(math.sqrt(h))
+    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(h)))
 
 
 def to_local(point: LatLonPoint, origin: LatLonPoint) -> tuple[float, float]:
@@ -55,11 +55,6 @@ class Polygon:
                 if x < x_at:
                     inside = not inside
         return inside
-
-
-def inside_polygon(point: LatLonPoint, polygon: Sequence[LatLonPoint]) -> bool:
-    """Ray casting on the local plane; points on an edge count as inside."""
-    return Polygon(polygon).contains(point)
 
 
 def lawnmower(polygon: Sequence[LatLonPoint], spacing_m: float) -> list[LatLonPoint]:

@@ -68,11 +68,16 @@ def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict
     }
 
 
-def check(text: str, where: Mapping[str, Any]) -> bool:
+def evaluate(text: str, where: Mapping[str, Any]) -> Any:
+    """An expression's value; one that cannot be evaluated fails the step."""
     try:
-        return bool(Expression.parse(text).evaluate(where))
+        return Expression.parse(text).evaluate(where)
     except ExpressionError as exc:
         raise StepFailed(f"cannot evaluate {text!r}: {exc}") from None
+
+
+def check(text: str, where: Mapping[str, Any]) -> bool:
+    return bool(evaluate(text, where))
 
 
 MAX_SURVEY_LEGS = 2_000
