@@ -120,15 +120,17 @@ def generate_mission(steps: int, seed: int) -> dict[str, Any]:
     for i in range(1, steps - 1):
         sid = ids[i]
         earlier = ids[max(0, i - 15) : i]
-        step = _control_step(rng, sid, earlier) if rng.random() < 0.04 else _action_step(rng, sid, earlier)
         if i % HUB_EVERY == 0:  # a join of the segment since the last hub
             segment = ids[max(1, i - HUB_EVERY + 1) : i]
             deps = sorted({hub, *rng.sample(segment, min(4, len(segment)))})
-            hub = sid
+            new_hub = sid
         elif rng.random() < 0.5:  # fan-out from the hub
-            deps = [hub]
+            deps, new_hub = [hub], hub
         else:  # a join of recent steps
-            deps = sorted(set(rng.sample(earlier, min(len(earlier), rng.randint(1, 3)))))
+            deps, new_hub = sorted(set(rng.sample(earlier, min(len(earlier), rng.randint(1, 3))))), hub
+        # expressions read only steps this one waits for, as the validator requires
+        step = _control_step(rng, sid, deps) if rng.random() < 0.04 else _action_step(rng, sid, deps)
+        hub = new_hub
         step["depends_on"] = deps
         if rng.random() < 0.3:
             step["preconditions"] = ["vehicle.battery_pct > params.min_battery", f"steps.{deps[0]} != None"]

@@ -27,7 +27,7 @@ from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
 from .model import PolicyGraph, RepeatStep, Step, Trigger
 from .steps import Environment, StepFailed, evaluate, run_iteration, run_with_retries, scope
-from .validate import SCOPE_ROOTS, iter_steps
+from .validate import SCOPE_ROOTS, check_revision, iter_steps
 
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
 DONE = frozenset({"ok", "skipped"})
@@ -325,6 +325,9 @@ class MissionRuntime:
                 return Command(update={**update, "reflections": count}, goto=ABORT)
             try:
                 steps = STEPS_ADAPTER.validate_python(revised)
+                problems = check_revision(self.plan, steps, [*self.document_ids, *spliced])
+                if problems:
+                    raise StepFailed("; ".join(problems))
                 new = self.splice(steps, origin=f"reflection:{step_id}", existing=spliced)
             except (ValidationError, StepFailed, ExpressionError) as exc:
                 update["log"].append({"step": step_id, "status": "revision rejected", "error": str(exc)})

@@ -260,14 +260,23 @@ def _relevant(errors: list[Any]) -> list[Any]:
 class _Checker:
     """The semantic checks, run on a mission that passed the schema."""
 
-    def __init__(self, plan: PolicyGraph, smap: SourceMap, tool_exists: ToolCheck | None) -> None:
+    def __init__(
+        self, plan: PolicyGraph, smap: SourceMap, tool_exists: ToolCheck | None, outer_ids: tuple[str, ...] = ()
+    ) -> None:
         self.plan = plan
         self.smap = smap
         self.tool_exists = tool_exists
+        self.outer_ids = outer_ids  # steps of the running mission a revision may read
         self.problems: list[Problem] = []
         self.sites = list(iter_steps(plan))
         self.by_id: dict[str, StepSite] = {}
         self._fence: Polygon | None = None
+        self.graph: nx.DiGraph = nx.DiGraph()
+        self._readable: dict[tuple[str, bool], set[str]] = {}
+        self._ancestors: dict[str, set[str]] = {}
+        self.bodies: dict[Path, list[str]] = {}  # the step ids of each step list, in order, by its path
+        for site in self.sites:
+            self.bodies.setdefault(site.path[:-1], []).append(site.step.id)
 
     def add(self, path: Path, message: str) -> None:
         self.problems.append(self.smap.problem(path, message))
@@ -312,7 +321,7 @@ class _Checker:
                         key=True,
                     )
                 )
-        graph = nx.DiGraph()
+        graph = self.graph = nx.DiGraph()
         for site in self.sites:
             graph.add_node(site.step.id)
             for dep, path in self.deps_of(site):
@@ -363,31 +372,78 @@ class _Checker:
         if isinstance(step, BranchStep):
             yield (*site.path, "if"), step.if_
 
-    def check_expression(self, path: Path, text: str, known: tuple[str, ...]) -> None:
+    def readable(self, site: StepSite, *, own_body: bool = False) -> set[str] | None:
+        """The steps whose outputs ``site`` can count on having (its dependencies, earlier steps of its body and
+        what its parent can read); None where that cannot be known (a trigger's steps run at any time)."""
+        if site.scope.startswith("trigger:"):
+            return None
+        key = (site.step.id, own_body)
+        if key in self._readable:
+            return self._readable[key]
+        found = set(self.outer_ids)
+        if site.scope == "plan":
+            found |= self.ancestors(site.step.id)
+        else:
+            parent = self.by_id.get(site.scope.split(":", 1)[1])
+            if parent is not None:
+                found |= {parent.step.id} | (self.readable(parent) or set())
+            body, index = site.path[:-1], int(site.path[-1])
+            found |= set(self.bodies[body][:index])
+        if own_body:  # a repeat's until (and its body) may read the body's steps and the repeat itself
+            found |= set(self.bodies.get((*site.path, "steps"), [])) | {site.step.id}
+        self._readable[key] = found
+        return found
+
+    def ancestors(self, step_id: str) -> set[str]:
+        """Every step ``step_id`` waits for, directly or not (memoised: shared across the plan's steps)."""
+        found = self._ancestors.get(step_id)
+        if found is None:
+            if step_id not in self.graph:
+                return set()
+            self._ancestors[step_id] = set()  # a cycle ends here; cycles are reported on their own
+            found = set()
+            for dep in self.graph.predecessors(step_id):
+                found |= self.ancestors(dep) | {dep}
+            self._ancestors[step_id] = found
+        return found
+
+    def check_expression(
+        self, path: Path, text: str, known: tuple[str, ...], reader: StepSite | None = None, *, own_body: bool = False
+    ) -> None:
         try:
             expr = Expression.parse(text)
             expr.check_names(known)
         except ExpressionError as exc:
             self.add(path, str(exc))
             return
+        refs = (expr.root_names | expr.fields_of("steps")) & self.by_id.keys() if reader is not None else set()
+        allowed = self.readable(reader, own_body=own_body) if reader is not None and refs else None
+        if reader is not None and allowed is not None:
+            for ref in sorted(refs - allowed):
+                self.add(
+                    path,
+                    f"{text!r} reads step {ref!r}, which {reader.step.id!r} does not wait for: it may not have "
+                    f"run yet; add {ref!r} to depends_on",
+                )
         for name in sorted(expr.fields_of("params")):
             if name not in self.plan.params:
                 self.add(path, f"unknown parameter {name!r} in {text!r}{_suggest(name, list(self.plan.params))}")
 
     def check_expressions(self) -> None:
-        known = (*SCOPE_ROOTS, *self.by_id)
+        known = (*SCOPE_ROOTS, *self.by_id, *self.outer_ids)
         outside = tuple(n for n in known if n != "event")  # only a trigger's steps have an event
         for site in self.sites:
             names = known if site.scope.startswith("trigger:") else outside
             for path, text in self.expressions_of(site):
-                self.check_expression(path, text, names)
+                own_body = path[-1] == "until"
+                self.check_expression(path, text, names, site, own_body=own_body)
             try:
                 templates = find_templates(step_args(site.step))
             except ExpressionError as exc:
                 self.add((*site.path, "args"), str(exc))
                 continue
             for where, expr in templates:
-                self.check_expression((*site.path, "args", *_template_path(where)), expr.source, names)
+                self.check_expression((*site.path, "args", *_template_path(where)), expr.source, names, site)
         for t, trigger in enumerate(self.plan.triggers):
             self.check_expression(("triggers", t, "when"), trigger.when, known)
 
@@ -491,6 +547,16 @@ def validate_document(data: Any, smap: SourceMap, tool_exists: ToolCheck | None 
     if problems:
         raise MissionError(problems)
     return plan
+
+
+def check_revision(
+    plan: PolicyGraph, steps: list[Step], mission_ids: Iterable[str], tool_exists: ToolCheck | None = None
+) -> list[str]:
+    """The problems of steps a reflector proposes, checked like a mission's own (expressions, nesting, tools,
+    limits), against the running mission's parameters and limits. Empty when they may be spliced in."""
+    revision = plan.model_copy(update={"steps": steps, "triggers": [], "dependencies": {}})
+    checker = _Checker(revision, SourceMap("<revision>"), tool_exists, tuple(mission_ids))
+    return [p.message for p in checker.run()]
 
 
 def _line_col(raw: bytes, index: int) -> tuple[int, int]:

@@ -303,3 +303,93 @@ def test_the_validator_catches_what_would_misbehave_at_run_time(steps: str, mess
 def test_huge_numbers_are_problems_not_tracebacks(text: str) -> None:
     with pytest.raises(MissionError):
         load_mission(text, file="t.yaml")
+
+
+@pytest.mark.parametrize(
+    ("revision", "why"),
+    [
+        ({"id": "far", "action": "fly_to", "args": {"lat": 0, "lon": 0}}, "outside the geofence"),
+        ({"id": "high", "action": "takeoff", "args": {"altitude_m": 5000}}, "above the mission's max_altitude_m"),
+        ({"id": "odd", "action": "hover", "preconditions": ["wnd < 3"], "args": {"duration_s": 1}}, "unknown name"),
+    ],
+)
+def test_a_revision_is_checked_like_the_mission_before_it_flies(revision: dict[str, Any], why: str) -> None:
+    rec = Recorder({"svc.a": flaky(9)})
+    out = run(
+        """
+plan_id: p
+goal: g
+limits: {geofence: {center: {lat: 21.4133, lon: 39.8933}, radius_m: 500}, max_altitude_m: 60}
+steps:
+  - {id: a, action: call_tool, tool: svc.a, on_fail: trigger_reflection}
+""",
+        rec,
+        reflector=lambda failure: [revision],
+    )
+    assert out["halt"] == "abort" and rec.tools() == ["svc.a"]
+    assert any(why in str(e.get("error")) for e in out["log"] if e.get("status") == "revision rejected")
+
+
+def test_a_revision_may_read_outputs_of_the_mission() -> None:
+    rec = Recorder({"svc.a": flaky(9)})
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: up, action: takeoff}
+  - {id: a, action: call_tool, tool: svc.a, depends_on: [up], on_fail: trigger_reflection}
+""",
+        rec,
+        reflector=lambda f: [
+            {
+                "id": "fix",
+                "action": "hover",
+                "preconditions": ["up.tool == 'flight.takeoff'"],
+                "args": {"duration_s": 1},
+            }
+        ],
+    )
+    assert out["status"]["fix"] == "ok" and out.get("halt") is None
+
+
+@pytest.mark.parametrize(
+    ("steps", "ok"),
+    [
+        (
+            "  - {id: scan, action: analyze_scene}\n  - {id: go, action: hover, preconditions: ['scan.persons > 0'],"
+            " args: {duration_s: 1}}\n",
+            False,
+        ),
+        (
+            "  - {id: scan, action: analyze_scene}\n  - {id: go, action: hover, depends_on: [scan],"
+            " preconditions: ['steps.scan.persons > 0'], args: {duration_s: 1}}\n",
+            True,
+        ),
+        (
+            "  - {id: up, action: takeoff}\n  - {id: scan, action: analyze_scene, depends_on: [up]}\n"
+            "  - {id: go, action: hover, depends_on: [scan], preconditions: ['up.tool != 0'], args: {duration_s: 1}}\n",
+            True,
+        ),
+        (
+            "  - id: patrol\n    action: repeat\n    until: 'patrol.iterations >= 2 and look.seen'\n    steps:\n"
+            "      - {id: look, action: analyze_scene}\n"
+            "      - {id: log, action: call_tool, tool: a.b, args: {n: '${look.seen}'}}\n",
+            True,
+        ),
+        (
+            "  - id: patrol\n    action: repeat\n    until: 'true'\n    steps:\n"
+            "      - {id: log, action: call_tool, tool: a.b, args: {n: '${look.seen}'}}\n"
+            "      - {id: look, action: analyze_scene}\n",
+            False,
+        ),
+    ],
+)
+def test_expressions_may_read_only_steps_they_wait_for(steps: str, ok: bool) -> None:
+    text = f"plan_id: p\ngoal: g\nsteps:\n{steps}"
+    if ok:
+        assert load_mission(text, file="t.yaml")
+        return
+    with pytest.raises(MissionError) as err:
+        load_mission(text, file="t.yaml")
+    assert "does not wait for: it may not have run yet" in str(err.value)
