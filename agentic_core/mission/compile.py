@@ -195,10 +195,11 @@ class MissionRuntime:
     # --- the scheduler ---
     def schedule(self, state: MissionState) -> Command[Any]:
         status = dict(state.get("status") or {})
-        if state.get("halt"):
-            return Command(goto=END)
-        update: dict[str, Any] = {}
         spliced = dict(state.get("spliced") or {})
+        policies = self.failure_routes(spliced, status)  # static steps have their own conditional edges
+        if state.get("halt"):
+            return Command(goto=policies or END)
+        update: dict[str, Any] = {}
         preempted = state.get("preempted_by")
         if preempted:
             owned = [sid for sid in spliced if self.may_run(sid, {**state, "spliced": spliced})]
@@ -242,13 +243,19 @@ class MissionRuntime:
                     goto.append(Send(DYNAMIC, {"id": step_id, "state": snapshot}))
                 else:
                     goto.append(step_id)
-        for step_id, info in spliced.items():  # a spliced step that failed: its on_fail (static ones: their edge)
-            if status.get(step_id) == "failed":
-                policy = STEPS_ADAPTER.validate_python([info["step"]])[0].on_fail
-                goto.append({"trigger_reflection": REFLECT, "rtl": RTL}.get(policy, ABORT))
+        goto.extend(policies)
         if marks:
             update.setdefault("status", {}).update(marks)
         return Command(update=update, goto=goto or END)
+
+    def failure_routes(self, spliced: Mapping[str, Any], status: Mapping[str, str]) -> list[str]:
+        """The policy nodes for spliced steps that failed (the policy nodes are idempotent)."""
+        routes = {
+            {"trigger_reflection": REFLECT, "rtl": RTL}.get(str(info["step"].get("on_fail", "abort")), ABORT)
+            for step_id, info in spliced.items()
+            if status.get(step_id) == "failed"
+        }
+        return sorted(routes)
 
     def fires(self, trigger: Trigger, state: Mapping[str, Any]) -> Any:
         """The event a trigger fires for now, or None. A trigger that may fire again does so for a new event
@@ -354,6 +361,8 @@ class MissionRuntime:
         return {"halt": "abort", "log": [{"step": ABORT, "status": "aborted", "after": failed}]}
 
     def rtl(self, state: MissionState) -> dict[str, Any]:
+        if any(entry.get("step") == RTL for entry in state.get("log") or []):
+            return {"halt": "rtl"}  # sent already: the aircraft is on its way home
         try:
             result = self.env.dispatch("flight.rtl", {}, None)
             entry = {"step": RTL, "status": result.status, "error": result.error}

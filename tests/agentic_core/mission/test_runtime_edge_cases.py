@@ -393,3 +393,37 @@ def test_expressions_may_read_only_steps_they_wait_for(steps: str, ok: bool) -> 
     with pytest.raises(MissionError) as err:
         load_mission(text, file="t.yaml")
     assert "does not wait for: it may not have run yet" in str(err.value)
+
+
+def test_a_trigger_step_that_fails_with_rtl_sends_the_aircraft_home() -> None:
+    rec = Recorder()
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: up, action: takeoff}
+triggers:
+  - id: t
+    when: "true"
+    steps: [{id: land_near, action: land, approval: true, on_fail: rtl}]
+""",
+        rec,
+        env={"approve": lambda request: False},
+    )
+    assert rec.tools() == ["flight.takeoff", "flight.rtl"] and out["halt"] == "rtl"
+
+
+def test_two_rtl_failures_at_once_send_one_return_home() -> None:
+    rec = Recorder({"svc.a": flaky(9), "svc.b": flaky(9)})
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: a, action: call_tool, tool: svc.a, on_fail: rtl}
+  - {id: b, action: call_tool, tool: svc.b, on_fail: rtl}
+""",
+        rec,
+    )
+    assert rec.tools().count("flight.rtl") == 1 and out["halt"] == "rtl"
