@@ -327,7 +327,8 @@ class Run:
     def end_step(self) -> None:
         """The barrier: apply all writes in task order, pick the next tasks, save a checkpoint."""
         if self.open_interrupts:
-            self.interrupts = [i for t in self.tasks if t.id in self.open_interrupts for i in self._opened(t.id)]
+            opened = self.open_interrupts
+            self.interrupts = [i for t in self.tasks if t.id in opened for i in opened[t.id].interrupts]
             self.stopped = True
             if "updates" in self.modes:
                 for t in self.tasks:
@@ -357,9 +358,6 @@ class Run:
         self.stopped = pause
         if pause or after:  # after the last node there is nothing to pause, but LangGraph still says so
             self.emit("updates", {INTERRUPT_KEY: ()})
-
-    def _opened(self, task_id: str) -> tuple[Interrupt, ...]:
-        return self.open_interrupts[task_id].interrupts
 
     def apply(self, writes: list[tuple[str, list[tuple[str, Any]]]]) -> set[str]:
         return merge_writes(self.schema, self.values, writes)

@@ -27,7 +27,7 @@ from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
 from .model import PolicyGraph, RepeatStep, Step, Trigger
 from .steps import Environment, StepFailed, evaluate, run_iteration, run_with_retries, scope
-from .validate import SCOPE_ROOTS, check_revision, iter_steps
+from .validate import check_revision, iter_steps
 
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
 DONE = frozenset({"ok", "skipped"})
@@ -468,7 +468,6 @@ def layers(plan: PolicyGraph) -> list[list[str]]:
 
 
 __all__ = [
-    "SCOPE_ROOTS",
     "Environment",
     "Failure",
     "MissionState",

@@ -54,11 +54,16 @@ class StepFailed(Exception):
         self.reason = reason
 
 
+SCOPE_ROOTS = ("params", "steps", "vehicle", "world", "event", "mission")
+"""What expressions may read, besides step ids: parameters, step outputs (``steps.<id>``), the vehicle's state,
+the world model, the event that fired a trigger, and the mission itself. :func:`scope` provides exactly these."""
+
+
 def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict[str, Any]:
-    """What expressions may read: params, step outputs (as ``steps.<id>`` and as ``<id>``), vehicle, world."""
+    """The values of :data:`SCOPE_ROOTS`, and each step's output under its own id too (the paper's
+    ``step_1.wind_speed``)."""
     outputs = dict(state.get("outputs") or {})
-    return {
-        **outputs,
+    roots = {
         "params": dict(state.get("params") or {}),
         "steps": outputs,
         "vehicle": env.vehicle(),
@@ -66,6 +71,7 @@ def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict
         "event": event if event is not None else state.get("event"),
         "mission": {"status": dict(state.get("status") or {})},
     }
+    return {**outputs, **roots}
 
 
 def evaluate(text: str, where: Mapping[str, Any]) -> Any:

@@ -28,10 +28,7 @@ from .expressions import Expression, ExpressionError, find_templates
 from .geometry import Polygon, haversine_m
 from .model import ACTIONS, STEP_MODELS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
 from .source import MissionError, Path, Problem, SourceMap, load_document
-
-SCOPE_ROOTS = ("params", "steps", "vehicle", "world", "event", "mission")
-"""What expressions may read: parameters, step outputs (``steps.<id>`` or ``<id>`` alone), the vehicle's state,
-the world model, the event that fired a trigger, and the mission itself."""
+from .steps import SCOPE_ROOTS
 
 ToolCheck = Callable[[str], bool]
 

@@ -129,7 +129,7 @@ def test_a_dispatcher_that_raises_fails_the_step_and_its_policy_applies() -> Non
     assert out["halt"] == "rtl" and rec.tools()[-1] == "flight.rtl"
 
 
-def reflector_fixing(failed: str) -> Any:
+def reflector_fixing() -> Any:
     def reflect(failure: Any) -> list[dict[str, Any]]:
         return [{"id": f"{failure.step.id}_fix", "action": "hover", "args": {"duration_s": 1}}]
 
@@ -148,7 +148,7 @@ steps:
   - {id: c, action: land, depends_on: [a, b]}
 """,
         rec,
-        reflector=reflector_fixing("any"),
+        reflector=reflector_fixing(),
     )
     assert out["waits_for"]["c"] == ["a_fix", "b_fix"]
     assert out["status"]["c"] == "ok" and rec.tools()[-1] == "flight.land"
