@@ -6,10 +6,13 @@ Exit codes: 0 on success, 2 on bad input (with a message naming the file, line a
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
+
+from tools.cli import add_source_options
 
 from . import __version__
 
@@ -22,6 +25,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 EVAL_COMMANDS = ("stats", "paper")
+DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli"}
+"""Commands whose layer parses its own arguments (and ``--help``)."""
 
 
 def _run_eval(command: str, argv: Sequence[str]) -> int:
@@ -39,13 +44,21 @@ def _run_eval(command: str, argv: Sequence[str]) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
+    from tools.cli import registry_from_args
+    from tools.errors import ToolDefinitionError
+
     from .mission.source import MissionError
     from .mission.validate import iter_steps, load_mission
 
+    try:
+        registry = registry_from_args(args)
+    except ToolDefinitionError as exc:
+        print(f"agentic-uav validate: error: {exc}", file=sys.stderr)
+        return 2
     failed = 0
     for name in args.files:
         try:
-            plan = load_mission(Path(name))
+            plan = load_mission(Path(name), tools=registry)
         except MissionError as exc:
             failed += 1
             print(exc, file=sys.stderr)
@@ -54,9 +67,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         steps = f"{len(plan.steps)} step{'s' if len(plan.steps) != 1 else ''}"
         triggers = f"{len(plan.triggers)} trigger{'s' if len(plan.triggers) != 1 else ''}"
         extra = f" (+{nested} nested or in triggers)" if nested else ""
-        print(
-            f"{name}: ok: plan {plan.plan_id!r}, {steps}{extra}, {triggers} (tools not checked: no tool registry yet)"
-        )
+        print(f"{name}: ok: plan {plan.plan_id!r}, {steps}{extra}, {triggers}; tools checked against {len(registry)}")
     return 2 if failed else 0
 
 
@@ -117,6 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     validate = sub.add_parser("validate", help="check mission files; every problem as file:line:col: message")
     validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files")
+    add_source_options(validate)
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="show how a mission runs: its supersteps, or the compiled graph")
@@ -136,20 +148,33 @@ def build_parser() -> argparse.ArgumentParser:
         ("paper", "recompute the paper's statistics from its published figures (agentic-uav eval paper --help)"),
     ):
         eval_sub.add_parser(name, help=text, add_help=False)  # listed here; parsed by _run_eval
+    sub.add_parser("tools", help="list and describe the registered tools (agentic-uav tools --help)", add_help=False)
+    sub.add_parser("mcp", help="serve the tools over MCP, stdio or HTTP (agentic-uav mcp --help)", add_help=False)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        return _main(list(sys.argv[1:] if argv is None else argv))
+    except BrokenPipeError:  # `agentic-uav tools list | head`: the reader left; not an error of ours
+        sys.stderr.close()
+        return 0
+
+
+def _main(argv: list[str]) -> int:
     if len(argv) >= 2 and argv[0] == "eval" and argv[1] in EVAL_COMMANDS:
         return _run_eval(argv[1], argv[2:])
+    if argv and argv[0] in DELEGATED:
+        module = importlib.import_module(DELEGATED[argv[0]])
+        code: int = module.main(argv[1:])
+        return code
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    code: int = args.func(args)
-    return code
+    result: int = args.func(args)
+    return result
 
 
 if __name__ == "__main__":

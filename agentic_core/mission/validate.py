@@ -16,7 +16,7 @@ import difflib
 import re
 import types
 import typing
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path as FilePath
 from typing import Any
@@ -29,8 +29,7 @@ from .geometry import Polygon, haversine_m
 from .model import ACTIONS, STEP_MODELS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
 from .source import MissionError, Path, Problem, SourceMap, load_document
 from .steps import SCOPE_ROOTS
-
-ToolCheck = Callable[[str], bool]
+from .tool_check import ToolCatalog, argument_problems, unknown_tool_message
 
 
 @dataclass(frozen=True)
@@ -258,11 +257,11 @@ class _Checker:
     """The semantic checks, run on a mission that passed the schema."""
 
     def __init__(
-        self, plan: PolicyGraph, smap: SourceMap, tool_exists: ToolCheck | None, outer_ids: tuple[str, ...] = ()
+        self, plan: PolicyGraph, smap: SourceMap, tools: ToolCatalog | None, outer_ids: tuple[str, ...] = ()
     ) -> None:
         self.plan = plan
         self.smap = smap
-        self.tool_exists = tool_exists
+        self.tools = tools
         self.outer_ids = outer_ids  # steps of the running mission a revision may read
         self.problems: list[Problem] = []
         self.sites = list(iter_steps(plan))
@@ -471,12 +470,17 @@ class _Checker:
                 )
 
     def check_tools(self) -> None:
-        if self.tool_exists is None:
+        if self.tools is None:
             return
         for site in self.sites:
             tool = getattr(site.step, "tool", None)
-            if tool is not None and not self.tool_exists(tool):
-                self.add((*site.path, "tool"), f"unknown tool {tool!r}: no such tool is registered")
+            if tool is None:
+                continue
+            if tool not in self.tools:
+                self.add((*site.path, "tool"), unknown_tool_message(tool, self.tools))
+                continue
+            for where, message in argument_problems(tool, step_args(site.step), self.tools):
+                self.add((*site.path, "args", *where), message)
 
     def check_limits(self) -> None:
         limits = self.plan.limits
@@ -529,7 +533,7 @@ class _Checker:
         return self._fence.contains(point)
 
 
-def validate_document(data: Any, smap: SourceMap, tool_exists: ToolCheck | None = None) -> PolicyGraph:
+def validate_document(data: Any, smap: SourceMap, tools: ToolCatalog | None = None) -> PolicyGraph:
     """Validate parsed mission data; raises :class:`MissionError` with every problem found."""
     if not isinstance(data, Mapping):
         kind = type(data).__name__
@@ -540,19 +544,19 @@ def validate_document(data: Any, smap: SourceMap, tool_exists: ToolCheck | None 
         plan = PolicyGraph.model_validate(data)
     except ValidationError as exc:
         raise MissionError([*smap.problems, *_schema_problems(data, smap, exc)]) from None
-    problems = [*smap.problems, *_Checker(plan, smap, tool_exists).run()]
+    problems = [*smap.problems, *_Checker(plan, smap, tools).run()]
     if problems:
         raise MissionError(problems)
     return plan
 
 
 def check_revision(
-    plan: PolicyGraph, steps: list[Step], mission_ids: Iterable[str], tool_exists: ToolCheck | None = None
+    plan: PolicyGraph, steps: list[Step], mission_ids: Iterable[str], tools: ToolCatalog | None = None
 ) -> list[str]:
     """The problems of steps a reflector proposes, checked like a mission's own (expressions, nesting, tools,
     limits), against the running mission's parameters and limits. Empty when they may be spliced in."""
     revision = plan.model_copy(update={"steps": steps, "triggers": [], "dependencies": {}})
-    checker = _Checker(revision, SourceMap("<revision>"), tool_exists, tuple(mission_ids))
+    checker = _Checker(revision, SourceMap("<revision>"), tools, tuple(mission_ids))
     return [p.message for p in checker.run()]
 
 
@@ -561,12 +565,11 @@ def _line_col(raw: bytes, index: int) -> tuple[int, int]:
     return before.count(b"\n") + 1, index - (before.rfind(b"\n") + 1) + 1
 
 
-def load_mission(
-    source: str | FilePath, *, file: str | None = None, tool_exists: ToolCheck | None = None
-) -> PolicyGraph:
+def load_mission(source: str | FilePath, *, file: str | None = None, tools: ToolCatalog | None = None) -> PolicyGraph:
     """Load and validate a mission from a path, or from YAML/JSON text (then ``file`` names it in messages).
 
-    ``tool_exists`` answers whether a ``call_tool`` tool is registered; without it tools are not checked.
+    ``tools`` (a ``tools.ToolRegistry``) is what ``call_tool`` steps are checked against: the tool exists and the
+    written arguments fit its schema; without it tools are not checked.
     """
     if isinstance(source, FilePath) or (
         isinstance(source, str) and "\n" not in source and source.endswith((".yaml", ".yml", ".json"))
@@ -584,4 +587,4 @@ def load_mission(
     else:
         text, name = str(source), file or "<mission>"
     data, smap = load_document(text, name)
-    return validate_document(data, smap, tool_exists)
+    return validate_document(data, smap, tools)

@@ -15,6 +15,17 @@ MODULES = [
     "agentic_core.mission.expressions",
     "agentic_core.mission.model",
     "agentic_core.mission.validate",
+    "tools",
+    "tools.auth",
+    "tools.breaker",
+    "tools.cache",
+    "tools.executor",
+    "tools.function",
+    "tools.loading",
+    "tools.ratelimit",
+    "tools.registry",
+    "tools.result",
+    "tools.spec",
 ]
 
 

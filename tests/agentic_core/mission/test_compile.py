@@ -50,7 +50,7 @@ def run(text: str, rec: Recorder, **kw: Any) -> dict[str, Any]:
 
 
 def weather(wind: float) -> Callable[[dict[str, Any]], Result]:
-    return lambda args: Result("ok", {"wind_speed": wind})
+    return lambda args: Result("ok", {"current": {"wind_speed_mps": wind}})
 
 
 def test_independent_steps_run_in_the_same_superstep_and_dependents_after() -> None:
@@ -63,7 +63,7 @@ def test_independent_steps_run_in_the_same_superstep_and_dependents_after() -> N
 
         return answer
 
-    rec = Recorder({"weather.get_forecast": meet({"wind_speed": 7}), "flight.takeoff": meet({})})
+    rec = Recorder({"weather.get_forecast": meet({"current": {"wind_speed_mps": 7}}), "flight.takeoff": meet({})})
     out = run((MISSIONS / "inspect_perimeter.yaml").read_text(), rec)
     assert set(rec.tools()[:2]) == {"weather.get_forecast", "flight.takeoff"}
     assert rec.tools()[2:] == ["flight.fly_to", "perception.analyze_scene", "flight.rtl"]
@@ -82,9 +82,8 @@ def test_a_false_precondition_fails_the_step_and_the_default_reflector_aborts() 
     out = run((MISSIONS / "inspect_perimeter.yaml").read_text(), rec)
     assert "flight.fly_to" not in rec.tools()
     assert out["status"]["inspect_anomaly"] == "failed"
-    assert (
-        "precondition 'check_weather.wind_speed < params.wind_limit_mps' is false" in out["errors"]["inspect_anomaly"]
-    )
+    precondition = "check_weather.current.wind_speed_mps < params.wind_limit_mps"
+    assert f"precondition {precondition!r} is false" in out["errors"]["inspect_anomaly"]
     assert out["halt"] == "abort"
     assert out["status"]["look"] in ("blocked", "cancelled")
     assert "go_home" not in out["status"] or out["status"]["go_home"] != "ok"
@@ -103,7 +102,7 @@ def flaky(failures: int, output: Any = None) -> Callable[[dict[str, Any]], Resul
 
 
 def test_retries_then_success() -> None:
-    rec = Recorder({"weather.get_forecast": flaky(2, {"wind_speed": 5})})
+    rec = Recorder({"weather.get_forecast": flaky(2, {"current": {"wind_speed_mps": 5}})})
     out = run((MISSIONS / "inspect_perimeter.yaml").read_text(), rec)
     assert rec.tools().count("weather.get_forecast") == 3
     assert out["attempts"]["check_weather"] == 3 and out["status"]["check_weather"] == "ok"
@@ -163,7 +162,8 @@ def test_reflection_splices_revised_steps_and_dependents_wait_for_them() -> None
     rec = Recorder({"weather.get_forecast": weather(20)})
     out = run((MISSIONS / "inspect_perimeter.yaml").read_text(), rec, reflector=reflector)
     assert [f.step.id for f in seen] == ["inspect_anomaly"]
-    assert "is false" in seen[0].error and seen[0].state["outputs"]["check_weather"] == {"wind_speed": 20}
+    assert "is false" in seen[0].error
+    assert seen[0].state["outputs"]["check_weather"] == {"current": {"wind_speed_mps": 20}}
     assert rec.tools()[2:] == ["flight.hover", "flight.fly_to", "perception.analyze_scene", "flight.rtl"]
     assert rec.calls[3][1]["alt_m"] == 15
     assert out["status"]["inspect_anomaly"] == "replaced"
@@ -244,7 +244,7 @@ def test_patrol_repeats_its_rounds_then_goes_home() -> None:
     rec = Recorder()
     out = run((MISSIONS / "hajj_patrol.yaml").read_text(), rec)
     assert rec.tools().count("flight.fly_to") == 4  # 2 rounds x 2 gates
-    assert rec.tools().count("crowd.log_density") == 4
+    assert rec.tools().count("incidents.log") == 4
     assert rec.tools()[-1] == "flight.rtl"
     assert out["outputs"]["patrol"]["iterations"] == 2 and out["status"]["patrol"] == "ok"
 
@@ -329,12 +329,46 @@ def test_parameters_are_typed_and_checked() -> None:
         initial_state(plan, {"round": "3"})
 
 
+def weather_registry() -> Any:
+    """A registry holding a weather tool of the built-in's signature."""
+    from tools import ToolRegistry
+
+    registry = ToolRegistry()
+
+    @registry.tool(name="weather.get_forecast")
+    def forecast(lat: float, lon: float, hours: int = 24) -> dict[str, float]:
+        return {"wind_mps": 3.0}
+
+    return registry
+
+
 def test_call_tool_tools_are_checked_against_a_registry_when_one_is_given() -> None:
     from agentic_core.mission import MissionError
-
+    registry = weather_registry()
     text = (MISSIONS / "inspect_perimeter.yaml").read_text()
-    assert load_mission(text, tool_exists=lambda name: name == "weather.get_forecast").plan_id == "P-789"
+    assert load_mission(text, tools=registry).plan_id == "P-789"
     with pytest.raises(MissionError) as err:
-        load_mission(text, file="p.yaml", tool_exists=lambda name: False)
+        load_mission(text.replace("weather.get_forecast", "weather.get_forcast"), file="p.yaml", tools=registry)
     (problem,) = err.value.problems
-    assert (problem.line, problem.message) == (31, "unknown tool 'weather.get_forecast': no such tool is registered")
+    assert (problem.line, problem.message) == (
+        31,
+        "unknown tool 'weather.get_forcast': no such tool is registered; did you mean 'weather.get_forecast'?",
+    )
+
+
+def test_call_tool_arguments_written_in_the_mission_are_checked_against_the_tool_schema() -> None:
+    from agentic_core.mission import MissionError
+    registry = weather_registry()
+    text = (MISSIONS / "inspect_perimeter.yaml").read_text()
+    broken = text.replace(
+        'args: {lat: "${params.anomaly_lat}", lon: "${params.anomaly_lon}"}',
+        'args: {lat: "${params.anomaly_lat}", hours: "soon"}',
+    )
+    assert broken != text
+    with pytest.raises(MissionError) as err:
+        load_mission(broken, file="p.yaml", tools=registry)
+    messages = sorted((p.line, p.message) for p in err.value.problems)
+    assert messages == [
+        (32, "weather.get_forecast: 'lon' is a required property"),
+        (32, "weather.get_forecast: 'soon' is not of type 'integer'"),
+    ]

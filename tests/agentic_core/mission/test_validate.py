@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import jsonschema  # type: ignore[import-untyped]  # no stubs installed (types-jsonschema)
+import jsonschema
 import pytest
 import yaml
 
@@ -39,6 +39,7 @@ CORPUS = HERE / "corpus"
 VALID = sorted((CORPUS / "valid").glob("*.yaml"))
 INVALID = sorted((CORPUS / "invalid").glob("*.yaml"))
 SHIPPED = sorted((REPO / "missions").glob("*.yaml"))
+CORPUS_TOOLS = ["--tools", str(CORPUS / "tools.py")]  # the corpus calls two tools that are not built in
 SCHEMA_FILE = REPO / "missions" / "mission.schema.json"
 REGENERATE = "agentic-uav schema mission > missions/mission.schema.json"
 EXPECT = re.compile(r"^#\s*expect:\s*(\d+):(\d+):\s*(.*\S)\s*$")
@@ -187,7 +188,7 @@ def test_unreadable_file_is_a_problem_not_a_crash(tmp_path: Path) -> None:
 # --- the command line ---
 def test_cli_validate_valid_files_prints_one_summary_each(capsys: pytest.CaptureFixture[str]) -> None:
     files = [str(p) for p in [*SHIPPED, *VALID]]
-    assert main(["validate", *files]) == 0
+    assert main(["validate", *CORPUS_TOOLS, *files]) == 0
     out, err = capsys.readouterr()
     assert err == ""
     lines = out.splitlines()
@@ -200,7 +201,7 @@ def test_cli_validate_valid_files_prints_one_summary_each(capsys: pytest.Capture
 
 @pytest.mark.parametrize("path", INVALID, ids=lambda p: p.stem)
 def test_cli_validate_invalid_file_exits_2_with_file_line_col(path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["validate", str(path)]) == 2
+    assert main(["validate", *CORPUS_TOOLS, str(path)]) == 2
     out, err = capsys.readouterr()
     assert out == ""
     positions = []
@@ -214,7 +215,7 @@ def test_cli_validate_invalid_file_exits_2_with_file_line_col(path: Path, capsys
 
 def test_cli_validate_mixed_files_reports_all_and_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     good, bad, worse = VALID[0], CORPUS / "invalid" / "unknown_action.yaml", CORPUS / "invalid" / "wrong_type.yaml"
-    assert main(["validate", str(bad), str(good), str(worse)]) == 2
+    assert main(["validate", *CORPUS_TOOLS, str(bad), str(good), str(worse)]) == 2
     out, err = capsys.readouterr()
     (summary,) = out.splitlines()
     assert summary.startswith(f"{good}: ok: plan ")
@@ -226,7 +227,7 @@ def test_cli_validate_mixed_files_reports_all_and_exits_2(capsys: pytest.Capture
 def test_cli_as_a_process() -> None:
     good, bad = VALID[0], CORPUS / "invalid" / "dangling_depends_on.yaml"
     proc = subprocess.run(
-        [sys.executable, "-m", "agentic_core", "validate", str(good), str(bad)],
+        [sys.executable, "-m", "agentic_core", "validate", *CORPUS_TOOLS, str(good), str(bad)],
         capture_output=True,
         text=True,
         timeout=120,
@@ -236,7 +237,7 @@ def test_cli_as_a_process() -> None:
     assert proc.stdout.startswith(f"{good}: ok: plan ")
     assert proc.stderr == f"{bad}:10:18: step 'down' depends on unknown step 'clim' (did you mean 'climb'?)\n"
     proc = subprocess.run(
-        [sys.executable, "-m", "agentic_core", "validate", str(good)],
+        [sys.executable, "-m", "agentic_core", "validate", *CORPUS_TOOLS, str(good)],
         capture_output=True,
         text=True,
         timeout=120,
@@ -330,7 +331,7 @@ def test_control_character_is_a_problem(capsys: pytest.CaptureFixture[str], tmp_
     assert problem.line == 2 and problem.message
     path = tmp_path / "control.yaml"
     path.write_text(text, encoding="utf-8")
-    assert main(["validate", str(path)]) == 2
+    assert main(["validate", *CORPUS_TOOLS, str(path)]) == 2
     assert capsys.readouterr().err.startswith(f"{path}:2:")
 
 
@@ -339,7 +340,7 @@ def test_file_that_is_not_utf8_is_a_problem(capsys: pytest.CaptureFixture[str], 
     path.write_bytes(b"plan_id: P-1\ngoal: caf\xe9\nsteps: [{id: up, action: takeoff}]\n")
     (problem,) = problems_of(path)
     assert problem.file == str(path) and problem.line >= 1 and problem.message
-    assert main(["validate", str(path)]) == 2
+    assert main(["validate", *CORPUS_TOOLS, str(path)]) == 2
     assert capsys.readouterr().err.startswith(f"{path}:")
 
 

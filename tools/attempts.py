@@ -1,0 +1,187 @@
+"""Running a tool's attempts: per-attempt timeouts, the call's deadline, retries with jittered exponential backoff
+(tenacity) on transient failures only, and the bridges between sync and async code (worker threads, a background
+event loop).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import contextvars
+import random
+import threading
+import time
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+import tenacity
+
+from .auth import ANONYMOUS, Caller
+from .errors import CallTimeout, DeadlinePassed
+from .registry import RegisteredTool
+from .result import Stage, StageName, StageOutcome
+from .spec import RetrySpec, ToolContext
+from .workers import ThreadHandoff
+
+
+class CallState:
+    """One call as it moves through the executor's stages."""
+
+    __slots__ = (
+        "args",
+        "attempts",
+        "call_id",
+        "caller",
+        "deadline",
+        "entry",
+        "holds_probe",
+        "name",
+        "stages",
+        "started",
+        "token",
+    )
+
+    def __init__(self, name: str, args: Any, call_id: str, deadline: float | None) -> None:
+        self.name = name
+        self.args = args
+        self.call_id = call_id
+        self.deadline = deadline  # on the executor's clock
+        self.started = time.perf_counter()
+        self.stages: list[Stage] = []
+        self.caller: Caller = ANONYMOUS
+        self.entry: RegisteredTool | None = None
+        self.attempts = 0
+        self.token: str | None = None
+        self.holds_probe = False  # the breaker let it through and awaits a verdict
+
+    def stage(self, name: StageName, outcome: StageOutcome, detail: str | None = None) -> None:
+        self.stages.append(Stage(name, outcome, detail))
+
+
+def backoff(policy: RetrySpec) -> Callable[[tenacity.RetryCallState], float]:
+    """``initial_s``, doubling after each failure, plus up to ``jitter_s`` of random delay; at most ``max_s``."""
+
+    def wait(state: tenacity.RetryCallState) -> float:
+        delay = policy.initial_s * 2.0 ** (state.attempt_number - 1) + random.uniform(0, policy.jitter_s)
+        return float(min(policy.max_s, delay))
+
+    return wait
+
+
+async def bounded(awaitable: Awaitable[Any], timeout: float | None) -> Any:
+    """``await awaitable``, cancelled after ``timeout`` seconds (a :class:`CallTimeout`); a TimeoutError the tool
+    raises itself passes through as the tool's own."""
+    scope = asyncio.timeout(timeout)
+    try:
+        async with scope:
+            return await awaitable
+    except TimeoutError:
+        if timeout is not None and scope.expired():
+            raise CallTimeout(f"no answer in {timeout:.3g} s") from None
+        raise
+
+
+class AttemptRunner:
+    """Runs a call's attempts, sync or async, with retries and timeouts; returns the tool's value or raises."""
+
+    def __init__(
+        self,
+        clock: Callable[[], float],
+        sleep: Callable[[float], None],
+        async_sleep: Callable[[float], Awaitable[None]],
+        max_workers: int,
+    ) -> None:
+        self.clock = clock
+        self.sleep = sleep
+        self.async_sleep = async_sleep
+        self._handoff = ThreadHandoff()
+        self._threads = concurrent.futures.ThreadPoolExecutor(max_workers, thread_name_prefix="tool-async")
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._loop_lock = threading.Lock()
+
+    def _begin(self, call: CallState) -> tuple[ToolContext, float | None]:
+        """The next attempt's context and timeout; :class:`DeadlinePassed` when no time is left for it."""
+        assert call.entry is not None
+        limit = call.entry.spec.timeout_s
+        if call.deadline is not None:
+            remaining = call.deadline - self.clock()
+            if remaining <= 0:
+                raise DeadlinePassed("the call's deadline passed before the tool could run")
+            limit = remaining if limit is None else min(limit, remaining)
+        call.attempts += 1
+        return ToolContext(call.call_id, call.entry.spec.name, call.caller, call.attempts, call.deadline), limit
+
+    def _retrying(self, call: CallState, sleep: Callable[[float], Any]) -> dict[str, Any]:
+        assert call.entry is not None
+        policy = call.entry.spec.retry
+        idempotent = call.entry.spec.idempotent
+
+        def retryable(exc: BaseException) -> bool:
+            if isinstance(exc, DeadlinePassed) or (isinstance(exc, CallTimeout) and not idempotent):
+                return False  # an abandoned attempt of a tool that acts may still act: never start a second
+            return policy.retry_if(exc)
+
+        def stop(state: tenacity.RetryCallState) -> bool:
+            if state.attempt_number >= policy.attempts:
+                return True
+            return call.deadline is not None and self.clock() + (state.upcoming_sleep or 0.0) >= call.deadline
+
+        return {
+            "stop": stop,
+            "wait": backoff(policy),
+            "retry": tenacity.retry_if_exception(retryable),
+            "sleep": sleep,
+            "reraise": True,
+        }
+
+    # synchronous callers ------------------------------------------------------------------------------------------
+    def _attempt_sync(self, call: CallState) -> Any:
+        assert call.entry is not None
+        spec = call.entry.spec
+        context, timeout = self._begin(call)
+        if spec.is_async:
+            coroutine = bounded(spec.handler(call.args, context), timeout)
+            return asyncio.run_coroutine_threadsafe(coroutine, self._background_loop()).result()
+        if timeout is None:
+            return spec.handler(call.args, context)  # no timeout to keep: no thread hand-off either
+        return self._handoff.run(lambda: spec.handler(call.args, context), timeout)
+
+    def run_sync(self, call: CallState) -> Any:
+        assert call.entry is not None
+        if call.entry.spec.retry.attempts == 1:
+            return self._attempt_sync(call)
+        return tenacity.Retrying(**self._retrying(call, self.sleep))(self._attempt_sync, call)
+
+    # callers on an event loop -------------------------------------------------------------------------------------
+    async def _attempt_async(self, call: CallState) -> Any:
+        assert call.entry is not None
+        spec = call.entry.spec
+        context, timeout = self._begin(call)
+        if spec.is_async:
+            return await bounded(spec.handler(call.args, context), timeout)
+        run = contextvars.copy_context().run
+        future = self._threads.submit(run, spec.handler, call.args, context)
+        return await bounded(asyncio.wrap_future(future), timeout)
+
+    async def run_async(self, call: CallState) -> Any:
+        assert call.entry is not None
+        if call.entry.spec.retry.attempts == 1:
+            return await self._attempt_async(call)
+        return await tenacity.AsyncRetrying(**self._retrying(call, self.async_sleep))(self._attempt_async, call)
+
+    def _background_loop(self) -> asyncio.AbstractEventLoop:
+        """An event loop on its own thread, for async tools called from synchronous code."""
+        with self._loop_lock:
+            if self._loop is None:
+                loop = asyncio.new_event_loop()
+                threading.Thread(target=loop.run_forever, name="tool-async-loop", daemon=True).start()
+                self._loop = loop
+            return self._loop
+
+    def close(self) -> None:
+        self._handoff.close()
+        self._threads.shutdown(wait=False, cancel_futures=True)
+        with self._loop_lock:
+            if self._loop is not None:
+                self._loop.call_soon_threadsafe(self._loop.stop)
+                self._loop = None

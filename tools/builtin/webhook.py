@@ -1,0 +1,78 @@
+"""Webhook alerts: a JSON payload POSTed to a URL, or kept in the outbox when no URL is configured.
+
+Retries must never post twice, so only failures where the endpoint cannot have acted are transient: no connection
+(refused, unreachable, connect timeout) and HTTP 429 or 503 (the endpoint says it did not process the request).
+A link that breaks after the request went out, and every other error status, is a :class:`ToolError`.
+
+>>> import json, tempfile
+>>> from pathlib import Path
+>>> config = BuiltinConfig(outbox_dir=Path(tempfile.mkdtemp()))
+>>> receipt = post_webhook(config, {"event": "collapse", "lat": 21.41})
+>>> receipt.delivered_via, json.loads(Path(receipt.path).read_text())["payload"]["event"]
+('outbox', 'collapse')
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from typing import Any, Literal
+from urllib.parse import urlsplit
+
+import httpx
+from pydantic import BaseModel, Field
+
+from ..errors import ToolError, TransientToolError
+from .config import BuiltinConfig
+from .outbox import now_iso, write_file
+
+EXCERPT_CHARS = 500
+
+
+class WebhookReceipt(BaseModel):
+    """What became of a webhook payload."""
+
+    delivered_via: Literal["webhook", "outbox"]
+    status: int | None = Field(default=None, description="the endpoint's HTTP status; null when kept in the outbox")
+    endpoint: str | None = Field(default=None, description="scheme://host of the URL (its path may hold a secret)")
+    path: str | None = Field(default=None, description="the .json written to the outbox")
+    response_excerpt: str | None = Field(default=None, description="the start of the endpoint's answer: outside text")
+
+
+def endpoint_of(url: str) -> str:
+    """``scheme://host[:port]`` of a URL: what may be shown of a webhook URL (Slack-style URLs embed a token)."""
+    parts = urlsplit(url)
+    return f"{parts.scheme}://{parts.hostname or ''}{f':{parts.port}' if parts.port else ''}"
+
+
+def post_webhook(config: BuiltinConfig, payload: Mapping[str, Any], url: str | None = None) -> WebhookReceipt:
+    """POST ``payload`` as JSON to ``url`` or ``config.webhook_url``; with neither, write it to the outbox."""
+    body = json.dumps(payload, ensure_ascii=False, default=str)
+    target = url or config.webhook_url
+    if not target:
+        record = {"time": now_iso(), "url": None, "payload": json.loads(body)}
+        path = write_file(config.outbox_dir, ".json", json.dumps(record, ensure_ascii=False, indent=2).encode())
+        return WebhookReceipt(delivered_via="outbox", path=str(path))
+    endpoint = endpoint_of(target)
+    if urlsplit(target).scheme not in ("http", "https") or not urlsplit(target).hostname:
+        raise ToolError(f"the webhook URL must be http(s)://host/...; got one starting {target[:12]!r}")
+    try:
+        with httpx.Client(timeout=config.http_timeout_s) as client:
+            response = client.post(target, content=body.encode(), headers={"Content-Type": "application/json"})
+    except (httpx.ConnectError, httpx.ConnectTimeout, httpx.PoolTimeout) as exc:
+        raise TransientToolError(f"cannot reach the webhook {endpoint} (nothing was sent): {exc}") from None
+    except httpx.TransportError as exc:
+        raise ToolError(
+            f"the link to the webhook {endpoint} broke after the payload went out ({type(exc).__name__}: {exc}); "
+            "it may have arrived, so it was not sent again"
+        ) from None
+    excerpt = response.text[:EXCERPT_CHARS]
+    status = response.status_code
+    if status in (429, 503):
+        raise TransientToolError(f"the webhook {endpoint} is busy (HTTP {status}); it did not take the payload")
+    if status >= 300:
+        raise ToolError(f"the webhook {endpoint} answered HTTP {status} {response.reason_phrase}: {excerpt[:200]}")
+    return WebhookReceipt(delivered_via="webhook", status=status, endpoint=endpoint, response_excerpt=excerpt or None)
+
+
+__all__ = ["WebhookReceipt", "endpoint_of", "post_webhook"]

@@ -1,0 +1,359 @@
+"""One executor for every tool: lookup, argument validation, authorization, rate limits, cache, circuit breaker,
+retries with backoff, timeouts, output validation, the injection guard and the audit log, in that order.
+
+Every call returns a :class:`ToolResult`; nothing raises across this boundary (but an ``acall`` cancelled by its
+caller: the cancellation goes on, after the call is audited). The cache is consulted before the breaker, so a
+cached answer is still served while a tool's breaker is open. The breaker counts one failure per call, after its
+retries; a :class:`ToolError` is the tool's answer, not a sign of ill health.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import copy
+import os
+import time
+from collections.abc import Awaitable, Callable, Mapping
+from datetime import UTC, datetime
+from typing import Any, Literal
+
+from .attempts import AttemptRunner, CallState
+from .audit import AuditLog, AuditRecord, MemoryAuditLog, redact, secret_values
+from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority
+from .errors import DeadlinePassed, ToolError
+from .registry import ToolRegistry, is_available
+from .result import ToolResult, ToolStatus, construct
+from .security import DEFAULT_THRESHOLD, InjectionReport, scan_value
+
+
+def _describe(exc: BaseException) -> str:
+    text = str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+class ToolExecutor:
+    """Runs registered tools behind their guards.
+
+    >>> from tools import ToolRegistry, tool
+    >>> registry = ToolRegistry()
+    >>> @registry.tool(name="math.add")
+    ... def add(a: int, b: int) -> int:
+    ...     return a + b
+    >>> executor = ToolExecutor(registry)
+    >>> executor.call("math.add", {"a": 2, "b": 3}).output
+    5
+    >>> result = executor.call("math.add", {"a": "two", "b": 3})
+    >>> result.status, result.error
+    ('error', "invalid arguments: $.a: 'two' is not of type 'integer'")
+    >>> executor.call("math.ad", {}).error
+    "unknown tool 'math.ad'; did you mean 'math.add'?"
+    """
+
+    def __init__(
+        self,
+        registry: ToolRegistry,
+        *,
+        audit: AuditLog | None = None,
+        authority: TokenAuthority | None = None,
+        default_caller: Caller = ANONYMOUS,
+        injection_threshold: float = DEFAULT_THRESHOLD,
+        on_injection: Literal["flag", "withhold"] = "flag",
+        max_workers: int = 32,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
+        async_sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+    ) -> None:
+        self.registry = registry
+        self._owns_audit = audit is None
+        self.audit: AuditLog = audit if audit is not None else MemoryAuditLog()
+        self.authority = authority
+        self.default_caller = default_caller
+        self.injection_threshold = injection_threshold
+        self.on_injection = on_injection
+        self.clock = clock
+        self._runner = AttemptRunner(clock, sleep, async_sleep, max_workers)
+
+    # public -------------------------------------------------------------------------------------------------------
+    def call(
+        self,
+        name: str,
+        args: Mapping[str, Any] | None = None,
+        *,
+        caller: Caller | None = None,
+        token: str | None = None,
+        timeout_s: float | None = None,
+        call_id: str | None = None,
+    ) -> ToolResult:
+        """Run a tool and wait for its result. ``timeout_s`` bounds the whole call, retries included (each
+        attempt is also bounded by the tool's own ``timeout_s``); ``token`` is a scope token to verify."""
+        call = self._start(name, args, caller, token, timeout_s, call_id)
+        try:
+            refused = self._admit(call)
+            if refused is not None:
+                return refused
+            try:
+                value = self._runner.run_sync(call)
+            except Exception as exc:
+                return self._failed(call, exc)
+            return self._succeeded(call, value)
+        except Exception as exc:  # a bug of ours: still a result
+            return self._internal_error(call, exc)
+        finally:
+            self._settle(call)
+
+    async def acall(
+        self,
+        name: str,
+        args: Mapping[str, Any] | None = None,
+        *,
+        caller: Caller | None = None,
+        token: str | None = None,
+        timeout_s: float | None = None,
+        call_id: str | None = None,
+    ) -> ToolResult:
+        """:meth:`call` for callers on an event loop: async tools run on that loop, sync tools on worker threads."""
+        call = self._start(name, args, caller, token, timeout_s, call_id)
+        try:
+            refused = self._admit(call)
+            if refused is not None:
+                return refused
+            try:
+                value = await self._runner.run_async(call)
+            except Exception as exc:
+                return self._failed(call, exc)
+            return self._succeeded(call, value)
+        except asyncio.CancelledError:
+            self._finish(call, "error", error="cancelled by the caller")
+            raise
+        except Exception as exc:
+            return self._internal_error(call, exc)
+        finally:
+            self._settle(call)
+
+    def dispatcher(self, caller: Caller | None = None) -> Callable[[str, dict[str, Any], float | None], ToolResult]:
+        """The ``dispatch(tool, args, timeout_s)`` callable a compiled mission calls every action through."""
+
+        def dispatch(tool: str, args: dict[str, Any], timeout_s: float | None) -> ToolResult:
+            return self.call(tool, args, caller=caller, timeout_s=timeout_s)
+
+        return dispatch
+
+    def close(self) -> None:
+        """Stop the worker threads; close the audit log if the executor made it (a log given to it stays open)."""
+        self._runner.close()
+        if self._owns_audit:
+            self.audit.close()
+
+    # stages before the tool runs -----------------------------------------------------------------------------------
+    def _start(
+        self,
+        name: str,
+        args: Mapping[str, Any] | None,
+        caller: Caller | None,
+        token: str | None,
+        timeout_s: float | None,
+        call_id: str | None,
+    ) -> CallState:
+        deadline = None if timeout_s is None else self.clock() + timeout_s
+        call = CallState(str(name), {} if args is None else args, call_id or os.urandom(8).hex(), deadline)
+        call.caller = caller if caller is not None else self.default_caller
+        call.token = token
+        return call
+
+    def _admit(self, call: CallState) -> ToolResult | None:
+        """Lookup to breaker: a finished result when the call stops before the tool runs, else None."""
+        registry = self.registry
+        entry = registry.entry(call.name) or registry.entry(registry.resolve(call.name))
+        if entry is None:
+            call.stage("lookup", "failed")
+            closest = registry.closest(call.name)
+            hint = f"; did you mean {', '.join(repr(c) for c in closest)}?" if closest else ""
+            return self._finish(call, "error", error=f"unknown tool {call.name!r}{hint}")
+        spec = entry.spec
+        call.entry, call.name = entry, spec.name
+        if spec.available is not None and not is_available(spec):
+            call.stage("lookup", "failed", "unavailable")
+            return self._finish(call, "error", error=f"tool {spec.name!r} is not available now")
+        call.stage("lookup", "passed")
+
+        if not isinstance(call.args, Mapping):
+            call.stage("validate_args", "failed")
+            return self._finish(call, "error", error=f"invalid arguments: expected an object, got {call.args!r}")
+        call.args = dict(call.args)
+        errors = sorted(entry.validator.iter_errors(call.args), key=lambda e: e.json_path)
+        if errors:
+            detail = "; ".join(f"{e.json_path}: {e.message}" for e in errors[:3])
+            more = f" (and {len(errors) - 3} more)" if len(errors) > 3 else ""
+            call.stage("validate_args", "failed", detail)
+            return self._finish(call, "error", error=f"invalid arguments: {detail}{more}")
+        call.stage("validate_args", "passed")
+
+        denial = self._authenticate(call)
+        if denial is None:
+            missing = call.caller.missing(spec.scopes)
+            denial = f"{call.caller.id!r} lacks scope {', '.join(missing)}" if missing else None
+        if denial is not None:
+            call.stage("authorize", "failed", denial)
+            return self._finish(call, "denied", error=denial)
+        call.stage("authorize", "passed")
+
+        if entry.limiter is not None:
+            admitted, wait = entry.limiter.acquire(call.caller.id)
+            if not admitted:
+                call.stage("rate_limit", "failed", f"retry in {wait:.3g} s")
+                return self._finish(call, "rate_limited", error=f"rate limit reached for {spec.name}", retry=wait)
+            call.stage("rate_limit", "passed")
+
+        if entry.cache is not None:
+            hit, cached = entry.cache.get(call.args)
+            if hit:
+                call.stage("cache", "hit")
+                value, report = cached
+                return self._finish(call, "ok", output=copy.deepcopy(value), cached=True, injection=report)
+            call.stage("cache", "miss")
+
+        allowed, wait = entry.breaker.allow()
+        if not allowed:
+            call.stage("circuit_breaker", "failed", f"open; a probe in {wait:.3g} s")
+            return self._finish(call, "circuit_open", error=f"{spec.name} is failing; circuit open", retry=wait)
+        call.holds_probe = True
+        call.stage("circuit_breaker", "passed")
+        return None
+
+    def _authenticate(self, call: CallState) -> str | None:
+        """Why a call's token is refused, or None (no token, or a valid one: then it names the caller)."""
+        if call.token is None:
+            return None
+        if self.authority is None:
+            return "a token was given, but this executor has no token authority to verify it"
+        try:
+            call.caller = self.authority.verify(call.token)
+        except InvalidToken as exc:
+            return str(exc)
+        return None
+
+    # after the tool ran -------------------------------------------------------------------------------------------
+    def _verdict(self, call: CallState, healthy: bool | None) -> None:
+        """Tell the breaker how the call went (None: it says nothing of the tool's health)."""
+        assert call.entry is not None
+        call.holds_probe = False
+        breaker = call.entry.breaker
+        if healthy is None:
+            breaker.release()
+        elif healthy:
+            breaker.success()
+        else:
+            breaker.failure()
+
+    def _settle(self, call: CallState) -> None:
+        if call.holds_probe and call.entry is not None:
+            self._verdict(call, None)
+
+    def _failed(self, call: CallState, exc: BaseException) -> ToolResult:
+        never_ran = isinstance(exc, DeadlinePassed) and call.attempts == 0
+        self._verdict(call, None if never_ran else isinstance(exc, ToolError))
+        timed_out = isinstance(exc, TimeoutError)
+        call.stage("invoke", "failed", f"{call.attempts} attempt{'s' if call.attempts != 1 else ''}")
+        status: ToolStatus = "timeout" if timed_out else "error"
+        return self._finish(call, status, error=str(exc) if timed_out and str(exc) else _describe(exc))
+
+    def _succeeded(self, call: CallState, value: Any) -> ToolResult:
+        entry = call.entry
+        assert entry is not None
+        call.stage("invoke", "passed", None if call.attempts == 1 else f"{call.attempts} attempts")
+        try:
+            if entry.spec.convert_output is not None:
+                value = entry.spec.convert_output(value)
+            elif entry.output_validator is not None:
+                problem = next(iter(entry.output_validator.iter_errors(value)), None)
+                if problem is not None:
+                    raise ToolError(
+                        f"the tool's output does not match its schema: {problem.json_path}: {problem.message}"
+                    )
+        except Exception as exc:
+            self._verdict(call, False)
+            message = str(exc) if isinstance(exc, ToolError) else f"the tool's output is not valid: {_describe(exc)}"
+            call.stage("validate_output", "failed", message)
+            return self._finish(call, "error", error=message)
+        self._verdict(call, True)
+        call.stage("validate_output", "passed")
+        report = scan_value(value, threshold=self.injection_threshold)
+        flagged = report if report.flagged else None
+        if flagged is not None:
+            call.stage("injection_guard", "flagged", f"score {report.score}")
+            if self.on_injection == "withhold":
+                return self._finish(
+                    call, "error", error="output withheld: it looks like instructions", injection=report
+                )
+        else:
+            call.stage("injection_guard", "passed")
+        if entry.cache is not None:
+            entry.cache.put(call.args, (copy.deepcopy(value), flagged))
+        return self._finish(call, "ok", output=value, injection=flagged)
+
+    def _finish(
+        self,
+        call: CallState,
+        status: ToolStatus,
+        *,
+        output: Any = None,
+        error: str | None = None,
+        retry: float | None = None,
+        cached: bool = False,
+        injection: InjectionReport | None = None,
+    ) -> ToolResult:
+        latency = time.perf_counter() - call.started
+        sensitive = call.entry.spec.sensitive_args if call.entry is not None else frozenset()
+        if call.args and error is not None:
+            for secret in secret_values(call.args, sensitive):  # an error quoting a password must not spread it
+                error = error.replace(secret, "[redacted]")
+                for stage in call.stages:
+                    stage.detail = stage.detail and stage.detail.replace(secret, "[redacted]")
+        record = construct(
+            AuditRecord,
+            dict(
+                time=datetime.now(UTC).isoformat(timespec="microseconds"),
+                call_id=call.call_id,
+                caller=call.caller.id,
+                tool=call.name,
+                args=redact(call.args, sensitive),
+                status=status,
+                latency_s=latency,
+                attempts=call.attempts,
+                cached=cached,
+                error=error,
+                stages=[f"{s.name}:{s.outcome}" for s in call.stages],
+            ),
+        )
+        try:
+            self.audit.write(record)
+            call.stage("audit", "passed")
+        except Exception as exc:
+            call.stage("audit", "failed", _describe(exc))
+        return construct(
+            ToolResult,
+            dict(
+                status=status,
+                output=output,
+                error=error,
+                latency_s=latency,
+                attempts=call.attempts,
+                call_id=call.call_id,
+                tool=call.name,
+                caller=call.caller.id,
+                cached=cached,
+                retry_after_s=retry,
+                stages=call.stages,
+                untrusted=injection is not None or (call.entry is not None and call.entry.spec.untrusted_output),
+                injection=injection,
+            ),
+        )
+
+    def _internal_error(self, call: CallState, exc: Exception) -> ToolResult:
+        error = f"internal error in the tool executor: {_describe(exc)}"
+        try:
+            return self._finish(call, "error", error=error)
+        except Exception:
+            return ToolResult(
+                status="error", error=error, latency_s=0.0, attempts=call.attempts, call_id=call.call_id, tool=call.name
+            )

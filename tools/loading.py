@@ -1,0 +1,108 @@
+"""Building the registry users get: the built-in tools, their own tools, and plugins.
+
+``--tools`` names a Python module (``mypkg.tools``), a ``.py`` file, or a YAML/JSON file of HTTP endpoint
+descriptions; installed packages add tools through the ``agentic_uavs.tools`` entry-point group, whose entries
+are modules of ``@tool`` functions or ``register(registry)`` callables.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import sys
+from collections.abc import Iterable
+from importlib.metadata import entry_points
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from .errors import ToolDefinitionError
+from .registry import ToolRegistry
+
+ENTRY_POINT_GROUP = "agentic_uavs.tools"
+HTTP_SUFFIXES = (".yaml", ".yml", ".json")
+
+
+def _import_file(path: Path) -> ModuleType:
+    name = f"agentic_uavs_user_tools_{abs(hash(path.resolve()))}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ToolDefinitionError(f"{path}: cannot be imported as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _register_object(registry: ToolRegistry, value: Any, origin: str) -> list[str]:
+    if isinstance(value, ModuleType):
+        names = registry.register_module(value)
+        if not names and callable(getattr(value, "register", None)):
+            return _register_object(registry, value.register, origin)
+        if not names:
+            raise ToolDefinitionError(f"{origin}: defines no @tool functions and no register(registry) function")
+        return names
+    if callable(value):
+        before = set(registry.names())
+        value(registry)
+        return sorted(set(registry.names()) - before)
+    raise ToolDefinitionError(f"{origin}: is neither a module of tools nor a register(registry) callable")
+
+
+def load_tools(registry: ToolRegistry, source: str) -> list[str]:
+    """Register the tools ``source`` names (a module, a ``.py`` file or an HTTP description file)."""
+    path = Path(source)
+    if path.suffix.lower() in HTTP_SUFFIXES:
+        if not path.is_file():
+            raise ToolDefinitionError(f"{source}: no such file")
+        from .http_endpoint import register_http_tools
+
+        return register_http_tools(registry, path)
+    if path.suffix == ".py":
+        if not path.is_file():
+            raise ToolDefinitionError(f"{source}: no such file")
+        module = _import_file(path)
+    else:
+        try:
+            module = importlib.import_module(source)
+        except ImportError as exc:
+            raise ToolDefinitionError(f"{source}: cannot import it ({exc})") from None
+    return _register_object(registry, module, source)
+
+
+def load_entry_points(registry: ToolRegistry) -> list[str]:
+    """Register the tools installed packages declare under ``agentic_uavs.tools``."""
+    names: list[str] = []
+    for point in entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            value = point.load()
+        except Exception as exc:
+            raise ToolDefinitionError(f"entry point {point.name!r} ({point.value}): cannot load it ({exc})") from None
+        names += _register_object(registry, value, f"entry point {point.name!r}")
+    return names
+
+
+def build_registry(
+    sources: Iterable[str] = (),
+    *,
+    builtins: bool = True,
+    plugins: bool = True,
+    config: Any = None,
+) -> ToolRegistry:
+    """The registry the command line and the mission runner use: built-ins (configured from the environment
+    unless ``config`` is given), installed plugins, then ``sources`` in order.
+
+    >>> registry = build_registry(plugins=False)
+    >>> "weather.get_forecast" in registry and "alerts.notify" in registry
+    True
+    """
+    registry = ToolRegistry()
+    if builtins:
+        from .builtin import register_builtins
+
+        register_builtins(registry, config)
+    if plugins:
+        load_entry_points(registry)
+    for source in sources:
+        load_tools(registry, source)
+    return registry
