@@ -344,6 +344,7 @@ def weather_registry() -> Any:
 
 def test_call_tool_tools_are_checked_against_a_registry_when_one_is_given() -> None:
     from agentic_core.mission import MissionError
+
     registry = weather_registry()
     text = (MISSIONS / "inspect_perimeter.yaml").read_text()
     assert load_mission(text, tools=registry).plan_id == "P-789"
@@ -358,6 +359,7 @@ def test_call_tool_tools_are_checked_against_a_registry_when_one_is_given() -> N
 
 def test_call_tool_arguments_written_in_the_mission_are_checked_against_the_tool_schema() -> None:
     from agentic_core.mission import MissionError
+
     registry = weather_registry()
     text = (MISSIONS / "inspect_perimeter.yaml").read_text()
     broken = text.replace(
