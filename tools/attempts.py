@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import contextvars
 import random
 import threading
@@ -81,6 +82,36 @@ async def bounded(awaitable: Awaitable[Any], timeout: float | None) -> Any:
         raise
 
 
+LOOP_GRACE_S = 1.0  # how long past its timeout a sync caller waits for an async tool before it gives up on the loop
+
+
+def _in_own_thread(fn: Callable[[], Any]) -> asyncio.Future[Any]:
+    """``fn()`` on a thread of its own, as a future of the running loop. Not a shared pool: a sync tool that hangs
+    past its timeout keeps its thread, and in a pool enough of them would starve every other tool."""
+    loop = asyncio.get_running_loop()
+    future: asyncio.Future[Any] = loop.create_future()
+    run = contextvars.copy_context().run
+
+    def settle(value: Any, error: BaseException | None) -> None:
+        if future.done():
+            return
+        if error is not None:
+            future.set_exception(error)
+        else:
+            future.set_result(value)
+
+    def work() -> None:
+        try:
+            value, error = run(fn), None
+        except BaseException as exc:  # handed to the awaiting call, which turns it into a result
+            value, error = None, exc
+        with contextlib.suppress(RuntimeError):  # the loop closed meanwhile: nobody waits for this answer any more
+            loop.call_soon_threadsafe(settle, value, error)
+
+    threading.Thread(target=work, name="tool-sync-on-loop", daemon=True).start()
+    return future
+
+
 class AttemptRunner:
     """Runs a call's attempts, sync or async, with retries and timeouts; returns the tool's value or raises."""
 
@@ -89,15 +120,15 @@ class AttemptRunner:
         clock: Callable[[], float],
         sleep: Callable[[float], None],
         async_sleep: Callable[[float], Awaitable[None]],
-        max_workers: int,
     ) -> None:
         self.clock = clock
         self.sleep = sleep
         self.async_sleep = async_sleep
         self._handoff = ThreadHandoff()
-        self._threads = concurrent.futures.ThreadPoolExecutor(max_workers, thread_name_prefix="tool-async")
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._loop_thread: threading.Thread | None = None
         self._loop_lock = threading.Lock()
+        self._closed = False
 
     def _begin(self, call: CallState) -> tuple[ToolContext, float | None]:
         """The next attempt's context and timeout; :class:`DeadlinePassed` when no time is left for it."""
@@ -141,7 +172,16 @@ class AttemptRunner:
         context, timeout = self._begin(call)
         if spec.is_async:
             coroutine = bounded(spec.handler(call.args, context), timeout)
-            return asyncio.run_coroutine_threadsafe(coroutine, self._background_loop()).result()
+            future = asyncio.run_coroutine_threadsafe(coroutine, self._background_loop())
+            try:  # bounded() ends it in time unless the loop itself is blocked (an async tool that never yields)
+                return future.result(None if timeout is None else timeout + LOOP_GRACE_S)
+            except TimeoutError:  # concurrent.futures.TimeoutError is TimeoutError: the tool's, or the wait's
+                if future.done():
+                    raise
+                future.cancel()
+                raise CallTimeout(f"no answer in {timeout:.3g} s (the async tools' event loop is blocked)") from None
+            except concurrent.futures.CancelledError:
+                raise CallTimeout("the executor was closed while the tool ran") from None
         if timeout is None:
             return spec.handler(call.args, context)  # no timeout to keep: no thread hand-off either
         return self._handoff.run(lambda: spec.handler(call.args, context), timeout)
@@ -159,9 +199,7 @@ class AttemptRunner:
         context, timeout = self._begin(call)
         if spec.is_async:
             return await bounded(spec.handler(call.args, context), timeout)
-        run = contextvars.copy_context().run
-        future = self._threads.submit(run, spec.handler, call.args, context)
-        return await bounded(asyncio.wrap_future(future), timeout)
+        return await bounded(_in_own_thread(lambda: spec.handler(call.args, context)), timeout)
 
     async def run_async(self, call: CallState) -> Any:
         assert call.entry is not None
@@ -172,16 +210,30 @@ class AttemptRunner:
     def _background_loop(self) -> asyncio.AbstractEventLoop:
         """An event loop on its own thread, for async tools called from synchronous code."""
         with self._loop_lock:
+            if self._closed:
+                raise RuntimeError("the tool executor is closed")
             if self._loop is None:
                 loop = asyncio.new_event_loop()
-                threading.Thread(target=loop.run_forever, name="tool-async-loop", daemon=True).start()
+                self._loop_thread = threading.Thread(target=loop.run_forever, name="tool-async-loop", daemon=True)
+                self._loop_thread.start()
                 self._loop = loop
             return self._loop
 
     def close(self) -> None:
+        """Stop the worker threads and the background loop (its running tools are cancelled), and close it."""
         self._handoff.close()
-        self._threads.shutdown(wait=False, cancel_futures=True)
         with self._loop_lock:
-            if self._loop is not None:
-                self._loop.call_soon_threadsafe(self._loop.stop)
-                self._loop = None
+            self._closed = True
+            loop, thread, self._loop, self._loop_thread = self._loop, self._loop_thread, None, None
+        if loop is None or thread is None:
+            return
+
+        def stop() -> None:
+            for task in asyncio.all_tasks(loop):
+                task.cancel()
+            loop.call_soon(loop.stop)  # after the cancellations have been delivered
+
+        loop.call_soon_threadsafe(stop)
+        thread.join(timeout=5)
+        if not thread.is_alive():
+            loop.close()

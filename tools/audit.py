@@ -11,6 +11,7 @@ from collections import deque
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
+from urllib.parse import quote
 
 from pydantic import BaseModel, ConfigDict
 
@@ -51,7 +52,8 @@ def redact(value: Any, sensitive: frozenset[str] = frozenset()) -> Any:
 
 
 def secret_values(value: Any, sensitive: frozenset[str] = frozenset()) -> list[str]:
-    """The text of every value :func:`redact` hides (4 characters or more), longest first, to scrub from messages."""
+    """The text of every value :func:`redact` hides (4 characters or more), in the forms messages quote it in,
+    longest first, to scrub from messages."""
     found: list[str] = []
 
     def walk(item: Any, hidden: bool) -> None:
@@ -65,7 +67,8 @@ def secret_values(value: Any, sensitive: frozenset[str] = frozenset()) -> list[s
             found.append(str(item))
 
     walk(value, False)
-    return sorted(set(found), key=len, reverse=True)
+    forms = {form for text in found for form in (text, repr(text)[1:-1], json.dumps(text)[1:-1], quote(text, safe=""))}
+    return sorted(forms, key=len, reverse=True)  # as written, and as repr, JSON and URLs quote it in messages
 
 
 class AuditLog(Protocol):

@@ -58,7 +58,6 @@ class ToolExecutor:
         default_caller: Caller = ANONYMOUS,
         injection_threshold: float = DEFAULT_THRESHOLD,
         on_injection: Literal["flag", "withhold"] = "flag",
-        max_workers: int = 32,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         async_sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
@@ -71,7 +70,8 @@ class ToolExecutor:
         self.injection_threshold = injection_threshold
         self.on_injection = on_injection
         self.clock = clock
-        self._runner = AttemptRunner(clock, sleep, async_sleep, max_workers)
+        self._runner = AttemptRunner(clock, sleep, async_sleep)
+        self._closed = False
 
     # public -------------------------------------------------------------------------------------------------------
     def call(
@@ -93,7 +93,9 @@ class ToolExecutor:
                 return refused
             try:
                 value = self._runner.run_sync(call)
-            except Exception as exc:
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # a tool's SystemExit too: a result, never the agent's end
                 return self._failed(call, exc)
             return self._succeeded(call, value)
         except Exception as exc:  # a bug of ours: still a result
@@ -119,7 +121,14 @@ class ToolExecutor:
                 return refused
             try:
                 value = await self._runner.run_async(call)
-            except Exception as exc:
+            except asyncio.CancelledError as exc:
+                task = asyncio.current_task()
+                if task is not None and task.cancelling():
+                    raise  # the caller cancelled this call
+                return self._failed(call, exc)  # the tool raised it: its failure, not a cancellation
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:
                 return self._failed(call, exc)
             return self._succeeded(call, value)
         except asyncio.CancelledError:
@@ -139,7 +148,9 @@ class ToolExecutor:
         return dispatch
 
     def close(self) -> None:
-        """Stop the worker threads; close the audit log if the executor made it (a log given to it stays open)."""
+        """Stop the worker threads; close the audit log if the executor made it (a log given to it stays open).
+        Later calls return an error result."""
+        self._closed = True
         self._runner.close()
         if self._owns_audit:
             self.audit.close()
@@ -162,6 +173,9 @@ class ToolExecutor:
 
     def _admit(self, call: CallState) -> ToolResult | None:
         """Lookup to breaker: a finished result when the call stops before the tool runs, else None."""
+        if self._closed:
+            call.stage("lookup", "failed", "closed")
+            return self._finish(call, "error", error="the tool executor is closed")
         registry = self.registry
         entry = registry.entry(call.name) or registry.entry(registry.resolve(call.name))
         if entry is None:

@@ -50,7 +50,23 @@ def _register_object(registry: ToolRegistry, value: Any, origin: str) -> list[st
 
 
 def load_tools(registry: ToolRegistry, source: str) -> list[str]:
-    """Register the tools ``source`` names (a module, a ``.py`` file or an HTTP description file)."""
+    """Register the tools ``source`` names (a module, a ``.py`` file or an HTTP description file). Whatever goes
+    wrong (a syntax error, an exception at import, a bad tool definition) is a :class:`ToolDefinitionError` that
+    names the source."""
+    try:
+        return _load(registry, source)
+    except ToolDefinitionError as exc:
+        text = str(exc)
+        raise ToolDefinitionError(text if text.startswith(source) else f"{source}: {text}") from None
+    except SyntaxError as exc:
+        raise ToolDefinitionError(f"{exc.filename}:{exc.lineno}:{exc.offset or 0}: {exc.msg}") from None
+    except Exception as exc:
+        raise ToolDefinitionError(f"{source}: cannot load it: {type(exc).__name__}: {exc}") from None
+
+
+def _load(registry: ToolRegistry, source: str) -> list[str]:
+    if not source.strip():
+        raise ToolDefinitionError("an empty --tools source")
     path = Path(source)
     if path.suffix.lower() in HTTP_SUFFIXES:
         if not path.is_file():
@@ -58,15 +74,15 @@ def load_tools(registry: ToolRegistry, source: str) -> list[str]:
         from .http_endpoint import register_http_tools
 
         return register_http_tools(registry, path)
-    if path.suffix == ".py":
-        if not path.is_file():
-            raise ToolDefinitionError(f"{source}: no such file")
+    if path.suffix == ".py" or "/" in source or source.startswith("."):
+        if not path.is_file() or path.suffix != ".py":
+            raise ToolDefinitionError(f"{source}: no such file (a module name, a .py file or a .yaml/.json file)")
         module = _import_file(path)
     else:
         try:
             module = importlib.import_module(source)
-        except ImportError as exc:
-            raise ToolDefinitionError(f"{source}: cannot import it ({exc})") from None
+        except ModuleNotFoundError as exc:
+            raise ToolDefinitionError(f"cannot import it ({exc})") from None
     return _register_object(registry, module, source)
 
 

@@ -213,10 +213,15 @@ def spec_options(
         raise ToolDefinitionError(f"tool {name!r}: scopes must be a list, e.g. scopes=[{scopes!r}]")
 
     def limit(value: str | RateLimit | None, size: float | None, which: str) -> RateLimit | None:
+        if value is not None and not isinstance(value, str | RateLimit):
+            raise ToolDefinitionError(f"tool {name!r}: {which} must be a string such as '10/s', not {value!r}")
         if size is not None and not isinstance(value, str):
             given = "a RateLimit object (it carries its own burst)" if value is not None else "no limit"
             raise ToolDefinitionError(f"tool {name!r}: {which} burst given with {given}")
-        return RateLimit.parse(value, size) if isinstance(value, str) else value
+        try:
+            return RateLimit.parse(value, size) if isinstance(value, str) else value
+        except ToolDefinitionError as exc:
+            raise ToolDefinitionError(f"tool {name!r}: {exc}") from None
 
     return {
         "scopes": tuple(scopes),

@@ -36,6 +36,7 @@ class _Worker:
     def __init__(self, name: str) -> None:
         self.jobs: queue.SimpleQueue[_Job | None] = queue.SimpleQueue()
         self.abandoned = False
+        self.lock = threading.Lock()  # "nothing queued, so end" and "not ended, so queue" must not interleave
         threading.Thread(target=self._loop, name=name, daemon=True).start()
 
     def _loop(self) -> None:
@@ -43,8 +44,11 @@ class _Worker:
             try:
                 job = self.jobs.get(timeout=IDLE_EXIT_S)
             except queue.Empty:
-                self.abandoned = True
-                return
+                with self.lock:
+                    if self.jobs.empty():
+                        self.abandoned = True
+                        return
+                continue
             if job is None:
                 return
             try:
@@ -65,13 +69,18 @@ class ThreadHandoff:
 
     def run(self, fn: Callable[[], T], timeout: float | None) -> T:
         """``fn()``'s value, or its exception; :class:`CallTimeout` when it has not returned in ``timeout`` s."""
-        worker: _Worker | None = getattr(self._local, "worker", None)
-        if worker is None or worker.abandoned:
-            worker = self._local.worker = _Worker(f"{self.name}-{threading.current_thread().name}")
-            with self._lock:
-                self._workers = {w for w in self._workers if not w.abandoned} | {worker}
         job = _Job(fn)
-        worker.jobs.put(job)
+        worker: _Worker | None = getattr(self._local, "worker", None)
+        while True:
+            if worker is None or worker.abandoned:
+                worker = self._local.worker = _Worker(f"{self.name}-{threading.current_thread().name}")
+                with self._lock:
+                    self._workers = {w for w in self._workers if not w.abandoned} | {worker}
+            with worker.lock:
+                if not worker.abandoned:
+                    worker.jobs.put(job)
+                    break
+            worker = None  # it ended on its idle timer just now
         if not job.done.acquire(timeout=-1 if timeout is None else max(timeout, 0.0)):
             worker.abandoned = True  # it ends when fn returns; this thread gets a new worker next time
             self._local.worker = None

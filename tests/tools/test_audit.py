@@ -317,3 +317,26 @@ def test_the_memory_log_keeps_the_latest_records_and_counts_the_rest() -> None:
         executor.close()
     assert [r.args for r in audit.records] == [{"n": 2}, {"n": 3}, {"n": 4}]
     assert audit.dropped == 2
+
+
+@pytest.mark.parametrize("secret", ["C:\\S3cret\\Pass", "line1\nline2-secret", 'quote"d-secret'])
+def test_a_secret_is_scrubbed_in_the_form_the_message_quotes_it(secret: str) -> None:
+    from tools import MemoryAuditLog, ToolExecutor, ToolRegistry
+
+    registry = ToolRegistry()
+    registry.register(
+        ToolSpec.from_schema(
+            "a.login",
+            lambda args: True,
+            {"type": "object", "properties": {"user": {"type": "string"}, "password": {"type": "integer"}}},
+        )
+    )
+    audit = MemoryAuditLog()
+    executor = ToolExecutor(registry, audit=audit)
+    try:
+        result = executor.call("a.login", {"user": "bob", "password": secret})
+    finally:
+        executor.close()
+    assert result.status == "error" and "[redacted]" in (result.error or "")
+    for text in (result.error or "", audit.records[-1].error or "", *(s.detail or "" for s in result.stages)):
+        assert "S3cret" not in text and "secret" not in text.replace("[redacted]", "")

@@ -49,7 +49,7 @@ def test_acall_a_sync_tool_on_a_worker_thread(samples: ToolRegistry, make_execut
 
     added, where = asyncio.run(main())
     assert added.ok and added.output == 2 and stage_names(added) == OK_STAGES
-    assert where.ok and threads[0].startswith("tool-async")  # not the loop's thread
+    assert where.ok and threads[0].startswith("tool-sync-on-loop")  # not the loop's thread
 
 
 def test_acall_refusals_match_call(samples: ToolRegistry, make_executor: MakeExecutor) -> None:

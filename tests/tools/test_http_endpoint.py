@@ -353,3 +353,12 @@ def test_the_example_file_loads_and_registers(tools: Tools) -> None:
     with pytest.raises(ToolDefinitionError, match=r"already registered: traffic\.road_status"):
         tools.load(EXAMPLE)
     assert register_http_tools(tools.registry, EXAMPLE, replace=True) == names
+
+
+def test_a_secret_is_scrubbed_as_written_and_as_urls_and_json_quote_it() -> None:
+    from tools.http_call import _scrub
+
+    secret = "ab+cd/ef=="
+    page = f"invalid key for https://wx.example/now?appid=ab%2Bcd%2Fef%3D%3D (also ab%2Bcd%2Fef%3D%3D, {secret})"
+    assert _scrub(page, secret) == "invalid key for https://wx.example/now?appid=*** (also ***, ***)"
+    assert _scrub('{"key": "ab+cd\\/ef=="}', "ab+cd/ef==") == '{"key": "***"}'

@@ -61,14 +61,16 @@ def notify(
     to: Sequence[str] | str | None = None,
     attach: Sequence[str] = (),
     reported_by: str | None = None,
+    keep_as: str | None = None,
 ) -> NotifyReceipt:
-    """Send one alert on ``channel``; see the module docstring."""
+    """Send one alert on ``channel``; see the module docstring. ``keep_as`` names the outbox copy kept when
+    delivery fails (the call id)."""
     files = [item for item in attach if Path(item).expanduser().is_file() and may_attach(config, item)]
     unavailable = [item for item in attach if item not in files]
     recipients = recipients_of(to) or list(config.alert_recipients)
     if channel == "email":
         text = body + (f"\n\nNot available: {', '.join(unavailable)}" if unavailable else "")
-        mail = send_email(config, recipients, subject, text, files)
+        mail = send_email(config, recipients, subject, text, files, keep_as=keep_as)
         return NotifyReceipt(
             channel=channel,
             delivered_via=mail.delivered_via,
@@ -88,7 +90,7 @@ def notify(
         "reported_by": reported_by,
     }
     if channel == "webhook":
-        hook = post_webhook(config, record)
+        hook = post_webhook(config, record, keep_as=keep_as)
         return NotifyReceipt(
             channel=channel,
             delivered_via=hook.delivered_via,
@@ -124,6 +126,8 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
         subject: Annotated[str, Field(max_length=900)],
         body: str,
         attachments: tuple[str, ...] = (),
+        *,
+        context: ToolContext,
     ) -> EmailReceipt:
         """Send an e-mail (through the configured mail server, else into the outbox as an .eml file).
 
@@ -133,16 +137,16 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
             body: the plain-text message
             attachments: paths of files to attach, e.g. an annotated PNG
         """
-        return send_email(config, to, subject, body, attachments)
+        return send_email(config, to, subject, body, attachments, keep_as=context.call_id)
 
-    def webhook(payload: dict[str, Any], url: str | None = None) -> WebhookReceipt:
+    def webhook(payload: dict[str, Any], url: str | None = None, *, context: ToolContext) -> WebhookReceipt:
         """POST a JSON payload to a webhook (the configured one when no URL is given, else into the outbox).
 
         Args:
             payload: the JSON object to send
             url: an http(s) URL; defaults to the configured webhook
         """
-        return post_webhook(config, payload, url)
+        return post_webhook(config, payload, url, keep_as=context.call_id)
 
     def notify_tool(
         subject: str,
@@ -162,7 +166,9 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
             to: recipient addresses (a list or a comma-separated string); defaults to the configured recipients
             attach: file paths, or artefact names such as snapshot, position, world_model
         """
-        return notify(config, subject, body, channel, to, attach, reported_by=context.caller.id)
+        return notify(
+            config, subject, body, channel, to, attach, reported_by=context.caller.id, keep_as=context.call_id
+        )
 
     return [
         spec_from_function(email, name="alerts.send_email", **options),

@@ -28,7 +28,7 @@ from pydantic import BaseModel, Field
 
 from ..errors import ToolError, TransientToolError
 from .config import BuiltinConfig, may_attach
-from .outbox import write_file
+from .outbox import discard_undelivered, keep_undelivered, write_file
 
 MAX_ATTACHMENTS_BYTES = 25 * 1024 * 1024
 
@@ -103,10 +103,12 @@ def send_email(
     subject: str,
     body: str,
     attachments: Sequence[str | Path] = (),
+    keep_as: str | None = None,
 ) -> EmailReceipt:
     """Send over SMTP when ``config.smtp_host`` is set, else write an ``.eml`` to the outbox. With no recipients
-    the message still goes to the outbox (someone may forward it), but SMTP refuses. When the server refuses the
-    message for good, a copy goes to the outbox too and the error says where."""
+    the message still goes to the outbox (someone may forward it), but SMTP refuses. When sending fails in any way
+    (server down, refused, no recipients), a copy goes to the outbox too and the error says where; ``keep_as`` (the
+    call id) names that copy, so the retries of one call keep one copy, removed once a retry delivers."""
     files = check_attachments(config, attachments)
     recipients = check_recipients(to)
     message = build_message(config, to, subject, body, files)
@@ -117,13 +119,15 @@ def send_email(
         return EmailReceipt(
             delivered_via="outbox", message_id=message_id, recipients=recipients, attachments=names, eml_path=str(path)
         )
-    if not recipients:
-        raise ToolError("no recipients: pass 'to', or set AGENTIC_UAV_ALERT_RECIPIENTS")
     try:
+        if not recipients:
+            raise ToolError("no recipients: pass 'to', or set AGENTIC_UAV_ALERT_RECIPIENTS")
         accepted, refused = smtp_send(config, config.smtp_host, message, recipients)
-    except ToolError as exc:  # final: keep the message for the operator, so no alert is lost
-        path = write_file(config.outbox_dir, ".eml", message.as_bytes())
-        raise ToolError(f"{exc} (a copy was kept in {path})") from None
+    except Exception as exc:  # keep the message for the operator, whatever went wrong: no alert is lost
+        path = keep_undelivered(config.outbox_dir, keep_as, ".eml", message.as_bytes())
+        kept = type(exc) if isinstance(exc, ToolError | TransientToolError) else ToolError
+        raise kept(f"{exc} (a copy was kept in {path})") from None
+    discard_undelivered(config.outbox_dir, keep_as, ".eml")
     return EmailReceipt(
         delivered_via="smtp", message_id=message_id, recipients=accepted, refused=refused, attachments=names
     )

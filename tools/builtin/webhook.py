@@ -24,7 +24,7 @@ from pydantic import BaseModel, Field
 
 from ..errors import ToolError, TransientToolError
 from .config import BuiltinConfig
-from .outbox import now_iso, write_file
+from .outbox import discard_undelivered, keep_undelivered, now_iso, write_file
 
 EXCERPT_CHARS = 500
 
@@ -45,14 +45,31 @@ def endpoint_of(url: str) -> str:
     return f"{parts.scheme}://{parts.hostname or ''}{f':{parts.port}' if parts.port else ''}"
 
 
-def post_webhook(config: BuiltinConfig, payload: Mapping[str, Any], url: str | None = None) -> WebhookReceipt:
-    """POST ``payload`` as JSON to ``url`` or ``config.webhook_url``; with neither, write it to the outbox."""
+def post_webhook(
+    config: BuiltinConfig, payload: Mapping[str, Any], url: str | None = None, keep_as: str | None = None
+) -> WebhookReceipt:
+    """POST ``payload`` as JSON to ``url`` or ``config.webhook_url``; with neither, write it to the outbox. When the
+    POST fails in any way, a copy goes to the outbox too (named by ``keep_as``, the call id, so the retries of one
+    call keep one copy, removed once a retry delivers) and the error says where."""
     body = json.dumps(payload, ensure_ascii=False, default=str)
     target = url or config.webhook_url
+    record = {"time": now_iso(), "url": None, "payload": json.loads(body)}
     if not target:
-        record = {"time": now_iso(), "url": None, "payload": json.loads(body)}
         path = write_file(config.outbox_dir, ".json", json.dumps(record, ensure_ascii=False, indent=2).encode())
         return WebhookReceipt(delivered_via="outbox", path=str(path))
+    try:
+        receipt = _post(config, target, body)
+    except Exception as exc:
+        record["url"] = endpoint_of(target)  # not the full URL: it may carry a token
+        data = json.dumps(record, ensure_ascii=False, indent=2).encode()
+        path = keep_undelivered(config.outbox_dir, keep_as, ".json", data)
+        kept = type(exc) if isinstance(exc, ToolError | TransientToolError) else ToolError
+        raise kept(f"{exc} (a copy was kept in {path})") from None
+    discard_undelivered(config.outbox_dir, keep_as, ".json")
+    return receipt
+
+
+def _post(config: BuiltinConfig, target: str, body: str) -> WebhookReceipt:
     endpoint = endpoint_of(target)
     if urlsplit(target).scheme not in ("http", "https") or not urlsplit(target).hostname:
         raise ToolError(f"the webhook URL must be http(s)://host/...; got one starting {target[:12]!r}")

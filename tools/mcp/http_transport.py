@@ -49,6 +49,7 @@ log = logging.getLogger("tools.mcp.http")
 
 MAX_BODY_BYTES = 4 * 1024 * 1024
 MAX_SESSIONS = 1000
+MAX_SESSIONS_PER_CALLER = 100
 
 
 def is_loopback(host: str) -> bool:
@@ -173,13 +174,24 @@ class _Endpoint:
                 if old.stream is None and now - old.last_seen > self.session_idle_s:
                     del self.sessions[key]
                     old.end()
+            mine = [old for old in self.sessions.values() if old.owner == caller.id]
+            if len(mine) >= MAX_SESSIONS_PER_CALLER:  # a caller's flood ends its own oldest sessions, no one else's
+                self._evict(min(mine, key=lambda old: old.last_seen))
             if len(self.sessions) >= MAX_SESSIONS:
-                raise _Rejected(503, "too many sessions")
+                idle = [old for old in self.sessions.values() if old.stream is None]
+                if not idle:
+                    raise _Rejected(503, "too many sessions")
+                self._evict(min(idle, key=lambda old: old.last_seen))
             session = _HttpSession(secrets.token_urlsafe(24), mcp, caller.id)
             self.sessions[session.id] = session
         mcp.push = session.push
         session.stop_watching = self.server.watch(mcp)
         return session
+
+    def _evict(self, session: _HttpSession) -> None:
+        """End the least recently used session to make room (the lock is held); its client re-initializes."""
+        del self.sessions[session.id]
+        session.end()
 
     def end_session(self, session: _HttpSession) -> None:
         with self.lock:

@@ -32,6 +32,7 @@ from collections.abc import Mapping
 from typing import Any, Literal, TypeGuard
 
 from ..result import ToolResult
+from ..security import wrap_untrusted
 
 PARSE_ERROR = -32700
 INVALID_REQUEST = -32600
@@ -166,15 +167,27 @@ def output_text(output: Any) -> str:
 def call_result(result: ToolResult, *, structured: bool) -> dict[str, Any]:
     """A :class:`ToolResult` as an MCP ``CallToolResult``. ``structured``: the tool declares an object output
     schema, so an object output is also sent as ``structuredContent``. A refused or failed call is a result with
-    ``isError: true`` whose text names the status and the error."""
+    ``isError: true`` whose text names the status and the error. Output from outside is marked in ``_meta``, and
+    output the injection guard flagged is fenced with :func:`tools.security.wrap_untrusted`."""
     if not result.ok:
         text = f"{result.status}: {result.error or 'the tool failed'}"
         if result.retry_after_s is not None:
             text += f" (retry in {result.retry_after_s:.3g} s)"
         return {"content": [{"type": "text", "text": text}], "isError": True}
-    answer: dict[str, Any] = {"content": [{"type": "text", "text": output_text(result.output)}], "isError": False}
+    text = output_text(result.output)
+    if result.injection is not None:  # fenced, so the client's model can quote it without obeying it
+        text = wrap_untrusted(text, source=f"the output of the tool {result.tool}")
+    answer: dict[str, Any] = {"content": [{"type": "text", "text": text}], "isError": False}
     if structured and isinstance(result.output, dict):
         answer["structuredContent"] = result.output
+    if result.untrusted:
+        meta: dict[str, Any] = {"untrusted": True}
+        if result.injection is not None:
+            meta["injection"] = {
+                "score": result.injection.score,
+                "kinds": sorted({f.kind for f in result.injection.findings}),
+            }
+        answer["_meta"] = {"agentic-uavs/guard": meta}
     return answer
 
 

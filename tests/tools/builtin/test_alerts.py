@@ -201,3 +201,31 @@ def test_files_outside_the_attachment_folders_are_never_sent(
     assert notified.ok, notified.error
     assert notified.output["attached"] == [str(allowed / "snapshot.png")]
     assert notified.output["unavailable"] == [str(secret)]
+
+
+def test_an_email_is_kept_in_the_outbox_when_the_mail_server_is_down(
+    config: BuiltinConfig, tmp_path: Path, harness: Callable[[BuiltinConfig], Harness]
+) -> None:
+    down = config.model_copy(update={"smtp_host": "127.0.0.1", "smtp_port": free_port(), "http_timeout_s": 0.5})
+    tools = harness(down)
+    result = tools.call("alerts.send_email", {"to": ["ops@team.example"], "subject": "Casualty", "body": "Mina"})
+    assert (result.status, result.attempts) == ("error", 3)  # retried: nothing can have been sent
+    kept = list((tmp_path / "outbox").glob("undelivered-*.eml"))
+    assert [p.name for p in kept] == [f"undelivered-{result.call_id}.eml"]  # one copy for the three attempts
+    assert str(kept[0]) in (result.error or "")
+    message = email.message_from_bytes(kept[0].read_bytes(), policy=email.policy.default)
+    assert message["Subject"] == "Casualty"
+    no_one = tools.call("alerts.notify", {"subject": "Casualty", "body": "Mina", "channel": "email"})
+    assert no_one.status == "error" and "no recipients" in (no_one.error or "") and "a copy was kept" in no_one.error
+
+
+def test_a_webhook_payload_is_kept_in_the_outbox_when_the_post_fails(
+    config: BuiltinConfig, tmp_path: Path, harness: Callable[[BuiltinConfig], Harness]
+) -> None:
+    tools = harness(config)
+    url = f"http://127.0.0.1:{free_port()}/hook?token=s3cr3t"
+    result = tools.call("alerts.webhook", {"payload": {"event": "collapse"}, "url": url})
+    assert result.status == "error"
+    (kept,) = (tmp_path / "outbox").glob("undelivered-*.json")
+    record = json.loads(kept.read_text())
+    assert record["payload"] == {"event": "collapse"} and "s3cr3t" not in kept.read_text()

@@ -201,3 +201,24 @@ def _has_ipv6() -> bool:
         return True
     except OSError:
         return False
+
+
+def test_a_caller_flooding_sessions_ends_only_its_own_oldest(
+    client: httpx.Client, authority: TokenAuthority, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import tools.mcp.http_transport as transport
+
+    monkeypatch.setattr(transport, "MAX_SESSIONS_PER_CALLER", 3)
+    monkeypatch.setattr(transport, "MAX_SESSIONS", 5)
+    admin = {"Authorization": f"Bearer {authority.issue('admin', ['*'])}"}
+    admin_session = {**admin, **open_session_as(client, admin)}
+    flood = [open_session(client) for _ in range(10)]  # the pilot's token opens ten; it may keep three
+    assert client.post("", json=call(2, "tools/list"), headers=flood[0]).status_code == 404  # its oldest ended
+    assert client.post("", json=call(3, "tools/list"), headers=flood[-1]).status_code == 200
+    assert client.post("", json=call(4, "tools/list"), headers=admin_session).status_code == 200  # untouched
+
+
+def open_session_as(client: httpx.Client, auth: dict[str, str]) -> dict[str, str]:
+    response = client.post("", json=INIT, headers=auth)
+    assert response.status_code == 200
+    return {"Mcp-Session-Id": response.headers["mcp-session-id"], "MCP-Protocol-Version": "2025-06-18"}
