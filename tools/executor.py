@@ -26,6 +26,10 @@ from .result import ToolResult, ToolStatus, construct
 from .security import DEFAULT_THRESHOLD, InjectionReport, scan_value
 
 
+def _path(error: Any) -> str:
+    return str(error.json_path)
+
+
 def _describe(exc: BaseException) -> str:
     text = str(exc)
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
@@ -194,7 +198,8 @@ class ToolExecutor:
             call.stage("validate_args", "failed")
             return self._finish(call, "error", error=f"invalid arguments: expected an object, got {call.args!r}")
         call.args = dict(call.args)
-        errors = sorted(entry.validator.iter_errors(call.args), key=lambda e: e.json_path)
+        quick = entry.quick_check
+        errors = [] if quick and quick(call.args) else sorted(entry.validator.iter_errors(call.args), key=_path)
         if errors:
             detail = "; ".join(f"{e.json_path}: {e.message}" for e in errors[:3])
             more = f" (and {len(errors) - 3} more)" if len(errors) > 3 else ""

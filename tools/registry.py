@@ -20,6 +20,7 @@ from pydantic import BaseModel, ConfigDict
 from .breaker import BreakerState, CircuitBreaker
 from .cache import ResultCache
 from .errors import ToolDefinitionError, UnknownToolError
+from .fastcheck import flat_checker
 from .function import is_tool, spec_from_function, tool_spec
 from .ratelimit import RateLimiter
 from .spec import ToolSpec
@@ -38,6 +39,7 @@ class RegisteredTool:
     limiter: RateLimiter | None
     breaker: CircuitBreaker
     cache: ResultCache | None
+    quick_check: Callable[[Mapping[str, Any]], bool] | None = None  # a fast "valid" for flat schemas
 
 
 class ToolDescription(BaseModel):
@@ -176,7 +178,9 @@ class ToolRegistry:
             limiter = RateLimiter(spec.rate_limit, spec.caller_rate_limit, clock=self.clock)
         cache = ResultCache(spec.cache_ttl_s, clock=self.clock) if spec.cache_ttl_s is not None else None
         breaker = CircuitBreaker(spec.breaker, clock=self.clock)
-        return RegisteredTool(spec, alias, validator, output_validator, limiter, breaker, cache)
+        return RegisteredTool(
+            spec, alias, validator, output_validator, limiter, breaker, cache, flat_checker(spec.input_schema)
+        )
 
     # lookup -------------------------------------------------------------------------------------------------------
     def entry(self, name: str) -> RegisteredTool | None:
