@@ -36,6 +36,7 @@ class CallState:
         "deadline",
         "entry",
         "holds_probe",
+        "is_probe",
         "name",
         "stages",
         "started",
@@ -54,6 +55,7 @@ class CallState:
         self.attempts = 0
         self.token: str | None = None
         self.holds_probe = False  # the breaker let it through and awaits a verdict
+        self.is_probe = False  # ... as the half-open probe
 
     def stage(self, name: StageName, outcome: StageOutcome, detail: str | None = None) -> None:
         self.stages.append(Stage(name, outcome, detail))

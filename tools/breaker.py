@@ -64,18 +64,23 @@ class CircuitBreaker:
 
     def allow(self) -> tuple[bool, float]:
         """``(True, 0)`` when the call may go ahead, else ``(False, seconds until a probe is let through)``."""
+        allowed, wait, _ = self.admit()
+        return allowed, wait
+
+    def admit(self) -> tuple[bool, float, bool]:
+        """:meth:`allow`, and whether the call let through is the half-open probe (pass that to :meth:`release`)."""
         with self._lock:
             now = self.clock()
             state = self._current(now)
             if state == "closed":
-                return True, 0.0
+                return True, 0.0, False
             if state == "half_open" and not self._probing:
                 self._probing = True
-                return True, 0.0
+                return True, 0.0, True
             assert self._opened_at is not None
             if state == "half_open":  # a probe is out; its verdict comes soon
-                return False, min(1.0, self.policy.reset_timeout_s)
-            return False, max(0.0, self._opened_at + self.policy.reset_timeout_s - now)
+                return False, min(1.0, self.policy.reset_timeout_s), False
+            return False, max(0.0, self._opened_at + self.policy.reset_timeout_s - now), False
 
     def success(self) -> None:
         with self._lock:
@@ -95,6 +100,9 @@ class CircuitBreaker:
                 self._opened_at = now
                 self.transitions.append((now, "open"))
 
-    def release(self) -> None:
-        with self._lock:
-            self._probing = False
+    def release(self, probe: bool = True) -> None:
+        """The call ended without a verdict; if it was the probe, the next call may probe instead. A call let
+        through while the breaker was closed frees nothing (another call may be the probe by now)."""
+        if probe:
+            with self._lock:
+                self._probing = False

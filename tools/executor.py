@@ -231,7 +231,7 @@ class ToolExecutor:
                 return self._finish(call, "ok", output=copy.deepcopy(value), cached=True, injection=report)
             call.stage("cache", "miss")
 
-        allowed, wait = entry.breaker.allow()
+        allowed, wait, call.is_probe = entry.breaker.admit()
         if not allowed:
             call.stage("circuit_breaker", "failed", f"open; a probe in {wait:.3g} s")
             return self._finish(call, "circuit_open", error=f"{spec.name} is failing; circuit open", retry=wait)
@@ -258,7 +258,7 @@ class ToolExecutor:
         call.holds_probe = False
         breaker = call.entry.breaker
         if healthy is None:
-            breaker.release()
+            breaker.release(probe=call.is_probe)
         elif healthy:
             breaker.success()
         else:

@@ -321,3 +321,16 @@ def test_cache_under_8_threads(clock: FakeClock) -> None:
         thread.join(5)
     assert wrong == [] and len(cache) <= 16
     assert cache.hits + cache.misses == 1600 and cache.hits > 0
+
+
+def test_a_call_let_through_while_closed_does_not_free_the_probe_slot_later(clock: FakeClock) -> None:
+    breaker = CircuitBreaker(BreakerPolicy(failure_threshold=1, reset_timeout_s=10), clock=clock)
+    old = breaker.admit()  # admitted while closed; it will end without a verdict, much later
+    assert old == (True, 0.0, False)
+    breaker.failure()  # another call fails: open
+    clock.advance(10)
+    assert breaker.admit() == (True, 0.0, True)  # the probe
+    breaker.release(probe=old[2])  # the old call ends: it was not the probe
+    assert breaker.allow()[0] is False  # so still only one probe out
+    breaker.release(probe=True)  # the probe ends without a verdict
+    assert breaker.allow()[0] is True
