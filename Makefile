@@ -35,6 +35,8 @@ test: lint typecheck pytest
 bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/graph_overhead.py
 	$(PY) benchmarks/stats_pipeline.py
+	$(PY) benchmarks/mission_compile.py
+	$(PY) benchmarks/tool_overhead.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
