@@ -18,7 +18,17 @@ from pydantic import BaseModel, ConfigDict
 from .result import ToolStatus
 
 REDACTED = "[redacted]"
-SECRET_KEY = re.compile(r"pass(word|wd|phrase)?|secret|token|api[_-]?key|auth|credential|private[_-]?key", re.I)
+_SECRET_WORDS = re.compile(
+    r"(?:^|_)(?:pass(?:word|wd|phrase)?|secrets?|(?:\w+_)?tokens?|api_?key|apikey|auth(?:orization)?|credentials?|"
+    r"private_key|cookies?|session_id|bearer)(?:$|_)"
+)
+
+
+def is_secret_key(key: object) -> bool:
+    """Whether an argument name says it holds a secret: ``password``, ``smtp_password``, ``apiKey``,
+    ``access_token``, ``Authorization``; not ``compass_heading``, ``passenger_count`` or ``author``."""
+    words = re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", str(key)).replace("-", "_").replace(".", "_").lower()
+    return bool(_SECRET_WORDS.search(words))
 
 
 class AuditRecord(BaseModel):
@@ -42,10 +52,7 @@ class AuditRecord(BaseModel):
 def redact(value: Any, sensitive: frozenset[str] = frozenset()) -> Any:
     """``value`` with the values of secret-looking keys (and of ``sensitive`` ones) replaced, at any depth."""
     if isinstance(value, Mapping):
-        return {
-            k: REDACTED if (k in sensitive or SECRET_KEY.search(str(k))) else redact(v, sensitive)
-            for k, v in value.items()
-        }
+        return {k: REDACTED if (k in sensitive or is_secret_key(k)) else redact(v, sensitive) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [redact(v, sensitive) for v in value]
     return value
@@ -59,7 +66,7 @@ def secret_values(value: Any, sensitive: frozenset[str] = frozenset()) -> list[s
     def walk(item: Any, hidden: bool) -> None:
         if isinstance(item, Mapping):
             for key, inner in item.items():
-                walk(inner, hidden or key in sensitive or bool(SECRET_KEY.search(str(key))))
+                walk(inner, hidden or key in sensitive or is_secret_key(key))
         elif isinstance(item, list | tuple):
             for inner in item:
                 walk(inner, hidden)

@@ -178,6 +178,8 @@ def tool(fn: Any = None, /, *, name: str | None = None, description: str | None 
     """Make a typed function a tool. Options: ``scopes``, ``rate_limit`` ("10/s"), ``caller_rate_limit``,
     ``burst``, ``timeout_s`` (default 30; per attempt), ``retry`` (attempts or a RetrySpec), ``cache_ttl_s``,
     ``idempotent``, ``breaker`` (a BreakerPolicy), ``untrusted_output``, ``sensitive_args``, ``available``.
+    ``idempotent`` promises that calling twice does no harm and that equal arguments give the same answer for
+    every caller: such a tool may be cached (one cache per tool, shared by callers) and retried after a timeout.
 
     >>> @tool(name="weather.wind", scopes=["weather:read"], idempotent=True, cache_ttl_s=60)
     ... def wind(lat: float, lon: float) -> float:

@@ -340,3 +340,28 @@ def test_a_secret_is_scrubbed_in_the_form_the_message_quotes_it(secret: str) -> 
     assert result.status == "error" and "[redacted]" in (result.error or "")
     for text in (result.error or "", audit.records[-1].error or "", *(s.detail or "" for s in result.stages)):
         assert "S3cret" not in text and "secret" not in text.replace("[redacted]", "")
+
+
+@pytest.mark.parametrize(
+    ("key", "secret"),
+    [
+        ("password", True),
+        ("smtp_password", True),
+        ("apiKey", True),
+        ("X-Api-Key", True),
+        ("access_token", True),
+        ("accessToken", True),
+        ("Authorization", True),
+        ("client_secret", True),
+        ("private_key", True),
+        ("compass_heading", False),
+        ("passenger_count", False),
+        ("author", False),
+        ("tokenizer", False),
+        ("authority", False),
+    ],
+)
+def test_secret_argument_names_are_told_apart_from_ordinary_ones(key: str, secret: bool) -> None:
+    from tools.audit import is_secret_key
+
+    assert is_secret_key(key) is secret
