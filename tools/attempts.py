@@ -31,11 +31,11 @@ class CallState:
     __slots__ = (
         "args",
         "attempts",
+        "awaits_verdict",
         "call_id",
         "caller",
         "deadline",
         "entry",
-        "holds_probe",
         "is_probe",
         "name",
         "stages",
@@ -54,7 +54,7 @@ class CallState:
         self.entry: RegisteredTool | None = None
         self.attempts = 0
         self.token: str | None = None
-        self.holds_probe = False  # the breaker let it through and awaits a verdict
+        self.awaits_verdict = False  # the breaker let it through and awaits a verdict
         self.is_probe = False  # ... as the half-open probe
 
     def stage(self, name: StageName, outcome: StageOutcome, detail: str | None = None) -> None:

@@ -235,7 +235,7 @@ class ToolExecutor:
         if not allowed:
             call.stage("circuit_breaker", "failed", f"open; a probe in {wait:.3g} s")
             return self._finish(call, "circuit_open", error=f"{spec.name} is failing; circuit open", retry=wait)
-        call.holds_probe = True
+        call.awaits_verdict = True
         call.stage("circuit_breaker", "passed")
         return None
 
@@ -255,7 +255,7 @@ class ToolExecutor:
     def _verdict(self, call: CallState, healthy: bool | None) -> None:
         """Tell the breaker how the call went (None: it says nothing of the tool's health)."""
         assert call.entry is not None
-        call.holds_probe = False
+        call.awaits_verdict = False
         breaker = call.entry.breaker
         if healthy is None:
             breaker.release(probe=call.is_probe)
@@ -265,7 +265,7 @@ class ToolExecutor:
             breaker.failure()
 
     def _settle(self, call: CallState) -> None:
-        if call.holds_probe and call.entry is not None:
+        if call.awaits_verdict and call.entry is not None:
             self._verdict(call, None)
 
     def _failed(self, call: CallState, exc: BaseException) -> ToolResult:
