@@ -37,6 +37,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/stats_pipeline.py
 	$(PY) benchmarks/mission_compile.py
 	$(PY) benchmarks/tool_overhead.py
+	$(PY) benchmarks/sim_speed.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

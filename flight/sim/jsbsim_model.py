@@ -1,0 +1,277 @@
+"""The JSBSim F450 quadcopter, wrapped: SI units in and out, NED position relative to a home point.
+
+JSBSim ships the F450 model (``aircraft/F450``) inside the ``jsbsim`` wheel; nothing is fetched at run time. The
+model's flight control system is rate-only: each of the roll, pitch and yaw sticks (``[-1, 1]``) asks its PID for a
+body rate of 0.75 rad/s per unit, and the collective throttle adds to all four motors. Angle, velocity and position
+loops live in :mod:`flight.sim.controller`.
+
+Facts this wrapper relies on (checked against JSBSim 1.3.3):
+
+* ``initGrnd`` would start the aircraft 285 m above the terrain; we set the initial conditions ourselves and put the
+  gear on the ground with ``ic/h-agl-ft`` before ``run_ic()``.
+* ``fcs/ScasEngage`` must be 1 or the rate sticks do nothing; we engage it while armed and disengage it when
+  disarmed, so a zero throttle really stops all four motors.
+* ``position/distance-from-start-*`` are unsigned, so north/east come from latitude/longitude on the WGS-84
+  ellipsoid (a local tangent plane at home: ample for the few kilometres a mission covers).
+* A step of 1/250 s: 1/30 s diverges and 1/120 s jitters on the ground.
+
+JSBSim properties used (names listed from the loaded model's property catalogue, units as JSBSim names them):
+
+* initial conditions: ``ic/lat-geod-deg``, ``ic/long-gc-deg``, ``ic/terrain-elevation-ft``, ``ic/h-agl-ft``,
+  ``ic/psi-true-deg``, ``ic/phi-deg``, ``ic/theta-deg``, ``ic/vt-fps``
+* inputs: ``fcs/throttle-cmd-norm[0]`` (collective), ``fcs/aileron-cmd-norm`` (roll rate),
+  ``fcs/elevator-cmd-norm`` (pitch rate), ``fcs/rudder-cmd-norm`` (yaw rate), ``fcs/ScasEngage``
+* wind: ``atmosphere/wind-north-fps``, ``atmosphere/wind-east-fps``, ``atmosphere/wind-down-fps`` (steady),
+  ``atmosphere/gust-north-fps``, ``atmosphere/gust-east-fps``, ``atmosphere/gust-down-fps`` (gusts); both are the
+  velocity the air moves *towards*, in the NED frame
+* state: ``position/lat-geod-deg``, ``position/long-gc-deg``, ``position/h-sl-meters``, ``position/h-agl-ft``,
+  ``position/terrain-elevation-asl-ft``, ``velocities/v-north-fps``, ``velocities/v-east-fps``,
+  ``velocities/v-down-fps``, ``attitude/phi-rad``, ``attitude/theta-rad``, ``attitude/psi-rad``,
+  ``velocities/p-rad_sec``, ``velocities/q-rad_sec``, ``velocities/r-rad_sec``, ``gear/wow``,
+  ``fcs/throttle-pos-norm[0..3]`` (the four ESC outputs), ``simulation/sim-time-sec``
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import jsbsim
+
+FT = 0.3048
+"""Metres per foot."""
+DT = 1.0 / 250.0
+"""The integration step: 250 Hz."""
+RATE_PER_STICK = 0.75
+"""Body-rate target (rad/s) per unit of roll/pitch/yaw stick, from the model's ``FlightControl.xml``."""
+GEAR_HEIGHT_M = 0.1524
+"""Distance from the centre of gravity down to the contact points (``Gear.xml``): the CG's height when landed."""
+HOVER_THROTTLE = 0.41
+"""Collective throttle that holds the 1.4 kg F450 in a hover (measured)."""
+
+WGS84_A = 6378137.0
+WGS84_E2 = 6.69437999014e-3
+
+
+def earth_radii(lat_deg: float) -> tuple[float, float]:
+    """Meridian and prime-vertical radii of curvature (m) of the WGS-84 ellipsoid at a geodetic latitude."""
+    s = math.sin(math.radians(lat_deg))
+    w = math.sqrt(1.0 - WGS84_E2 * s * s)
+    r_meridian = WGS84_A * (1.0 - WGS84_E2) / (w * w * w)
+    r_normal = WGS84_A / w
+    return r_meridian, r_normal
+
+
+def geodetic_to_ned(
+    lat_deg: float, lon_deg: float, alt_m: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
+) -> tuple[float, float, float]:
+    """North, east, down (m) of a point from home, on the tangent plane at home."""
+    r_m, r_n = earth_radii(home_lat_deg)
+    north = math.radians(lat_deg - home_lat_deg) * r_m
+    east = math.radians(lon_deg - home_lon_deg) * r_n * math.cos(math.radians(home_lat_deg))
+    return north, east, home_alt_m - alt_m
+
+
+def ned_to_geodetic(
+    north: float, east: float, down: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
+) -> tuple[float, float, float]:
+    """Inverse of :func:`geodetic_to_ned`: latitude, longitude (degrees) and altitude (m)."""
+    r_m, r_n = earth_radii(home_lat_deg)
+    lat = home_lat_deg + math.degrees(north / r_m)
+    lon = home_lon_deg + math.degrees(east / (r_n * math.cos(math.radians(home_lat_deg))))
+    return lat, lon, home_alt_m - down
+
+
+@dataclass(frozen=True, slots=True)
+class ModelState:
+    """The F450's true state in SI units.
+
+    The reference point is the landing gear's contact point, :data:`GEAR_HEIGHT_M` below the centre of gravity, so
+    a landed aircraft reads ``alt_agl_m == 0``, ``alt_msl_m`` equal to the terrain and ``down_m == 0`` at home.
+    """
+
+    time_s: float
+    lat_deg: float
+    lon_deg: float
+    alt_msl_m: float
+    alt_agl_m: float
+    """Height of the landing gear above the terrain (0 when resting on the ground)."""
+    north_m: float
+    east_m: float
+    down_m: float
+    vn_mps: float
+    ve_mps: float
+    vd_mps: float
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    """Heading, wrapped to ``[-pi, pi)``."""
+    p_rps: float
+    q_rps: float
+    r_rps: float
+    on_ground: bool
+    motor_outputs: tuple[float, float, float, float]
+    """The four ESC commands ``[0, 1]`` after mixing (front right, aft left, front left, aft right)."""
+
+
+@contextmanager
+def _quiet_stdio() -> Iterator[None]:
+    """Silence JSBSim's C++ banner and warnings, which go straight to file descriptors 1 and 2."""
+    try:
+        fds = (sys.stdout.fileno(), sys.stderr.fileno())
+    except (AttributeError, OSError, ValueError):  # pragma: no cover - captured streams without descriptors
+        yield
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(fd) for fd in fds]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        for fd in fds:
+            os.dup2(devnull, fd)
+        yield
+    finally:
+        for fd, old in zip(fds, saved, strict=True):
+            os.dup2(old, fd)
+            os.close(old)
+        os.close(devnull)
+
+
+def _wrap_pi(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class F450Model:
+    """One JSBSim F450 standing on the ground at a home point, stepped at 250 Hz.
+
+    ``home_alt_msl_m`` is the terrain elevation at home (the terrain is flat at that elevation). Inputs are held
+    between steps; :meth:`set_controls` takes the collective throttle ``[0, 1]`` and body-rate targets in rad/s
+    (clipped to the model's ±0.75 rad/s).
+    """
+
+    def __init__(
+        self,
+        home_lat_deg: float,
+        home_lon_deg: float,
+        home_alt_msl_m: float,
+        heading_deg: float = 0.0,
+        root_dir: str | None = None,
+    ) -> None:
+        self.home_lat_deg = home_lat_deg
+        self.home_lon_deg = home_lon_deg
+        self.home_alt_msl_m = home_alt_msl_m
+        self.heading_deg = heading_deg
+        jsbsim.FGJSBBase().debug_lvl = 0  # type: ignore[no-untyped-call]
+        with _quiet_stdio():
+            self._fdm = jsbsim.FGFDMExec(root_dir or jsbsim.get_default_root_dir())
+            self._fdm.set_debug_level(0)
+            if not self._fdm.load_model("F450"):  # pragma: no cover - the model ships in the wheel
+                raise RuntimeError("JSBSim could not load the F450 model")
+        self._fdm.set_dt(DT)
+        r_m, r_n = earth_radii(home_lat_deg)
+        self._k_north = math.radians(1.0) * r_m
+        self._k_east = math.radians(1.0) * r_n * math.cos(math.radians(home_lat_deg))
+        self.reset()
+
+    @property
+    def fdm(self) -> jsbsim.FGFDMExec:
+        """The underlying JSBSim executive (for properties this wrapper does not expose)."""
+        return self._fdm
+
+    def reset(self) -> None:
+        """Put the aircraft back on the ground at home, level, motors stopped, no wind."""
+        fdm = self._fdm
+        fdm["ic/lat-geod-deg"] = self.home_lat_deg
+        fdm["ic/long-gc-deg"] = self.home_lon_deg
+        fdm["ic/terrain-elevation-ft"] = self.home_alt_msl_m / FT
+        fdm["ic/h-agl-ft"] = GEAR_HEIGHT_M / FT
+        fdm["ic/psi-true-deg"] = self.heading_deg
+        fdm["ic/phi-deg"] = 0.0
+        fdm["ic/theta-deg"] = 0.0
+        fdm["ic/vt-fps"] = 0.0
+        self.set_wind(0.0, 0.0, 0.0)
+        self.set_gust(0.0, 0.0, 0.0)
+        self.set_controls(0.0, 0.0, 0.0, 0.0)
+        self.set_engaged(False)
+        with _quiet_stdio():
+            if not fdm.run_ic():  # pragma: no cover
+                raise RuntimeError("JSBSim rejected the initial conditions")
+        self._time_offset = fdm["simulation/sim-time-sec"]
+        # Let the gear springs settle so the first state the caller sees is at rest.
+        self.step(125)
+        self._time_offset = fdm["simulation/sim-time-sec"]
+
+    def set_engaged(self, engaged: bool) -> None:
+        """Engage (armed) or disengage (disarmed) the model's rate loop via ``fcs/ScasEngage``."""
+        self._fdm["fcs/ScasEngage"] = 1.0 if engaged else 0.0
+
+    def set_controls(self, throttle: float, p_rps: float, q_rps: float, r_rps: float) -> None:
+        """Collective throttle ``[0, 1]`` and body-rate targets (rad/s); held until the next call."""
+        fdm = self._fdm
+        fdm["fcs/throttle-cmd-norm[0]"] = min(1.0, max(0.0, throttle))
+        fdm["fcs/aileron-cmd-norm"] = min(1.0, max(-1.0, p_rps / RATE_PER_STICK))
+        fdm["fcs/elevator-cmd-norm"] = min(1.0, max(-1.0, q_rps / RATE_PER_STICK))
+        fdm["fcs/rudder-cmd-norm"] = min(1.0, max(-1.0, r_rps / RATE_PER_STICK))
+
+    def set_wind(self, north_mps: float, east_mps: float, down_mps: float) -> None:
+        """Steady wind: the velocity (m/s, NED) the air moves towards."""
+        fdm = self._fdm
+        fdm["atmosphere/wind-north-fps"] = north_mps / FT
+        fdm["atmosphere/wind-east-fps"] = east_mps / FT
+        fdm["atmosphere/wind-down-fps"] = down_mps / FT
+
+    def set_gust(self, north_mps: float, east_mps: float, down_mps: float) -> None:
+        """Gust component (m/s, NED) added by JSBSim to the steady wind."""
+        fdm = self._fdm
+        fdm["atmosphere/gust-north-fps"] = north_mps / FT
+        fdm["atmosphere/gust-east-fps"] = east_mps / FT
+        fdm["atmosphere/gust-down-fps"] = down_mps / FT
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps of :data:`DT`."""
+        run = self._fdm.run
+        for _ in range(n):
+            run()
+
+    @property
+    def time_s(self) -> float:
+        """Simulated seconds since the last :meth:`reset`."""
+        return float(self._fdm["simulation/sim-time-sec"]) - self._time_offset
+
+    def state(self) -> ModelState:
+        """The true state in SI units."""
+        fdm = self._fdm
+        lat = fdm["position/lat-geod-deg"]
+        lon = fdm["position/long-gc-deg"]
+        alt = fdm["position/h-sl-meters"] - GEAR_HEIGHT_M
+        agl = fdm["position/h-agl-ft"] * FT - GEAR_HEIGHT_M
+        return ModelState(
+            time_s=self.time_s,
+            lat_deg=lat,
+            lon_deg=lon,
+            alt_msl_m=alt,
+            alt_agl_m=max(0.0, agl),
+            north_m=(lat - self.home_lat_deg) * self._k_north,
+            east_m=(lon - self.home_lon_deg) * self._k_east,
+            down_m=self.home_alt_msl_m - alt,
+            vn_mps=fdm["velocities/v-north-fps"] * FT,
+            ve_mps=fdm["velocities/v-east-fps"] * FT,
+            vd_mps=fdm["velocities/v-down-fps"] * FT,
+            roll_rad=fdm["attitude/phi-rad"],
+            pitch_rad=fdm["attitude/theta-rad"],
+            yaw_rad=_wrap_pi(fdm["attitude/psi-rad"]),
+            p_rps=fdm["velocities/p-rad_sec"],
+            q_rps=fdm["velocities/q-rad_sec"],
+            r_rps=fdm["velocities/r-rad_sec"],
+            on_ground=fdm["gear/wow"] > 0.5,
+            motor_outputs=(
+                fdm["fcs/throttle-pos-norm[0]"],
+                fdm["fcs/throttle-pos-norm[1]"],
+                fdm["fcs/throttle-pos-norm[2]"],
+                fdm["fcs/throttle-pos-norm[3]"],
+            ),
+        )
