@@ -1,0 +1,36 @@
+"""The MAVLink vehicle: the simulated F450 on UDP, speaking MAVLink 2 the way PX4 SITL does.
+
+:class:`MavlinkVehicle` (in :mod:`flight.mavlink.vehicle`) owns the socket, the message loop and the streams;
+:mod:`flight.mavlink.commands` answers COMMAND_LONG/COMMAND_INT; :mod:`flight.mavlink.navigator` flies the PX4
+modes on the :class:`~flight.sim.Simulator`; :mod:`flight.mavlink.modes` encodes PX4 modes;
+:mod:`flight.mavlink.params` holds the parameters. Each module's docstring names the MAVLink facts it relies on.
+"""
+
+from flight.mavlink.commands import CommandOutcome, CommandRequest, handle_command
+from flight.mavlink.modes import AutoSubMode, FlightMode, MainMode, base_mode, decode_custom_mode, encode_custom_mode
+from flight.mavlink.navigator import CommandDenied, Navigator, RtlPhase
+from flight.mavlink.params import PARAMS, ParamSpec, ParamStore, decode_value, encode_value
+from flight.mavlink.vehicle import DEFAULT_RATES_HZ, LinkStats, MavlinkVehicle
+
+__all__ = [
+    "DEFAULT_RATES_HZ",
+    "PARAMS",
+    "AutoSubMode",
+    "CommandDenied",
+    "CommandOutcome",
+    "CommandRequest",
+    "FlightMode",
+    "LinkStats",
+    "MainMode",
+    "MavlinkVehicle",
+    "Navigator",
+    "ParamSpec",
+    "ParamStore",
+    "RtlPhase",
+    "base_mode",
+    "decode_custom_mode",
+    "decode_value",
+    "encode_custom_mode",
+    "encode_value",
+    "handle_command",
+]

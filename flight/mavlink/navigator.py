@@ -1,0 +1,245 @@
+"""What the vehicle does in each PX4 mode: the small state machine between MAVLink commands and the simulator.
+
+Why: a command such as NAV_RETURN_TO_LAUNCH is not one setpoint but a sequence (climb, fly home, land), and the
+mode a client sees in HEARTBEAT must follow what the aircraft is doing (AUTO_TAKEOFF becomes AUTO_LOITER, "Hold",
+once the take-off altitude is reached, as in PX4). :class:`Navigator` keeps the mode, turns requests into
+:class:`~flight.sim.Simulator` setpoints and advances multi-phase modes from :meth:`Navigator.update`, called once
+per vehicle tick. Refusals raise :class:`CommandDenied` with a reason the vehicle reports in a STATUSTEXT.
+
+Behaviour kept from PX4 (PX4 user guide, flight modes; not verified against PX4 source):
+
+* Take-off climbs over the current position to the requested altitude, then switches to Hold.
+* Return climbs to ``RTL_RETURN_ALT`` above home (or stays higher if already higher), flies home at that altitude,
+  then lands; the simulator disarms on touchdown as PX4 does.
+* Reposition (DO_REPOSITION) flies to the point in Hold mode.
+* Position mode without sticks holds position.
+
+Simplifications: home is the simulator's environment home (not the arming position); there is no RTL descent
+altitude or loiter before landing, no auto-disarm when armed on the ground, and Offboard and Mission are not flown.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import Enum
+
+from flight.mavlink.modes import FlightMode
+from flight.mavlink.params import ParamStore
+from flight.sim import Simulator
+
+MAV_LANDED_STATE_ON_GROUND = 1
+MAV_LANDED_STATE_IN_AIR = 2
+MAV_LANDED_STATE_TAKEOFF = 3
+MAV_LANDED_STATE_LANDING = 4
+
+MAV_RESULT_DENIED = 2
+MAV_RESULT_TEMPORARILY_REJECTED = 1
+
+TAKEOFF_ACCEPT_M = 0.5
+"""Take-off is complete within this many metres of the target altitude."""
+RTL_CLIMB_ACCEPT_M = 0.5
+RTL_HOME_ACCEPT_M = 1.0
+MIN_TAKEOFF_ALT_M = 1.0
+MIN_GPS_SATELLITES = 6
+
+
+class CommandDenied(Exception):
+    """A request the vehicle refuses, with the MAV_RESULT to answer and a reason for the STATUSTEXT."""
+
+    def __init__(self, reason: str, result: int = MAV_RESULT_DENIED) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.result = result
+
+
+class RtlPhase(Enum):
+    CLIMB = "climb"
+    RETURN = "return"
+    LAND = "land"
+
+
+class Navigator:
+    """The current flight mode and the setpoints that fly it."""
+
+    def __init__(self, sim: Simulator, params: ParamStore) -> None:
+        self.sim = sim
+        self.params = params
+        self.mode = FlightMode.HOLD
+        self.rtl_phase: RtlPhase | None = None
+        self.cruise_speed_mps: float | None = None
+        """Set by DO_CHANGE_SPEED; None means ``MPC_XY_CRUISE``."""
+        self._takeoff_alt_m = 0.0
+        self._rtl_alt_m = 0.0
+        self._goto: tuple[float, float, float, float | None] | None = None
+
+    # -- requests ---------------------------------------------------------------------------------------------
+
+    def arm(self, force: bool = False) -> None:
+        sim = self.sim
+        if sim.armed:
+            return
+        s = sim.state()
+        if not force:
+            fix = sim.gps_fix()
+            if fix.fix_type < 3 or fix.satellites < MIN_GPS_SATELLITES:
+                raise CommandDenied("Arming denied: no 3D GPS fix", MAV_RESULT_TEMPORARILY_REJECTED)
+            if s.battery_pct / 100.0 <= self.params["BAT_LOW_THR"]:
+                raise CommandDenied("Arming denied: battery low", MAV_RESULT_TEMPORARILY_REJECTED)
+        if not s.landed:
+            raise CommandDenied("Arming denied: not landed", MAV_RESULT_TEMPORARILY_REJECTED)
+        if not sim.arm():
+            raise CommandDenied("Arming denied by the vehicle", MAV_RESULT_TEMPORARILY_REJECTED)
+        self.rtl_phase = None
+        self._goto = None
+        if self.mode is FlightMode.TAKEOFF:
+            self._start_takeoff(self.params["MIS_TAKEOFF_ALT"], None)
+        else:
+            self.mode = FlightMode.HOLD
+
+    def disarm(self, force: bool = False) -> None:
+        if not self.sim.armed:
+            return
+        if not self.sim.disarm(force):
+            raise CommandDenied("Disarming denied: not landed", MAV_RESULT_TEMPORARILY_REJECTED)
+        self.rtl_phase = None
+        self._goto = None
+
+    def takeoff(self, altitude_m: float | None, yaw_rad: float | None = None) -> None:
+        """Climb to ``altitude_m`` above home (None: ``MIS_TAKEOFF_ALT``)."""
+        alt = self.params["MIS_TAKEOFF_ALT"] if altitude_m is None else altitude_m
+        if not math.isfinite(alt) or alt < MIN_TAKEOFF_ALT_M:
+            raise CommandDenied(f"Takeoff denied: altitude {alt:.1f} m is below {MIN_TAKEOFF_ALT_M:.1f} m")
+        self._check_fence_altitude(alt)
+        if not self.sim.armed:
+            raise CommandDenied("Takeoff denied: arm first")
+        self._start_takeoff(alt, yaw_rad)
+
+    def land(self) -> None:
+        if not self.sim.armed:
+            raise CommandDenied("Land denied: not armed")
+        self.sim.land()
+        self.mode = FlightMode.LAND
+        self.rtl_phase = None
+        self._goto = None
+
+    def return_to_launch(self) -> None:
+        s = self.sim.state()
+        if not self.sim.armed or s.landed:
+            raise CommandDenied("Return denied: not flying")
+        self.mode = FlightMode.RTL
+        self._rtl_alt_m = max(self.params["RTL_RETURN_ALT"], s.alt_agl_m)
+        self.rtl_phase = RtlPhase.CLIMB
+        self._fly(s.north_m, s.east_m, -self._rtl_alt_m, None)
+
+    def hold(self, mode: FlightMode = FlightMode.HOLD) -> None:
+        """Hold the current position (Hold or Position mode)."""
+        self.mode = mode
+        self.rtl_phase = None
+        self._goto = None
+        if self.sim.armed:
+            self.sim.hold()
+
+    def set_mode(self, mode: FlightMode) -> None:
+        """Switch to ``mode`` (DO_SET_MODE). Disarmed, only the label changes (Takeoff then takes off on arming)."""
+        if mode in (FlightMode.OFFBOARD, FlightMode.MISSION):
+            raise CommandDenied(f"Mode change denied: {mode.name.lower()} is not available")
+        if mode is self.mode:
+            return
+        if not self.sim.armed:
+            self.mode = mode
+            self.rtl_phase = None
+            return
+        if mode in (FlightMode.HOLD, FlightMode.POSITION):
+            self.hold(mode)
+        elif mode is FlightMode.LAND:
+            self.land()
+        elif mode is FlightMode.RTL:
+            self.return_to_launch()
+        else:  # TAKEOFF
+            self.takeoff(None)
+
+    def reposition(
+        self, north_m: float, east_m: float, down_m: float, yaw_rad: float | None, speed: float | None
+    ) -> None:
+        """Fly to a NED point (relative to home) in Hold mode, within the geofence."""
+        if not self.sim.armed or self.sim.state().landed:
+            raise CommandDenied("Reposition denied: not flying")
+        self._check_fence(north_m, east_m, -down_m)
+        if speed is not None and speed > 0:
+            self.cruise_speed_mps = speed
+        self.mode = FlightMode.HOLD
+        self.rtl_phase = None
+        self._fly(north_m, east_m, down_m, yaw_rad)
+
+    def change_speed(self, speed_mps: float) -> None:
+        """Set the horizontal cruise speed, also for a go-to under way."""
+        if not math.isfinite(speed_mps) or speed_mps <= 0:
+            raise CommandDenied("Speed change denied: speed must be positive")
+        self.cruise_speed_mps = speed_mps
+        if self._goto is not None and self.sim.armed:
+            self._fly(*self._goto)
+
+    # -- per tick ---------------------------------------------------------------------------------------------
+
+    def update(self) -> None:
+        """Advance Takeoff and Return; called once per vehicle tick after the simulator has stepped."""
+        sim = self.sim
+        if not sim.armed:
+            self.rtl_phase = None
+            self._goto = None
+            return
+        if self.mode is FlightMode.TAKEOFF:
+            if abs(sim.state().alt_agl_m - self._takeoff_alt_m) < TAKEOFF_ACCEPT_M:
+                self.mode = FlightMode.HOLD
+        elif self.mode is FlightMode.RTL and self.rtl_phase is not None:
+            s = sim.state()
+            if self.rtl_phase is RtlPhase.CLIMB and abs(s.alt_agl_m - self._rtl_alt_m) < RTL_CLIMB_ACCEPT_M:
+                self.rtl_phase = RtlPhase.RETURN
+                self._fly(0.0, 0.0, -self._rtl_alt_m, None)
+            elif (
+                self.rtl_phase is RtlPhase.RETURN
+                and math.hypot(s.north_m, s.east_m) < RTL_HOME_ACCEPT_M
+                and s.groundspeed_mps < 0.5
+            ):
+                self.rtl_phase = RtlPhase.LAND
+                self._goto = None
+                sim.land()
+
+    def landed_state(self) -> int:
+        """MAV_LANDED_STATE for EXTENDED_SYS_STATE."""
+        s = self.sim.state()
+        if not s.armed:
+            return MAV_LANDED_STATE_ON_GROUND
+        landing = self.mode is FlightMode.LAND or self.rtl_phase is RtlPhase.LAND
+        if landing:
+            return MAV_LANDED_STATE_LANDING
+        if self.mode is FlightMode.TAKEOFF:
+            return MAV_LANDED_STATE_TAKEOFF
+        return MAV_LANDED_STATE_ON_GROUND if s.landed else MAV_LANDED_STATE_IN_AIR
+
+    # -- helpers ----------------------------------------------------------------------------------------------
+
+    def _start_takeoff(self, alt_m: float, yaw_rad: float | None) -> None:
+        s = self.sim.state()
+        self._takeoff_alt_m = alt_m
+        self.mode = FlightMode.TAKEOFF
+        self.rtl_phase = None
+        self._goto = None
+        self.sim.goto(s.north_m, s.east_m, -alt_m, yaw_rad, None)
+
+    def _fly(self, north_m: float, east_m: float, down_m: float, yaw_rad: float | None) -> None:
+        self._goto = (north_m, east_m, down_m, yaw_rad)
+        speed = self.cruise_speed_mps if self.cruise_speed_mps is not None else self.params["MPC_XY_CRUISE"]
+        self.sim.goto(north_m, east_m, down_m, yaw_rad, speed)
+
+    def _check_fence_altitude(self, alt_m: float) -> None:
+        max_v = self.params["GF_MAX_VER_DIST"]
+        if max_v > 0 and alt_m > max_v:
+            raise CommandDenied(f"Geofence: {alt_m:.1f} m is above the {max_v:.0f} m ceiling")
+
+    def _check_fence(self, north_m: float, east_m: float, alt_m: float) -> None:
+        max_h = self.params["GF_MAX_HOR_DIST"]
+        dist = math.hypot(north_m, east_m)
+        if max_h > 0 and dist > max_h:
+            raise CommandDenied(f"Geofence: target {dist:.0f} m from home is outside the {max_h:.0f} m fence")
+        self._check_fence_altitude(alt_m)

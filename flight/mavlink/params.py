@@ -1,0 +1,102 @@
+"""The vehicle's parameters, named and encoded as PX4 names and encodes them.
+
+Why: clients tune the vehicle through the parameter protocol (PARAM_REQUEST_LIST 21, PARAM_REQUEST_READ 20,
+PARAM_SET 23, each answered with PARAM_VALUE 22), and MAVSDK's ``action.takeoff`` writes ``MIS_TAKEOFF_ALT``
+before sending NAV_TAKEOFF with NaN altitude, so the names must be PX4's.
+
+Facts relied on:
+
+* PX4 packs integer parameters *bytewise*: the ``float`` field carries the int32's four bytes, not its value cast to
+  float (mavlink.io, "Parameter protocol — parameter encoding"; AUTOPILOT_VERSION advertises it with
+  MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE = 16). MAV_PARAM_TYPE_INT32 = 6, MAV_PARAM_TYPE_REAL32 = 9.
+* ``param_id`` is at most 16 characters, NUL-padded when shorter.
+* Defaults as documented in PX4's parameter reference: MIS_TAKEOFF_ALT 2.5 m, RTL_RETURN_ALT 60 m,
+  GF_MAX_HOR_DIST and GF_MAX_VER_DIST 0 (no limit), GF_ACTION 2 (hold), BAT_LOW_THR 0.15, BAT_CRIT_THR 0.07,
+  COM_DL_LOSS_T 10 s, MPC_XY_CRUISE 5 m/s (from memory of PX4's parameter reference, not re-checked here).
+  The accepted ranges are ours. Only these parameters exist; nothing reads GF_ACTION, BAT_*_THR (except the
+  arming check and the battery charge state) or COM_DL_LOSS_T yet, because failsafes are not implemented.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+
+MAV_PARAM_TYPE_INT32 = 6
+MAV_PARAM_TYPE_REAL32 = 9
+
+
+@dataclass(frozen=True, slots=True)
+class ParamSpec:
+    """A parameter's name, wire type, default and accepted range (inclusive)."""
+
+    name: str
+    param_type: int
+    default: float
+    minimum: float
+    maximum: float
+    description: str
+
+
+PARAMS: tuple[ParamSpec, ...] = (
+    ParamSpec("MIS_TAKEOFF_ALT", MAV_PARAM_TYPE_REAL32, 2.5, 0.0, 80.0, "Take-off altitude above home (m)"),
+    ParamSpec("RTL_RETURN_ALT", MAV_PARAM_TYPE_REAL32, 60.0, 0.0, 150.0, "Return altitude above home (m)"),
+    ParamSpec("GF_MAX_HOR_DIST", MAV_PARAM_TYPE_REAL32, 0.0, 0.0, 10000.0, "Geofence radius from home (m, 0 off)"),
+    ParamSpec("GF_MAX_VER_DIST", MAV_PARAM_TYPE_REAL32, 0.0, 0.0, 10000.0, "Geofence height above home (m, 0 off)"),
+    ParamSpec("GF_ACTION", MAV_PARAM_TYPE_INT32, 2, 0, 5, "Geofence breach action (0 none … 3 RTL, 5 land)"),
+    ParamSpec("BAT_LOW_THR", MAV_PARAM_TYPE_REAL32, 0.15, 0.12, 0.5, "Low battery threshold (fraction)"),
+    ParamSpec("BAT_CRIT_THR", MAV_PARAM_TYPE_REAL32, 0.07, 0.05, 0.25, "Critical battery threshold (fraction)"),
+    ParamSpec("COM_DL_LOSS_T", MAV_PARAM_TYPE_INT32, 10, 5, 300, "Data-link loss timeout (s)"),
+    ParamSpec("MPC_XY_CRUISE", MAV_PARAM_TYPE_REAL32, 5.0, 3.0, 20.0, "Horizontal cruise speed (m/s)"),
+)
+
+
+def encode_value(value: float, param_type: int) -> float:
+    """The PARAM_VALUE/PARAM_SET float field for ``value`` (bytewise for INT32)."""
+    if param_type == MAV_PARAM_TYPE_INT32:
+        return float(struct.unpack("<f", struct.pack("<i", int(value)))[0])
+    return float(value)
+
+
+def decode_value(field: float, param_type: int) -> float:
+    """The value a PARAM_SET/PARAM_VALUE float field carries for a parameter of ``param_type``."""
+    if param_type == MAV_PARAM_TYPE_INT32:
+        return float(struct.unpack("<i", struct.pack("<f", field))[0])
+    return float(field)
+
+
+class ParamStore:
+    """The current values, by name, in :data:`PARAMS` order (which gives ``param_index``)."""
+
+    def __init__(self, overrides: dict[str, float] | None = None) -> None:
+        self.specs = {p.name: p for p in PARAMS}
+        self.names = [p.name for p in PARAMS]
+        self._values = {p.name: float(p.default) for p in PARAMS}
+        for name, value in (overrides or {}).items():
+            if not self.set(name, value):
+                raise ValueError(f"bad parameter override {name}={value}")
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __getitem__(self, name: str) -> float:
+        return self._values[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._values
+
+    def index(self, name: str) -> int:
+        return self.names.index(name)
+
+    def set(self, name: str, value: float) -> bool:
+        """Set ``name`` to ``value`` (rounded for integers). False (unchanged) if unknown, NaN or out of range."""
+        spec = self.specs.get(name)
+        if spec is None or not math.isfinite(value) or not spec.minimum <= value <= spec.maximum:
+            return False
+        if spec.param_type == MAV_PARAM_TYPE_INT32:
+            value = float(round(value))
+        else:
+            value = float(struct.unpack("<f", struct.pack("<f", value))[0])  # what a float32 can hold
+        self._values[name] = value
+        return True

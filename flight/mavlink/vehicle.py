@@ -1,0 +1,623 @@
+"""The MAVLink vehicle: the simulator behind a UDP endpoint that speaks MAVLink 2 like PX4 SITL.
+
+Why: the agent, MAVSDK, QGroundControl and pymavlink scripts must be able to fly the simulated F450 with their
+default settings, exactly as they would fly PX4 SITL. :class:`MavlinkVehicle` binds one UDP socket, sends its
+streams to the configured ground-station (127.0.0.1:14550) and API (127.0.0.1:14540) addresses and to every
+address that has sent it a valid MAVLink message, and answers each request to its sender.
+
+Time: one *vehicle tick* is ``tick_steps`` simulator steps (5 × 1/250 s = 20 ms by default). Each tick reads all
+waiting datagrams, steps the simulator, advances the :class:`~flight.mavlink.navigator.Navigator` and sends the
+streams that have fallen due in *simulated* time, so rates are sim-time rates whatever the speed. The caller can
+drive ticks in lockstep (:meth:`MavlinkVehicle.step`, :meth:`MavlinkVehicle.run_for`) or let
+:meth:`MavlinkVehicle.run` pace them against the wall clock (``speed=1.0`` real time, ``speed=None`` as fast as
+possible), usually on a thread started by :meth:`MavlinkVehicle.start` and ended by :meth:`MavlinkVehicle.stop`.
+
+Robustness: each datagram is parsed by a fresh pymavlink parser in robust mode, so a truncated or corrupt datagram
+cannot leave bytes behind that spoil the next one; a datagram that yields no valid message is counted in
+``stats.rx_dropped`` and ignored, and a sender is only learned as a peer after a valid message.
+
+Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20/common.py``; PX4 behaviour from
+the PX4 user guide and MAVLink developer guide):
+
+* Message ids: HEARTBEAT 0, SYS_STATUS 1, PING 4, PARAM_REQUEST_READ 20, PARAM_REQUEST_LIST 21, PARAM_VALUE 22,
+  PARAM_SET 23, GPS_RAW_INT 24, ATTITUDE 30, LOCAL_POSITION_NED 32, GLOBAL_POSITION_INT 33, COMMAND_INT 75,
+  COMMAND_LONG 76, COMMAND_ACK 77, BATTERY_STATUS 147, AUTOPILOT_VERSION 148, HOME_POSITION 242,
+  MESSAGE_INTERVAL 244, EXTENDED_SYS_STATE 245, STATUSTEXT 253.
+* HEARTBEAT: MAV_TYPE_QUADROTOR 2, MAV_AUTOPILOT_PX4 12, MAV_STATE_STANDBY 3 disarmed, ACTIVE 4 armed,
+  CRITICAL 5 with the battery below ``BAT_CRIT_THR``; mode encoding in :mod:`flight.mavlink.modes`.
+* A PING with target system and component 0 is a request; the answer echoes ``time_usec`` and ``seq`` and targets
+  the sender.
+* STATUSTEXT carries 50 characters; longer texts go in chunks sharing a non-zero ``id`` with rising
+  ``chunk_seq``, the last one shorter than 50 (an empty one if the text is a multiple of 50 long).
+* BATTERY_STATUS: unknown cell voltages are the total in ``voltages[0]`` and UINT16_MAX in the others; unknown
+  temperature is INT16_MAX; ``energy_consumed`` -1 is unknown.
+* AUTOPILOT_VERSION ``flight_sw_version`` is ``major << 24 | minor << 16 | patch << 8 | type`` (type 255:
+  release); we report PX4 1.14.0, the release whose behaviour is mimicked.
+
+Rates are one table for all peers (PX4 keeps one per link); SET_MESSAGE_INTERVAL changes it for everyone.
+"""
+
+from __future__ import annotations
+
+import math
+import select
+import socket
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from flight.mavlink.commands import CommandRequest, handle_command
+from flight.mavlink.modes import FlightMode, base_mode
+from flight.mavlink.navigator import Navigator
+from flight.mavlink.params import MAV_PARAM_TYPE_INT32, ParamStore, decode_value, encode_value
+from flight.sim import Simulator
+
+Address = tuple[str, int]
+
+MAV_TYPE_QUADROTOR = 2
+MAV_AUTOPILOT_PX4 = 12
+MAV_STATE_STANDBY = 3
+MAV_STATE_ACTIVE = 4
+MAV_STATE_CRITICAL = 5
+
+MAV_SEVERITY_CRITICAL = 2
+MAV_SEVERITY_WARNING = 4
+MAV_SEVERITY_INFO = 6
+
+MSG_HEARTBEAT = 0
+MSG_SYS_STATUS = 1
+MSG_PING = 4
+MSG_PARAM_REQUEST_READ = 20
+MSG_PARAM_REQUEST_LIST = 21
+MSG_PARAM_SET = 23
+MSG_GPS_RAW_INT = 24
+MSG_ATTITUDE = 30
+MSG_LOCAL_POSITION_NED = 32
+MSG_GLOBAL_POSITION_INT = 33
+MSG_COMMAND_INT = 75
+MSG_COMMAND_LONG = 76
+MSG_BATTERY_STATUS = 147
+MSG_AUTOPILOT_VERSION = 148
+MSG_HOME_POSITION = 242
+MSG_EXTENDED_SYS_STATE = 245
+
+DEFAULT_RATES_HZ: dict[int, float] = {
+    MSG_HEARTBEAT: 1.0,
+    MSG_SYS_STATUS: 1.0,
+    MSG_BATTERY_STATUS: 0.5,
+    MSG_ATTITUDE: 10.0,
+    MSG_GLOBAL_POSITION_INT: 5.0,
+    MSG_LOCAL_POSITION_NED: 5.0,
+    MSG_GPS_RAW_INT: 1.0,
+    MSG_EXTENDED_SYS_STATE: 1.0,
+    MSG_HOME_POSITION: 0.5,
+}
+"""Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link."""
+
+PX4_VERSION = (1, 14, 0)
+FIRMWARE_VERSION_TYPE_OFFICIAL = 255
+CAPABILITIES = (
+    mavlink2.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    | mavlink2.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
+    | mavlink2.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+)
+SENSORS = (
+    mavlink2.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | mavlink2.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+    | mavlink2.MAV_SYS_STATUS_SENSOR_GPS
+    | mavlink2.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+    | mavlink2.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+    | mavlink2.MAV_SYS_STATUS_SENSOR_YAW_POSITION
+    | mavlink2.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
+    | mavlink2.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+    | mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | mavlink2.MAV_SYS_STATUS_SENSOR_BATTERY
+)
+MAX_PEERS = 16
+MAX_DATAGRAMS_PER_POLL = 1000
+STATUSTEXT_LEN = 50
+UINT16_MAX = 0xFFFF
+INT16_MAX = 0x7FFF
+
+
+@dataclass(slots=True)
+class LinkStats:
+    """Counters of the UDP link."""
+
+    rx_datagrams: int = 0
+    rx_messages: int = 0
+    rx_dropped: int = 0
+    """Datagrams that held no valid MAVLink message (garbage, truncated, bad CRC)."""
+    rx_bad_chunks: int = 0
+    """Bad-data chunks reported by the parser (a datagram can hold several, and valid messages besides)."""
+    tx_messages: int = 0
+    tx_errors: int = 0
+
+
+def _clamp_int(x: float, lo: int, hi: int) -> int:
+    if not math.isfinite(x):
+        return lo
+    return max(lo, min(hi, round(x)))
+
+
+class MavlinkVehicle:
+    """The simulator on the network as a PX4 quadrotor. Close it (or use ``with``) to free the socket."""
+
+    def __init__(
+        self,
+        simulator: Simulator,
+        *,
+        gcs: Address | None = ("127.0.0.1", 14550),
+        api: Address | None = ("127.0.0.1", 14540),
+        bind: Address = ("127.0.0.1", 0),
+        system_id: int = 1,
+        component_id: int = 1,
+        params: dict[str, float] | None = None,
+        tick_steps: int = 5,
+    ) -> None:
+        if not (1 <= system_id <= 255 and 1 <= component_id <= 255):
+            raise ValueError("system and component ids are 1..255")
+        if tick_steps < 1:
+            raise ValueError("tick_steps must be >= 1")
+        self.sim = simulator
+        self.system_id = system_id
+        self.component_id = component_id
+        self.params = ParamStore(params)
+        self.navigator = Navigator(simulator, self.params)
+        self.stats = LinkStats()
+        self.statustexts: deque[tuple[int, str]] = deque(maxlen=100)
+        """The last STATUSTEXTs sent, as (severity, text)."""
+        self.tick_steps = tick_steps
+        self._mav = mavlink2.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
+        self._targets: list[Address] = [a for a in (gcs, api) if a is not None]
+        self._peers: dict[Address, float] = {}
+        self._intervals_s: dict[int, float] = {m: 1.0 / hz for m, hz in DEFAULT_RATES_HZ.items()}
+        self._next_due: dict[int, float] = dict.fromkeys(DEFAULT_RATES_HZ, 0.0)
+        self._text_id = 0
+        self._lock = threading.RLock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._builders: dict[int, Callable[[], Any]] = {
+            MSG_HEARTBEAT: self._heartbeat,
+            MSG_SYS_STATUS: self._sys_status,
+            MSG_BATTERY_STATUS: self._battery_status,
+            MSG_ATTITUDE: self._attitude,
+            MSG_GLOBAL_POSITION_INT: self._global_position_int,
+            MSG_LOCAL_POSITION_NED: self._local_position_ned,
+            MSG_GPS_RAW_INT: self._gps_raw_int,
+            MSG_EXTENDED_SYS_STATE: self._extended_sys_state,
+            MSG_HOME_POSITION: self._home_position,
+            MSG_AUTOPILOT_VERSION: self._autopilot_version,
+        }
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self._sock.bind(bind)
+            self._sock.setblocking(False)
+        except OSError:
+            self._sock.close()
+            raise
+        self._closed = False
+
+    # -- lifecycle --------------------------------------------------------------------------------------------
+
+    @property
+    def address(self) -> Address:
+        """The bound (host, port)."""
+        host, port = self._sock.getsockname()[:2]
+        return str(host), int(port)
+
+    @property
+    def mode(self) -> FlightMode:
+        return self.navigator.mode
+
+    @property
+    def peers(self) -> list[Address]:
+        """Addresses that have sent a valid message, most recent last."""
+        return list(self._peers)
+
+    def close(self) -> None:
+        """Stop a running pacer and close the socket (idempotent)."""
+        self.stop()
+        with self._lock:
+            if not self._closed:
+                self._closed = True
+                self._sock.close()
+
+    def __enter__(self) -> MavlinkVehicle:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- time -------------------------------------------------------------------------------------------------
+
+    @property
+    def tick_s(self) -> float:
+        return self.tick_steps * self.sim.dt
+
+    def step(self) -> None:
+        """One vehicle tick: read datagrams, step the simulator, advance the navigator, send due streams."""
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("vehicle is closed")
+            self._poll()
+            self.sim.step(self.tick_steps)
+            self.navigator.update()
+            self._send_streams()
+
+    def run_for(self, seconds: float) -> None:
+        """Lockstep: ``seconds`` of simulated time, as fast as possible, in the caller's thread."""
+        for _ in range(max(0, round(seconds / self.tick_s))):
+            self.step()
+
+    def run(self, speed: float | None = 1.0) -> None:
+        """Tick until :meth:`stop`, at ``speed`` × real time (None: as fast as possible), answering promptly."""
+        if speed is not None and not speed > 0:
+            raise ValueError("speed must be positive or None")
+        self._stop.clear()
+        wall0, sim0 = time.monotonic(), self.sim.time_s
+        while not self._stop.is_set():
+            self.step()
+            if speed is None:
+                continue
+            target = wall0 + (self.sim.time_s - sim0) / speed
+            while not self._stop.is_set() and (delay := target - time.monotonic()) > 0:
+                readable, _, _ = select.select([self._sock], [], [], min(delay, 0.05))
+                if readable:
+                    with self._lock:
+                        if not self._closed:
+                            self._poll()
+
+    def start(self, speed: float | None = 1.0) -> threading.Thread:
+        """Run :meth:`run` on a daemon thread."""
+        if self._thread is not None and self._thread.is_alive():
+            raise RuntimeError("already running")
+        self._stop.clear()
+        self._thread = threading.Thread(target=self.run, args=(speed,), name="mavlink-vehicle", daemon=True)
+        self._thread.start()
+        return self._thread
+
+    def stop(self) -> None:
+        """Stop the pacer thread started by :meth:`start` (no-op when none runs)."""
+        self._stop.set()
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
+        self._thread = None
+
+    # -- receiving --------------------------------------------------------------------------------------------
+
+    def _poll(self) -> None:
+        for _ in range(MAX_DATAGRAMS_PER_POLL):
+            try:
+                data, addr = self._sock.recvfrom(65535)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:  # e.g. an ICMP error reported on the socket: nothing to read
+                continue
+            self.stats.rx_datagrams += 1
+            self._datagram(data, (str(addr[0]), int(addr[1])))
+
+    def _datagram(self, data: bytes, sender: Address) -> None:
+        parser = mavlink2.MAVLink(None, srcSystem=self.system_id, srcComponent=self.component_id)
+        parser.robust_parsing = True
+        try:
+            msgs = parser.parse_buffer(data) or []
+        except Exception:
+            msgs = []
+        valid = []
+        for msg in msgs:
+            if msg.get_type() == "BAD_DATA":
+                self.stats.rx_bad_chunks += 1
+            else:
+                valid.append(msg)
+        if not valid:
+            self.stats.rx_dropped += 1
+            return
+        self._learn_peer(sender)
+        for msg in valid:
+            self.stats.rx_messages += 1
+            try:
+                self._handle(msg, sender)
+            except Exception:  # a message we could not act on must never stop the vehicle
+                self.stats.rx_dropped += 1
+
+    def _learn_peer(self, addr: Address) -> None:
+        self._peers.pop(addr, None)
+        self._peers[addr] = self.sim.time_s
+        while len(self._peers) > MAX_PEERS:
+            del self._peers[next(iter(self._peers))]
+
+    def _for_us(self, msg: Any) -> bool:
+        return msg.target_system in (0, self.system_id) and msg.target_component in (0, self.component_id)
+
+    def _handle(self, msg: Any, sender: Address) -> None:
+        msg_id = msg.get_msgId()
+        if msg_id in (MSG_COMMAND_LONG, MSG_COMMAND_INT):
+            if not self._for_us(msg):
+                return
+            req = CommandRequest.from_long(msg) if msg_id == MSG_COMMAND_LONG else CommandRequest.from_int(msg)
+            outcome = handle_command(self, req)
+            ack = self._mav.command_ack_encode(
+                req.command, outcome.result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()
+            )
+            self._send(ack, sender)
+            for reply in outcome.replies:
+                self._send(reply, sender)
+        elif msg_id == MSG_PING:
+            if msg.target_system == 0 and msg.target_component == 0:
+                reply = self._mav.ping_encode(msg.time_usec, msg.seq, msg.get_srcSystem(), msg.get_srcComponent())
+                self._send(reply, sender)
+        elif msg_id == MSG_PARAM_REQUEST_LIST:
+            if self._for_us(msg):
+                for name in self.params.names:
+                    self._send(self._param_value(name), sender)
+        elif msg_id == MSG_PARAM_REQUEST_READ:
+            if self._for_us(msg):
+                found = self._param_name(msg.param_id, msg.param_index)
+                if found is not None:
+                    self._send(self._param_value(found), sender)
+        elif msg_id == MSG_PARAM_SET and self._for_us(msg):
+            self._param_set(msg, sender)
+
+    # -- parameters -------------------------------------------------------------------------------------------
+
+    @staticmethod
+    def _text(field: Any) -> str:
+        if isinstance(field, bytes):
+            field = field.decode("utf-8", "replace")
+        return str(field).split("\x00", 1)[0]
+
+    def _param_name(self, param_id: Any, index: int) -> str | None:
+        if index >= 0:
+            return self.params.names[index] if index < len(self.params) else None
+        name = self._text(param_id)
+        return name if name in self.params else None
+
+    def _param_value(self, name: str) -> Any:
+        spec = self.params.specs[name]
+        return self._mav.param_value_encode(
+            name.encode(),
+            encode_value(self.params[name], spec.param_type),
+            spec.param_type,
+            len(self.params),
+            self.params.index(name),
+        )
+
+    def _param_set(self, msg: Any, sender: Address) -> None:
+        name = self._text(msg.param_id)
+        if name not in self.params:
+            self.statustext(f"Parameter {name[:16]} does not exist")
+            return
+        spec = self.params.specs[name]
+        value = decode_value(msg.param_value, spec.param_type)
+        if not self.params.set(name, value):
+            shown = f"{value:.0f}" if spec.param_type == MAV_PARAM_TYPE_INT32 else f"{value:g}"
+            self.statustext(f"{name}: {shown} out of range {spec.minimum:g}..{spec.maximum:g}")
+        self._send(self._param_value(name), sender)
+
+    # -- sending ----------------------------------------------------------------------------------------------
+
+    def _destinations(self) -> list[Address]:
+        out = list(self._targets)
+        out.extend(a for a in self._peers if a not in out)
+        return out
+
+    def _send(self, msg: Any, to: Address | None = None) -> None:
+        """Send ``msg`` to ``to``, or to the configured targets and every peer."""
+        buf = msg.pack(self._mav)
+        self._mav.seq = (self._mav.seq + 1) % 256
+        for addr in self._destinations() if to is None else [to]:
+            try:
+                self._sock.sendto(buf, addr)
+                self.stats.tx_messages += 1
+            except OSError:
+                self.stats.tx_errors += 1
+
+    def statustext(self, text: str, severity: int = MAV_SEVERITY_WARNING) -> None:
+        """Send a STATUSTEXT to everyone (chunked when longer than 50 characters)."""
+        with self._lock:
+            self.statustexts.append((severity, text))
+            raw = text.encode("utf-8", "replace")
+            if len(raw) <= STATUSTEXT_LEN:
+                self._send(self._mav.statustext_encode(severity, raw, 0, 0))
+                return
+            self._text_id = self._text_id % 0xFFFF + 1
+            chunks = [raw[i : i + STATUSTEXT_LEN] for i in range(0, len(raw), STATUSTEXT_LEN)]
+            if len(chunks[-1]) == STATUSTEXT_LEN:
+                chunks.append(b"")
+            for seq, chunk in enumerate(chunks[:256]):
+                self._send(self._mav.statustext_encode(severity, chunk, self._text_id, seq))
+
+    def _send_streams(self) -> None:
+        now = self.sim.time_s
+        eps = 1e-9
+        for msg_id, interval in self._intervals_s.items():
+            if interval <= 0 or now + eps < self._next_due[msg_id]:
+                continue
+            self._send(self._builders[msg_id]())
+            due = self._next_due[msg_id] + interval
+            self._next_due[msg_id] = due if due > now + eps else now + interval
+
+    # -- message intervals (used by command handling) ---------------------------------------------------------
+
+    def set_message_interval(self, message_id: int, interval_us: float) -> bool:
+        """SET_MESSAGE_INTERVAL: -1 stops the stream, 0 restores the default, >0 sets it. False if not streamed."""
+        if message_id not in DEFAULT_RATES_HZ:
+            return False
+        if interval_us == -1:
+            self._intervals_s[message_id] = 0.0
+        elif interval_us == 0:
+            self._intervals_s[message_id] = 1.0 / DEFAULT_RATES_HZ[message_id]
+        elif interval_us > 0:
+            self._intervals_s[message_id] = interval_us / 1e6
+        else:
+            return False
+        self._next_due[message_id] = self.sim.time_s
+        return True
+
+    def message_interval_us(self, message_id: int) -> int | None:
+        """The stream's interval in µs, -1 when off, None when the message is not streamed."""
+        if message_id not in self._intervals_s:
+            return None
+        interval = self._intervals_s[message_id]
+        return round(interval * 1e6) if interval > 0 else -1
+
+    def message_rate_hz(self, message_id: int) -> float:
+        """The stream's rate (0 when off or not streamed)."""
+        interval = self._intervals_s.get(message_id, 0.0)
+        return 1.0 / interval if interval > 0 else 0.0
+
+    def build_message(self, message_id: int, param2: float = math.nan) -> Any | None:
+        """The message ``message_id`` as it would be sent now (for REQUEST_MESSAGE), or None if not available."""
+        builder = self._builders.get(message_id)
+        return builder() if builder is not None else None
+
+    def build_message_interval(self, message_id: int, interval_us: int) -> Any:
+        return self._mav.message_interval_encode(message_id, interval_us)
+
+    # -- message builders -------------------------------------------------------------------------------------
+
+    def _time_boot_ms(self) -> int:
+        return round(self.sim.time_s * 1000.0) & 0xFFFFFFFF
+
+    def _time_usec(self) -> int:
+        return round(self.sim.time_s * 1e6)
+
+    def _battery_fraction(self) -> float:
+        return float(self.sim.battery.percent) / 100.0
+
+    def _heartbeat(self) -> Any:
+        armed = self.sim.armed
+        if self._battery_fraction() <= self.params["BAT_CRIT_THR"]:
+            status = MAV_STATE_CRITICAL
+        else:
+            status = MAV_STATE_ACTIVE if armed else MAV_STATE_STANDBY
+        mode = self.navigator.mode
+        return self._mav.heartbeat_encode(
+            MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4, base_mode(mode, armed), mode.custom_mode, status, 3
+        )
+
+    def _sys_status(self) -> Any:
+        s = self.sim.state()
+        enabled = SENSORS if s.armed else SENSORS & ~mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+        return self._mav.sys_status_encode(
+            SENSORS,
+            enabled,
+            SENSORS,
+            0,
+            _clamp_int(s.battery_voltage_v * 1000.0, 0, UINT16_MAX - 1),
+            _clamp_int(s.battery_current_a * 100.0, -1, 32767),
+            _clamp_int(s.battery_pct, 0, 100),
+            0,
+            min(self.stats.rx_dropped, UINT16_MAX),
+            0,
+            0,
+            0,
+            0,
+        )
+
+    def _battery_status(self) -> Any:
+        s = self.sim.state()
+        frac = self._battery_fraction()
+        if frac <= self.params["BAT_CRIT_THR"]:
+            charge = mavlink2.MAV_BATTERY_CHARGE_STATE_CRITICAL
+        elif frac <= self.params["BAT_LOW_THR"]:
+            charge = mavlink2.MAV_BATTERY_CHARGE_STATE_LOW
+        else:
+            charge = mavlink2.MAV_BATTERY_CHARGE_STATE_OK
+        voltages = [_clamp_int(s.battery_voltage_v * 1000.0, 0, UINT16_MAX - 1)] + [UINT16_MAX] * 9
+        return self._mav.battery_status_encode(
+            0,
+            mavlink2.MAV_BATTERY_FUNCTION_ALL,
+            mavlink2.MAV_BATTERY_TYPE_LIPO,
+            INT16_MAX,
+            voltages,
+            _clamp_int(s.battery_current_a * 100.0, -1, 32767),
+            _clamp_int(self.sim.battery.used_mah, 0, 2**31 - 1),
+            -1,
+            _clamp_int(s.battery_pct, 0, 100),
+            0,
+            charge,
+        )
+
+    def _attitude(self) -> Any:
+        t = self.sim.truth()
+        return self._mav.attitude_encode(
+            self._time_boot_ms(), t.roll_rad, t.pitch_rad, t.yaw_rad, t.p_rps, t.q_rps, t.r_rps
+        )
+
+    def _global_position_int(self) -> Any:
+        s = self.sim.state()
+        hdg = round(math.degrees(s.yaw_rad) % 360.0 * 100.0) % 36000
+        return self._mav.global_position_int_encode(
+            self._time_boot_ms(),
+            round(s.lat_deg * 1e7),
+            round(s.lon_deg * 1e7),
+            round(s.alt_msl_m * 1000.0),
+            round(-s.down_m * 1000.0),
+            _clamp_int(s.vn_mps * 100.0, -32768, 32767),
+            _clamp_int(s.ve_mps * 100.0, -32768, 32767),
+            _clamp_int(s.vd_mps * 100.0, -32768, 32767),
+            hdg,
+        )
+
+    def _local_position_ned(self) -> Any:
+        s = self.sim.state()
+        return self._mav.local_position_ned_encode(
+            self._time_boot_ms(), s.north_m, s.east_m, s.down_m, s.vn_mps, s.ve_mps, s.vd_mps
+        )
+
+    def _gps_raw_int(self) -> Any:
+        f = self.sim.gps_fix()
+        vel = math.hypot(f.vn_mps, f.ve_mps)
+        cog = round(math.degrees(math.atan2(f.ve_mps, f.vn_mps)) % 360.0 * 100.0) % 36000 if vel > 0.1 else UINT16_MAX
+        alt_mm = round(f.alt_msl_m * 1000.0)
+        return self._mav.gps_raw_int_encode(
+            self._time_usec(),
+            f.fix_type,
+            round(f.lat_deg * 1e7),
+            round(f.lon_deg * 1e7),
+            alt_mm,
+            _clamp_int(f.eph_m * 100.0, 0, UINT16_MAX - 1),
+            _clamp_int(f.epv_m * 100.0, 0, UINT16_MAX - 1),
+            _clamp_int(vel * 100.0, 0, UINT16_MAX - 1),
+            cog,
+            min(f.satellites, 254),
+            alt_mm,
+            _clamp_int(f.eph_m * 1000.0, 0, 2**32 - 1),
+            _clamp_int(f.epv_m * 1000.0, 0, 2**32 - 1),
+        )
+
+    def _extended_sys_state(self) -> Any:
+        return self._mav.extended_sys_state_encode(mavlink2.MAV_VTOL_STATE_UNDEFINED, self.navigator.landed_state())
+
+    def _home_position(self) -> Any:
+        home = self.sim.environment.home
+        return self._mav.home_position_encode(
+            round(home.lat_deg * 1e7),
+            round(home.lon_deg * 1e7),
+            round(home.alt_msl_m * 1000.0),
+            0.0,
+            0.0,
+            0.0,
+            [1.0, 0.0, 0.0, 0.0],
+            0.0,
+            0.0,
+            0.0,
+            self._time_usec(),
+        )
+
+    def _autopilot_version(self) -> Any:
+        major, minor, patch = PX4_VERSION
+        version = major << 24 | minor << 16 | patch << 8 | FIRMWARE_VERSION_TYPE_OFFICIAL
+        return self._mav.autopilot_version_encode(
+            CAPABILITIES, version, version, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.system_id
+        )

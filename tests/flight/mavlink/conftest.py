@@ -1,0 +1,98 @@
+"""A MAVLink vehicle on a free 127.0.0.1 port and a pymavlink client it sends to, driven in lockstep."""
+
+import math
+import os
+import socket
+
+import pytest
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink import mavutil
+
+from flight.mavlink import MavlinkVehicle
+from flight.sim import Simulator
+
+ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED = 0, 1, 2, 3
+
+
+def free_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Link:
+    """The vehicle plus a pymavlink client listening where the vehicle sends (its "GCS" address)."""
+
+    def __init__(self, vehicle, client):
+        self.vehicle = vehicle
+        self.client = client
+        # A udpin client answers the addresses it has heard from: let the vehicle's first heartbeat arrive.
+        self.first_heartbeat = self.wait("HEARTBEAT", 1.0)
+
+    @property
+    def mav(self):
+        return self.client.mav
+
+    def wait(self, msg_type, timeout_s=5.0, cond=lambda m: True):
+        """Step the vehicle tick by tick until a ``msg_type`` message satisfying ``cond`` arrives."""
+        ticks = math.ceil(timeout_s / self.vehicle.tick_s)
+        for _ in range(ticks + 1):
+            while (msg := self.client.recv_match(blocking=False)) is not None:
+                if msg.get_type() == msg_type and cond(msg):
+                    return msg
+            self.vehicle.step()
+        return None
+
+    def fresh(self, msg_type, timeout_s=2.0, cond=lambda m: True):
+        """Like :meth:`wait`, ignoring anything already received."""
+        self.drain()
+        return self.wait(msg_type, timeout_s, cond)
+
+    def collect(self, msg_type, seconds):
+        """Every ``msg_type`` message over ``seconds`` of simulated time."""
+        self.drain()
+        out = []
+        for _ in range(round(seconds / self.vehicle.tick_s)):
+            self.vehicle.step()
+            while (msg := self.client.recv_match(blocking=False)) is not None:
+                if msg.get_type() == msg_type:
+                    out.append(msg)
+        return out
+
+    def drain(self):
+        while self.client.recv_match(blocking=False) is not None:
+            pass
+
+    def command(self, command, *params, timeout_s=2.0):
+        p = [*params, *([0.0] * (7 - len(params)))]
+        self.drain()
+        self.mav.command_long_send(1, 1, command, 0, *p)
+        return self.wait("COMMAND_ACK", timeout_s, lambda m: m.command == command)
+
+    def command_int(self, command, frame, params, x, y, z, timeout_s=2.0):
+        self.drain()
+        self.mav.command_int_send(1, 1, frame, command, 0, 0, *params, x, y, z)
+        return self.wait("COMMAND_ACK", timeout_s, lambda m: m.command == command)
+
+    def fly_until(self, cond, timeout_s):
+        """Step until ``cond(vehicle.sim.state())``; True if it happened."""
+        for _ in range(math.ceil(timeout_s / self.vehicle.tick_s)):
+            self.vehicle.step()
+            self.drain()
+            if cond(self.vehicle.sim.state()):
+                return True
+        return False
+
+
+@pytest.fixture
+def link():
+    port = free_port()
+    client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
+    vehicle = MavlinkVehicle(Simulator(seed=3), gcs=("127.0.0.1", port), api=None)
+    try:
+        yield Link(vehicle, client)
+    finally:
+        vehicle.close()
+        client.close()
