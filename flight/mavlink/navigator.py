@@ -14,16 +14,23 @@ Behaviour kept from PX4 (PX4 user guide, flight modes; not verified against PX4 
 * Reposition (DO_REPOSITION) flies to the point in Hold mode.
 * Position mode without sticks holds position.
 
+* Offboard flies the latest setpoint (:mod:`flight.mavlink.offboard`); switching to it needs a setpoint received
+  within ``COM_OF_LOSS_T`` (so a stream is running), and when setpoints stop for ``COM_OF_LOSS_T`` the vehicle
+  switches to Hold with a STATUSTEXT (PX4's ``COM_OBL_RC_ACT`` default is Position mode, which without sticks
+  holds). Arming in Offboard keeps Offboard if the stream is running.
+
 Simplifications: home is the simulator's environment home (not the arming position); there is no RTL descent
-altitude or loiter before landing, no auto-disarm when armed on the ground, and Offboard and Mission are not flown.
+altitude or loiter before landing, no auto-disarm when armed on the ground, and Mission is not flown.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from enum import Enum
 
 from flight.mavlink.modes import FlightMode
+from flight.mavlink.offboard import OffboardSetpoint
 from flight.mavlink.params import ParamStore
 from flight.sim import Simulator
 
@@ -41,6 +48,7 @@ RTL_CLIMB_ACCEPT_M = 0.5
 RTL_HOME_ACCEPT_M = 1.0
 MIN_TAKEOFF_ALT_M = 1.0
 MIN_GPS_SATELLITES = 6
+MAV_SEVERITY_CRITICAL = 2
 
 
 class CommandDenied(Exception):
@@ -71,6 +79,11 @@ class Navigator:
         self._takeoff_alt_m = 0.0
         self._rtl_alt_m = 0.0
         self._goto: tuple[float, float, float, float | None] | None = None
+        self.offboard_setpoint: OffboardSetpoint | None = None
+        self.offboard_time_s: float | None = None
+        """Simulated time of the last offboard setpoint (None: never)."""
+        self.notify: Callable[[str, int], None] = lambda text, severity: None
+        """Where the navigator reports what it did on its own (the vehicle sends a STATUSTEXT)."""
 
     # -- requests ---------------------------------------------------------------------------------------------
 
@@ -93,6 +106,8 @@ class Navigator:
         self._goto = None
         if self.mode is FlightMode.TAKEOFF:
             self._start_takeoff(self.params["MIS_TAKEOFF_ALT"], None)
+        elif self.mode is FlightMode.OFFBOARD and self.offboard_active():
+            self._fly_offboard()
         else:
             self.mode = FlightMode.HOLD
 
@@ -141,8 +156,10 @@ class Navigator:
 
     def set_mode(self, mode: FlightMode) -> None:
         """Switch to ``mode`` (DO_SET_MODE). Disarmed, only the label changes (Takeoff then takes off on arming)."""
-        if mode in (FlightMode.OFFBOARD, FlightMode.MISSION):
-            raise CommandDenied(f"Mode change denied: {mode.name.lower()} is not available")
+        if mode is FlightMode.MISSION:
+            raise CommandDenied("Mode change denied: mission is not available")
+        if mode is FlightMode.OFFBOARD and not self.offboard_active():
+            raise CommandDenied("Mode change denied: offboard needs a setpoint stream first")
         if mode is self.mode:
             return
         if not self.sim.armed:
@@ -155,8 +172,58 @@ class Navigator:
             self.land()
         elif mode is FlightMode.RTL:
             self.return_to_launch()
+        elif mode is FlightMode.OFFBOARD:
+            self.rtl_phase = None
+            self._fly_offboard()
         else:  # TAKEOFF
             self.takeoff(None)
+
+    # -- offboard ---------------------------------------------------------------------------------------------
+
+    def offboard_active(self) -> bool:
+        """True if a flyable setpoint has arrived and setpoint messages keep coming (within ``COM_OF_LOSS_T``)."""
+        t = self.offboard_time_s
+        return (
+            self.offboard_setpoint is not None and t is not None and self.sim.time_s - t <= self.params["COM_OF_LOSS_T"]
+        )
+
+    def offboard_heard(self) -> None:
+        """A setpoint message arrived, flyable or not: the stream is alive (the last flyable setpoint is kept)."""
+        self.offboard_time_s = self.sim.time_s
+
+    def offboard_target(self, setpoint: OffboardSetpoint) -> None:
+        """Record a setpoint (SET_POSITION_TARGET_*); flown at once in Offboard. Positions outside the fence raise."""
+        self.offboard_heard()
+        if setpoint.position is not None:
+            north, east, down = setpoint.position
+            self._check_fence(north, east, -down)
+        self.offboard_setpoint = setpoint
+        if self.mode is FlightMode.OFFBOARD and self.sim.armed:
+            self._fly_offboard()
+
+    def _fly_offboard(self) -> None:
+        sp = self.offboard_setpoint
+        self.mode = FlightMode.OFFBOARD
+        self._goto = None
+        if sp is None or not self.sim.armed:
+            return
+        if sp.position is not None:
+            self.sim.goto(*sp.position, sp.yaw_rad, None)
+        elif sp.velocity is not None:
+            self.sim.set_velocity(*sp.velocity, sp.yaw_rad)
+
+    def hold_at(self, north_m: float, east_m: float, down_m: float) -> None:
+        """Hold at a NED point (failsafes), without the fence check."""
+        self.mode = FlightMode.HOLD
+        self.rtl_phase = None
+        if self.sim.armed:
+            self._fly(north_m, east_m, down_m, None)
+
+    def cut_motors(self) -> None:
+        """Flight termination: stop the motors wherever the vehicle is (it falls)."""
+        self.sim.disarm(force=True)
+        self.rtl_phase = None
+        self._goto = None
 
     def reposition(
         self, north_m: float, east_m: float, down_m: float, yaw_rad: float | None, speed: float | None
@@ -188,7 +255,11 @@ class Navigator:
             self.rtl_phase = None
             self._goto = None
             return
-        if self.mode is FlightMode.TAKEOFF:
+        if self.mode is FlightMode.OFFBOARD:
+            if not self.offboard_active():
+                self.hold()
+                self.notify("Offboard setpoints lost: holding", MAV_SEVERITY_CRITICAL)
+        elif self.mode is FlightMode.TAKEOFF:
             if abs(sim.state().alt_agl_m - self._takeoff_alt_m) < TAKEOFF_ACCEPT_M:
                 self.mode = FlightMode.HOLD
         elif self.mode is FlightMode.RTL and self.rtl_phase is not None:

@@ -10,11 +10,18 @@ Facts relied on:
   float (mavlink.io, "Parameter protocol — parameter encoding"; AUTOPILOT_VERSION advertises it with
   MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE = 16). MAV_PARAM_TYPE_INT32 = 6, MAV_PARAM_TYPE_REAL32 = 9.
 * ``param_id`` is at most 16 characters, NUL-padded when shorter.
-* Defaults as documented in PX4's parameter reference: MIS_TAKEOFF_ALT 2.5 m, RTL_RETURN_ALT 60 m,
-  GF_MAX_HOR_DIST and GF_MAX_VER_DIST 0 (no limit), GF_ACTION 2 (hold), BAT_LOW_THR 0.15, BAT_CRIT_THR 0.07,
-  COM_DL_LOSS_T 10 s, MPC_XY_CRUISE 5 m/s (from memory of PX4's parameter reference, not re-checked here).
-  The accepted ranges are ours. Only these parameters exist; nothing reads GF_ACTION, BAT_*_THR (except the
-  arming check and the battery charge state) or COM_DL_LOSS_T yet, because failsafes are not implemented.
+* Defaults as documented in PX4's parameter reference: MIS_TAKEOFF_ALT 2.5 m, RTL_RETURN_ALT 60 m, GF_ACTION 2
+  (hold; values 0 none, 1 warning, 2 hold, 3 return, 4 terminate, 5 land, checked in PX4's ``geofence_params.c``
+  and the ``GeofenceResult`` uORB message of the v1.14 user guide), BAT_LOW_THR 0.15, BAT_CRIT_THR 0.07,
+  COM_DL_LOSS_T 10 s (``commander_params.c``), COM_OF_LOSS_T 1.0 s (``commander_params.c`` of PX4 1.14; older
+  releases had 0 with a hard-coded 0.5 s), MPC_XY_CRUISE 5 m/s (from memory, not re-checked). NAV_DLL_ACT takes
+  PX4's values (0 disabled, 1 hold, 2 return, 3 land, 5 terminate, 6 disarm; ``commander_params.c``).
+* **Our defaults, not PX4's**: GF_MAX_HOR_DIST 1500 m and GF_MAX_VER_DIST 120 m (PX4: 0, no fence) so that a
+  vehicle nobody configured still has a fence (120 m is the usual regulatory ceiling for small drones);
+  NAV_DLL_ACT 2, return (PX4: 0, disabled) because the issue asks for a link-loss return.
+* The accepted ranges are ours. Only these parameters exist. What reads them: :mod:`flight.mavlink.failsafe`
+  (GF_*, BAT_*_THR, COM_DL_LOSS_T, NAV_DLL_ACT), :mod:`flight.mavlink.navigator` (the rest, and the fence for
+  commands).
 """
 
 from __future__ import annotations
@@ -42,12 +49,14 @@ class ParamSpec:
 PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("MIS_TAKEOFF_ALT", MAV_PARAM_TYPE_REAL32, 2.5, 0.0, 80.0, "Take-off altitude above home (m)"),
     ParamSpec("RTL_RETURN_ALT", MAV_PARAM_TYPE_REAL32, 60.0, 0.0, 150.0, "Return altitude above home (m)"),
-    ParamSpec("GF_MAX_HOR_DIST", MAV_PARAM_TYPE_REAL32, 0.0, 0.0, 10000.0, "Geofence radius from home (m, 0 off)"),
-    ParamSpec("GF_MAX_VER_DIST", MAV_PARAM_TYPE_REAL32, 0.0, 0.0, 10000.0, "Geofence height above home (m, 0 off)"),
+    ParamSpec("GF_MAX_HOR_DIST", MAV_PARAM_TYPE_REAL32, 1500.0, 0.0, 10000.0, "Geofence radius from home (m, 0 off)"),
+    ParamSpec("GF_MAX_VER_DIST", MAV_PARAM_TYPE_REAL32, 120.0, 0.0, 10000.0, "Geofence height above home (m, 0 off)"),
     ParamSpec("GF_ACTION", MAV_PARAM_TYPE_INT32, 2, 0, 5, "Geofence breach action (0 none … 3 RTL, 5 land)"),
     ParamSpec("BAT_LOW_THR", MAV_PARAM_TYPE_REAL32, 0.15, 0.12, 0.5, "Low battery threshold (fraction)"),
     ParamSpec("BAT_CRIT_THR", MAV_PARAM_TYPE_REAL32, 0.07, 0.05, 0.25, "Critical battery threshold (fraction)"),
     ParamSpec("COM_DL_LOSS_T", MAV_PARAM_TYPE_INT32, 10, 5, 300, "Data-link loss timeout (s)"),
+    ParamSpec("NAV_DLL_ACT", MAV_PARAM_TYPE_INT32, 2, 0, 6, "Data-link loss action (0 off, 1 hold, 2 RTL, 3 land)"),
+    ParamSpec("COM_OF_LOSS_T", MAV_PARAM_TYPE_REAL32, 1.0, 0.1, 60.0, "Offboard setpoint loss timeout (s)"),
     ParamSpec("MPC_XY_CRUISE", MAV_PARAM_TYPE_REAL32, 5.0, 3.0, 20.0, "Horizontal cruise speed (m/s)"),
 )
 

@@ -23,16 +23,16 @@ the PX4 user guide and MAVLink developer guide):
   PARAM_SET 23, GPS_RAW_INT 24, ATTITUDE 30, LOCAL_POSITION_NED 32, GLOBAL_POSITION_INT 33, COMMAND_INT 75,
   COMMAND_LONG 76, COMMAND_ACK 77, BATTERY_STATUS 147, AUTOPILOT_VERSION 148, HOME_POSITION 242,
   MESSAGE_INTERVAL 244, EXTENDED_SYS_STATE 245, STATUSTEXT 253.
-* HEARTBEAT: MAV_TYPE_QUADROTOR 2, MAV_AUTOPILOT_PX4 12, MAV_STATE_STANDBY 3 disarmed, ACTIVE 4 armed,
-  CRITICAL 5 with the battery below ``BAT_CRIT_THR``; mode encoding in :mod:`flight.mavlink.modes`.
 * A PING with target system and component 0 is a request; the answer echoes ``time_usec`` and ``seq`` and targets
   the sender.
 * STATUSTEXT carries 50 characters; longer texts go in chunks sharing a non-zero ``id`` with rising
   ``chunk_seq``, the last one shorter than 50 (an empty one if the text is a multiple of 50 long).
-* BATTERY_STATUS: unknown cell voltages are the total in ``voltages[0]`` and UINT16_MAX in the others; unknown
-  temperature is INT16_MAX; ``energy_consumed`` -1 is unknown.
-* AUTOPILOT_VERSION ``flight_sw_version`` is ``major << 24 | minor << 16 | patch << 8 | type`` (type 255:
-  release); we report PX4 1.14.0, the release whose behaviour is mimicked.
+* SET_POSITION_TARGET_LOCAL_NED 84 and SET_POSITION_TARGET_GLOBAL_INT 86 (offboard; :mod:`flight.mavlink.offboard`).
+
+Message builders live in :mod:`flight.mavlink.telemetry`; failsafes (checked every tick after the navigator) in
+:mod:`flight.mavlink.failsafe`. The data-link failsafe counts *simulated* seconds since the last valid message from
+any peer, so a client of a vehicle paced faster than real time must send (e.g. HEARTBEAT at 1 Hz of simulated time)
+or set ``NAV_DLL_ACT`` to 0.
 
 Rates are one table for all peers (PX4 keeps one per link); SET_MESSAGE_INTERVAL changes it for everyone.
 """
@@ -46,24 +46,29 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
 from flight.mavlink.commands import CommandRequest, handle_command
-from flight.mavlink.modes import FlightMode, base_mode
-from flight.mavlink.navigator import Navigator
+from flight.mavlink.failsafe import Failsafes
+from flight.mavlink.modes import FlightMode
+from flight.mavlink.navigator import CommandDenied, Navigator
+from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
 from flight.mavlink.params import MAV_PARAM_TYPE_INT32, ParamStore, decode_value, encode_value
+from flight.mavlink.telemetry import (
+    MAV_AUTOPILOT_PX4,
+    MAV_STATE_ACTIVE,
+    MAV_STATE_CRITICAL,
+    MAV_STATE_STANDBY,
+    MAV_TYPE_QUADROTOR,
+    LinkStats,
+    TelemetryBuilders,
+)
 from flight.sim import Simulator
 
 Address = tuple[str, int]
 
-MAV_TYPE_QUADROTOR = 2
-MAV_AUTOPILOT_PX4 = 12
-MAV_STATE_STANDBY = 3
-MAV_STATE_ACTIVE = 4
-MAV_STATE_CRITICAL = 5
 
 MAV_SEVERITY_CRITICAL = 2
 MAV_SEVERITY_WARNING = 4
@@ -81,6 +86,8 @@ MSG_LOCAL_POSITION_NED = 32
 MSG_GLOBAL_POSITION_INT = 33
 MSG_COMMAND_INT = 75
 MSG_COMMAND_LONG = 76
+MSG_SET_POSITION_TARGET_LOCAL_NED = 84
+MSG_SET_POSITION_TARGET_GLOBAL_INT = 86
 MSG_BATTERY_STATUS = 147
 MSG_AUTOPILOT_VERSION = 148
 MSG_HOME_POSITION = 242
@@ -99,55 +106,25 @@ DEFAULT_RATES_HZ: dict[int, float] = {
 }
 """Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link."""
 
-PX4_VERSION = (1, 14, 0)
-FIRMWARE_VERSION_TYPE_OFFICIAL = 255
-CAPABILITIES = (
-    mavlink2.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-    | mavlink2.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
-    | mavlink2.MAV_PROTOCOL_CAPABILITY_MAVLINK2
-)
-SENSORS = (
-    mavlink2.MAV_SYS_STATUS_SENSOR_3D_GYRO
-    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-    | mavlink2.MAV_SYS_STATUS_SENSOR_3D_MAG
-    | mavlink2.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-    | mavlink2.MAV_SYS_STATUS_SENSOR_GPS
-    | mavlink2.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
-    | mavlink2.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-    | mavlink2.MAV_SYS_STATUS_SENSOR_YAW_POSITION
-    | mavlink2.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
-    | mavlink2.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-    | mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-    | mavlink2.MAV_SYS_STATUS_SENSOR_BATTERY
-)
 MAX_PEERS = 16
 MAX_DATAGRAMS_PER_POLL = 1000
 STATUSTEXT_LEN = 50
-UINT16_MAX = 0xFFFF
-INT16_MAX = 0x7FFF
+SETPOINT_WARNING_INTERVAL_S = 1.0
+"""At most one STATUSTEXT per this many simulated seconds about rejected offboard setpoints."""
+
+__all__ = [
+    "DEFAULT_RATES_HZ",
+    "MAV_AUTOPILOT_PX4",
+    "MAV_STATE_ACTIVE",
+    "MAV_STATE_CRITICAL",
+    "MAV_STATE_STANDBY",
+    "MAV_TYPE_QUADROTOR",
+    "LinkStats",
+    "MavlinkVehicle",
+]
 
 
-@dataclass(slots=True)
-class LinkStats:
-    """Counters of the UDP link."""
-
-    rx_datagrams: int = 0
-    rx_messages: int = 0
-    rx_dropped: int = 0
-    """Datagrams that held no valid MAVLink message (garbage, truncated, bad CRC)."""
-    rx_bad_chunks: int = 0
-    """Bad-data chunks reported by the parser (a datagram can hold several, and valid messages besides)."""
-    tx_messages: int = 0
-    tx_errors: int = 0
-
-
-def _clamp_int(x: float, lo: int, hi: int) -> int:
-    if not math.isfinite(x):
-        return lo
-    return max(lo, min(hi, round(x)))
-
-
-class MavlinkVehicle:
+class MavlinkVehicle(TelemetryBuilders):
     """The simulator on the network as a PX4 quadrotor. Close it (or use ``with``) to free the socket."""
 
     def __init__(
@@ -171,6 +148,11 @@ class MavlinkVehicle:
         self.component_id = component_id
         self.params = ParamStore(params)
         self.navigator = Navigator(simulator, self.params)
+        self.navigator.notify = self.statustext
+        self.failsafes = Failsafes(self.navigator, self.statustext)
+        self.last_rx_s: float | None = None
+        """Simulated time of the last valid message from any peer (None: none yet)."""
+        self._setpoint_warned_s = -math.inf
         self.stats = LinkStats()
         self.statustexts: deque[tuple[int, str]] = deque(maxlen=100)
         """The last STATUSTEXTs sent, as (severity, text)."""
@@ -250,6 +232,7 @@ class MavlinkVehicle:
             self._poll()
             self.sim.step(self.tick_steps)
             self.navigator.update()
+            self.failsafes.update(self.last_rx_s)
             self._send_streams()
 
     def run_for(self, seconds: float) -> None:
@@ -332,6 +315,7 @@ class MavlinkVehicle:
     def _learn_peer(self, addr: Address) -> None:
         self._peers.pop(addr, None)
         self._peers[addr] = self.sim.time_s
+        self.last_rx_s = self.sim.time_s
         while len(self._peers) > MAX_PEERS:
             del self._peers[next(iter(self._peers))]
 
@@ -366,6 +350,20 @@ class MavlinkVehicle:
                     self._send(self._param_value(found), sender)
         elif msg_id == MSG_PARAM_SET and self._for_us(msg):
             self._param_set(msg, sender)
+        elif msg_id in (MSG_SET_POSITION_TARGET_LOCAL_NED, MSG_SET_POSITION_TARGET_GLOBAL_INT) and self._for_us(msg):
+            self._setpoint(msg, msg_id)
+
+    def _setpoint(self, msg: Any, msg_id: int) -> None:
+        decode = decode_local_ned if msg_id == MSG_SET_POSITION_TARGET_LOCAL_NED else decode_global_int
+        try:
+            self.navigator.offboard_target(decode(msg, self.sim))
+        except (SetpointRejected, CommandDenied) as err:
+            self.navigator.offboard_heard()
+            now = self.sim.time_s
+            if now - self._setpoint_warned_s >= SETPOINT_WARNING_INTERVAL_S:
+                self._setpoint_warned_s = now
+                reason = err.reason if isinstance(err, CommandDenied) else str(err)
+                self.statustext(f"Offboard setpoint ignored: {reason}")
 
     # -- parameters -------------------------------------------------------------------------------------------
 
@@ -482,142 +480,3 @@ class MavlinkVehicle:
 
     def build_message_interval(self, message_id: int, interval_us: int) -> Any:
         return self._mav.message_interval_encode(message_id, interval_us)
-
-    # -- message builders -------------------------------------------------------------------------------------
-
-    def _time_boot_ms(self) -> int:
-        return round(self.sim.time_s * 1000.0) & 0xFFFFFFFF
-
-    def _time_usec(self) -> int:
-        return round(self.sim.time_s * 1e6)
-
-    def _battery_fraction(self) -> float:
-        return float(self.sim.battery.percent) / 100.0
-
-    def _heartbeat(self) -> Any:
-        armed = self.sim.armed
-        if self._battery_fraction() <= self.params["BAT_CRIT_THR"]:
-            status = MAV_STATE_CRITICAL
-        else:
-            status = MAV_STATE_ACTIVE if armed else MAV_STATE_STANDBY
-        mode = self.navigator.mode
-        return self._mav.heartbeat_encode(
-            MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4, base_mode(mode, armed), mode.custom_mode, status, 3
-        )
-
-    def _sys_status(self) -> Any:
-        s = self.sim.state()
-        enabled = SENSORS if s.armed else SENSORS & ~mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-        return self._mav.sys_status_encode(
-            SENSORS,
-            enabled,
-            SENSORS,
-            0,
-            _clamp_int(s.battery_voltage_v * 1000.0, 0, UINT16_MAX - 1),
-            _clamp_int(s.battery_current_a * 100.0, -1, 32767),
-            _clamp_int(s.battery_pct, 0, 100),
-            0,
-            min(self.stats.rx_dropped, UINT16_MAX),
-            0,
-            0,
-            0,
-            0,
-        )
-
-    def _battery_status(self) -> Any:
-        s = self.sim.state()
-        frac = self._battery_fraction()
-        if frac <= self.params["BAT_CRIT_THR"]:
-            charge = mavlink2.MAV_BATTERY_CHARGE_STATE_CRITICAL
-        elif frac <= self.params["BAT_LOW_THR"]:
-            charge = mavlink2.MAV_BATTERY_CHARGE_STATE_LOW
-        else:
-            charge = mavlink2.MAV_BATTERY_CHARGE_STATE_OK
-        voltages = [_clamp_int(s.battery_voltage_v * 1000.0, 0, UINT16_MAX - 1)] + [UINT16_MAX] * 9
-        return self._mav.battery_status_encode(
-            0,
-            mavlink2.MAV_BATTERY_FUNCTION_ALL,
-            mavlink2.MAV_BATTERY_TYPE_LIPO,
-            INT16_MAX,
-            voltages,
-            _clamp_int(s.battery_current_a * 100.0, -1, 32767),
-            _clamp_int(self.sim.battery.used_mah, 0, 2**31 - 1),
-            -1,
-            _clamp_int(s.battery_pct, 0, 100),
-            0,
-            charge,
-        )
-
-    def _attitude(self) -> Any:
-        t = self.sim.truth()
-        return self._mav.attitude_encode(
-            self._time_boot_ms(), t.roll_rad, t.pitch_rad, t.yaw_rad, t.p_rps, t.q_rps, t.r_rps
-        )
-
-    def _global_position_int(self) -> Any:
-        s = self.sim.state()
-        hdg = round(math.degrees(s.yaw_rad) % 360.0 * 100.0) % 36000
-        return self._mav.global_position_int_encode(
-            self._time_boot_ms(),
-            round(s.lat_deg * 1e7),
-            round(s.lon_deg * 1e7),
-            round(s.alt_msl_m * 1000.0),
-            round(-s.down_m * 1000.0),
-            _clamp_int(s.vn_mps * 100.0, -32768, 32767),
-            _clamp_int(s.ve_mps * 100.0, -32768, 32767),
-            _clamp_int(s.vd_mps * 100.0, -32768, 32767),
-            hdg,
-        )
-
-    def _local_position_ned(self) -> Any:
-        s = self.sim.state()
-        return self._mav.local_position_ned_encode(
-            self._time_boot_ms(), s.north_m, s.east_m, s.down_m, s.vn_mps, s.ve_mps, s.vd_mps
-        )
-
-    def _gps_raw_int(self) -> Any:
-        f = self.sim.gps_fix()
-        vel = math.hypot(f.vn_mps, f.ve_mps)
-        cog = round(math.degrees(math.atan2(f.ve_mps, f.vn_mps)) % 360.0 * 100.0) % 36000 if vel > 0.1 else UINT16_MAX
-        alt_mm = round(f.alt_msl_m * 1000.0)
-        return self._mav.gps_raw_int_encode(
-            self._time_usec(),
-            f.fix_type,
-            round(f.lat_deg * 1e7),
-            round(f.lon_deg * 1e7),
-            alt_mm,
-            _clamp_int(f.eph_m * 100.0, 0, UINT16_MAX - 1),
-            _clamp_int(f.epv_m * 100.0, 0, UINT16_MAX - 1),
-            _clamp_int(vel * 100.0, 0, UINT16_MAX - 1),
-            cog,
-            min(f.satellites, 254),
-            alt_mm,
-            _clamp_int(f.eph_m * 1000.0, 0, 2**32 - 1),
-            _clamp_int(f.epv_m * 1000.0, 0, 2**32 - 1),
-        )
-
-    def _extended_sys_state(self) -> Any:
-        return self._mav.extended_sys_state_encode(mavlink2.MAV_VTOL_STATE_UNDEFINED, self.navigator.landed_state())
-
-    def _home_position(self) -> Any:
-        home = self.sim.environment.home
-        return self._mav.home_position_encode(
-            round(home.lat_deg * 1e7),
-            round(home.lon_deg * 1e7),
-            round(home.alt_msl_m * 1000.0),
-            0.0,
-            0.0,
-            0.0,
-            [1.0, 0.0, 0.0, 0.0],
-            0.0,
-            0.0,
-            0.0,
-            self._time_usec(),
-        )
-
-    def _autopilot_version(self) -> Any:
-        major, minor, patch = PX4_VERSION
-        version = major << 24 | minor << 16 | patch << 8 | FIRMWARE_VERSION_TYPE_OFFICIAL
-        return self._mav.autopilot_version_encode(
-            CAPABILITIES, version, version, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.system_id
-        )

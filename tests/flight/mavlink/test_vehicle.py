@@ -50,7 +50,7 @@ def test_heartbeat_presents_a_px4_quadrotor(link):
 def test_default_streams_arrive(link):
     types = set()
     for _ in range(round(2.5 / link.vehicle.tick_s)):
-        link.vehicle.step()
+        link.step()
         while (msg := link.client.recv_match(blocking=False)) is not None:
             types.add(msg.get_type())
     expected = {"HEARTBEAT", "SYS_STATUS", "BATTERY_STATUS", "ATTITUDE", "GLOBAL_POSITION_INT"}
@@ -90,7 +90,7 @@ def test_arm_takeoff_reposition_land(link):
         15.0,
     )
     assert ack.result == ACCEPTED
-    link.vehicle.run_for(15.0)
+    link.run_for(15.0)
     pos = link.fresh("GLOBAL_POSITION_INT", 1.0)
     assert abs((pos.lat / 1e7 - lat) * 111_000.0) < 1.5
     assert abs((pos.lon / 1e7 - home.lon_deg) * 111_000.0) < 1.5
@@ -154,7 +154,7 @@ def test_geofence_denies_a_reposition_outside_the_fence(link):
     assert link.wait("PARAM_VALUE", 1.0).param_value == 50.0
     assert link.command(m.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
     assert link.command(m.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, HOME_ALT + 5.0).result == 0
-    link.vehicle.run_for(4.0)
+    link.run_for(4.0)
     home = link.vehicle.sim.environment.home
     far = home.lat_deg + 100.0 / 111_000.0
     link.drain()
@@ -177,7 +177,7 @@ def test_garbage_is_counted_and_dropped_and_the_vehicle_still_answers(link):
     junk += [b"\xfd" * 280, b"", good[:-1] + bytes([good[-1] ^ 0xFF])]  # bad CRC last
     for j in junk:
         sock.sendto(j, addr)
-    link.vehicle.run_for(0.1)
+    link.run_for(0.1)
     stats = link.vehicle.stats
     assert stats.rx_dropped >= len(junk) - 2  # a random buffer may, very rarely, hide nothing invalid
     link.mav.ping_send(99, 3, 0, 0)
@@ -191,7 +191,7 @@ def test_param_read_and_set_round_trip(link):
     link.mav.param_request_list_send(1, 1)
     values = {}
     for _ in range(50):
-        link.vehicle.step()
+        link.step()
         while (msg := link.client.recv_match(type="PARAM_VALUE", blocking=False)) is not None:
             values[msg.param_id] = msg
     assert {"MIS_TAKEOFF_ALT", "RTL_RETURN_ALT", "GF_MAX_HOR_DIST", "GF_ACTION", "COM_DL_LOSS_T"} <= set(values)
