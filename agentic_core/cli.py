@@ -25,7 +25,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 EVAL_COMMANDS = ("stats", "paper")
-DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli"}
+DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli", "sim": "flight.cli"}
 """Commands whose layer parses its own arguments (and ``--help``)."""
 
 
@@ -150,6 +150,9 @@ def build_parser() -> argparse.ArgumentParser:
         eval_sub.add_parser(name, help=text, add_help=False)  # listed here; parsed by _run_eval
     sub.add_parser("tools", help="list and describe the registered tools (agentic-uav tools --help)", add_help=False)
     sub.add_parser("mcp", help="serve the tools over MCP, stdio or HTTP (agentic-uav mcp --help)", add_help=False)
+    sub.add_parser(
+        "sim", help="the simulated quadrotor on MAVLink/UDP, like PX4 SITL (agentic-uav sim --help)", add_help=False
+    )
     return parser
 
 

@@ -90,13 +90,14 @@ class Failsafes:
         self.triggered: list[str] = []
         """Every failsafe that acted, in order (for tests and logs)."""
 
-    def update(self, last_rx_s: float | None) -> None:
-        """Check everything; ``last_rx_s`` is the simulated time of the last valid message (None: none yet)."""
+    def update(self, last_rx_s: float | None, now_s: float | None = None) -> None:
+        """Check everything; ``last_rx_s`` is when the last valid message came (None: none yet) and ``now_s`` the
+        time now, both on the vehicle's link clock (simulated time unless given)."""
         nav = self.navigator
         sim = nav.sim
         s = sim.state()
         flying = sim.armed and not s.landed
-        self._check_link(flying, s.time_s, last_rx_s)
+        self._check_link(flying, s.time_s if now_s is None else now_s, last_rx_s)
         if not flying:
             self.fence_breached = False
             if s.battery_pct / 100.0 > nav.params["BAT_LOW_THR"]:

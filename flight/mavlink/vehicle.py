@@ -150,7 +150,8 @@ class MavlinkVehicle(TelemetryBuilders):
         self.navigator = Navigator(simulator, self.params)
         self.navigator.notify = self.statustext
         self.failsafes = Failsafes(self.navigator, self.statustext)
-        self.last_rx_s: float | None = None
+        self.last_rx_s: float | None = None  # on the link clock: simulated time in lockstep, wall time in run()
+        self._link_clock: Callable[[], float] = lambda: self.sim.time_s
         """Simulated time of the last valid message from any peer (None: none yet)."""
         self._setpoint_warned_s = -math.inf
         self.stats = LinkStats()
@@ -232,7 +233,7 @@ class MavlinkVehicle(TelemetryBuilders):
             self._poll()
             self.sim.step(self.tick_steps)
             self.navigator.update()
-            self.failsafes.update(self.last_rx_s)
+            self.failsafes.update(self.last_rx_s, self._link_clock())
             self._send_streams()
 
     def run_for(self, seconds: float) -> None:
@@ -245,6 +246,11 @@ class MavlinkVehicle(TelemetryBuilders):
         if speed is not None and not speed > 0:
             raise ValueError("speed must be positive or None")
         self._stop.clear()
+        # Clients send heartbeats on their own clock, at real-time rates: faster than real time, simulated time
+        # would make a healthy link look lost, so link loss is judged on the wall clock while running free.
+        self._link_clock = time.monotonic
+        if self.last_rx_s is not None:
+            self.last_rx_s = time.monotonic()
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while not self._stop.is_set():
             self.step()
@@ -315,7 +321,7 @@ class MavlinkVehicle(TelemetryBuilders):
     def _learn_peer(self, addr: Address) -> None:
         self._peers.pop(addr, None)
         self._peers[addr] = self.sim.time_s
-        self.last_rx_s = self.sim.time_s
+        self.last_rx_s = self._link_clock()
         while len(self._peers) > MAX_PEERS:
             del self._peers[next(iter(self._peers))]
 

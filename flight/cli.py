@@ -1,0 +1,142 @@
+"""``agentic-uav sim``: the simulated F450 as a PX4-like MAVLink vehicle on UDP, until Ctrl-C or SIGTERM.
+
+It binds one UDP socket (``--bind``, by default 127.0.0.1:18570, the port PX4 SITL's ground-station link listens
+on, from memory of PX4's ``px4-rc.mavlink``), streams to the ground-station and API addresses (``--gcs``
+127.0.0.1:14550 and ``--api`` 127.0.0.1:14540, as PX4 SITL; ``none`` turns one off) and answers whoever talks
+to it. ``--speed`` is a multiple of real time, or ``max`` for as fast as the machine goes. It prints where it
+listens, then runs until interrupted, and stops cleanly (the socket closed, exit status 0).
+
+>>> parse_speed("4"), parse_speed("max")
+(4.0, None)
+>>> parse_address("127.0.0.1:14550"), parse_address("none")
+(('127.0.0.1', 14550), None)
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import signal
+import sys
+import threading
+from collections.abc import Sequence
+from types import FrameType
+
+Address = tuple[str, int]
+
+DEFAULT_BIND = "127.0.0.1:18570"
+DEFAULT_GCS = "127.0.0.1:14550"
+DEFAULT_API = "127.0.0.1:14540"
+
+
+def parse_speed(text: str) -> float | None:
+    """``max`` (as fast as possible: None) or a positive multiple of real time."""
+    if text.strip().lower() in ("max", "none", "fast"):
+        return None
+    try:
+        speed = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"speed must be a positive number or 'max', not {text!r}") from None
+    if not speed > 0 or speed == float("inf"):
+        raise argparse.ArgumentTypeError(f"speed must be a positive number or 'max', not {text!r}")
+    return speed
+
+
+def parse_address(text: str) -> Address | None:
+    """``HOST:PORT``, or ``none``/``off`` for no address."""
+    if text.strip().lower() in ("none", "off", ""):
+        return None
+    host, sep, port = text.strip().rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT (or none), not {text!r}")
+    return host, int(port)
+
+
+def parse_home(text: str) -> tuple[float, float, float]:
+    """``LAT,LON,ALT`` (degrees, degrees, metres above mean sea level)."""
+    parts = text.split(",")
+    try:
+        lat, lon, alt = (float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LAT,LON,ALT, not {text!r}") from None
+    return lat, lon, alt
+
+
+def parse_param(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    try:
+        return name.strip(), float(value) if sep else float("nan")
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, not {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="agentic-uav sim",
+        description="Run the simulated F450 as a PX4-like MAVLink vehicle on UDP until Ctrl-C or SIGTERM.",
+    )
+    parser.add_argument("--speed", type=parse_speed, default=1.0, help="multiple of real time, or 'max' (default 1)")
+    parser.add_argument("--gcs", type=parse_address, default=DEFAULT_GCS, help=f"ground station ({DEFAULT_GCS})")
+    parser.add_argument("--api", type=parse_address, default=DEFAULT_API, help=f"API address ({DEFAULT_API})")
+    parser.add_argument("--bind", type=parse_address, default=DEFAULT_BIND, help=f"listen here ({DEFAULT_BIND})")
+    parser.add_argument("--home", type=parse_home, default=None, help="LAT,LON,ALT of home (default: Mina, 300 m)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the wind gusts and GPS noise")
+    parser.add_argument(
+        "--param", type=parse_param, action="append", default=[], metavar="NAME=VALUE", help="a vehicle parameter"
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the vehicle until SIGINT or SIGTERM; 0 after a clean stop, 1 when it cannot start or fails."""
+    args = build_parser().parse_args(argv)
+    if args.bind is None:
+        print("agentic-uav sim: error: --bind needs an address", file=sys.stderr)
+        return 2
+
+    from flight.mavlink import MavlinkVehicle
+    from flight.sim import Environment, Home, Simulator
+
+    try:
+        environment = Environment(home=Home(*args.home)) if args.home else Environment()
+        sim = Simulator(environment, seed=args.seed)
+        vehicle = MavlinkVehicle(sim, gcs=args.gcs, api=args.api, bind=args.bind, params=dict(args.param))
+    except (OSError, ValueError) as exc:
+        print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
+        return 1
+
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        stop.set()
+
+    previous: dict[int, object] = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, on_signal)
+    try:
+        thread = vehicle.start(args.speed)
+        host, port = vehicle.address
+        targets = ", ".join(f"{name} {a[0]}:{a[1]}" for name, a in (("gcs", args.gcs), ("api", args.api)) if a)
+        speed = "max" if args.speed is None else f"{args.speed:g}x"
+        print(
+            f"agentic-uav sim: listening on {host}:{port}; sending to {targets or 'nobody until contacted'}; "
+            f"speed {speed}; Ctrl-C or SIGTERM stops it",
+            flush=True,
+        )
+        while not stop.wait(0.2):
+            if not thread.is_alive():
+                print("agentic-uav sim: error: the vehicle stopped unexpectedly", file=sys.stderr)
+                return 1
+        return 0
+    finally:
+        vehicle.close()
+        for signum, handler in previous.items():
+            with contextlib.suppress(TypeError, ValueError):
+                signal.signal(signum, handler)  # type: ignore[arg-type]
+        if stop.is_set():
+            print("agentic-uav sim: stopped", flush=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

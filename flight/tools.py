@@ -1,0 +1,276 @@
+"""The ``flight.*`` tools: the mission DSL's flight actions (and the agent's) as guarded tools over a VehicleClient.
+
+Every action reaches the aircraft through the tools executor, so scopes, timeouts and the audit log apply to it.
+The input schemas mirror the mission DSL's argument models (``agentic_core.mission.model``: ``TakeoffArgs``,
+``FlyToArgs``, ``OrbitArgs``, ``HoverArgs``, ``LandArgs``, ``NoArgs``, ``DeployPayloadArgs``), which send their
+arguments by name with None left out and defaults filled in; ``flight`` must not import ``agentic_core``, so the
+names are repeated here and a test checks that the two agree.
+
+=========================  =======================================================  ==================
+tool                       arguments                                                scope
+=========================  =======================================================  ==================
+``flight.takeoff``         ``altitude_m`` (arms first when disarmed)                ``flight:command``
+``flight.fly_to``          ``lat``/``lon`` or ``north_m``/``east_m`` (from home) or  ``flight:command``
+                           ``target_id``; ``alt_m``, ``speed_mps``
+``flight.orbit``           ``center`` {lat, lon} or ``target_id``; ``radius_m``,    ``flight:command``
+                           ``turns``, ``alt_m``
+``flight.hover``           ``duration_s`` (of the vehicle's clock)                  ``flight:command``
+``flight.land``            here, or ``lat``/``lon``, or ``target_id``; ``offset_m``  ``flight:command``
+``flight.rtl``             none                                                     ``flight:command``
+``flight.hold``            none (stop where you are: the mission's abort)           ``flight:command``
+``flight.deploy_payload``  ``payload``                                              ``flight:payload``
+``flight.status``          none: the latest telemetry                               ``flight:read``
+=========================  =======================================================  ==================
+
+A ``target_id`` names an object of the world model, which the perception issue provides; until then such a call
+is an error saying so. Flight tools act on the aircraft: they are not idempotent, never retried and never cached,
+and their timeouts are minutes. A refused, failed or timed-out action raises :class:`~tools.ToolError` with the
+vehicle's reason, so its ToolResult is ``error`` with that reason; an action that completed returns the
+:class:`~flight.vehicle.FlightResult`.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Awaitable, Callable
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from tools import ToolError, ToolRegistry, ToolSpec
+from tools.function import spec_from_function
+
+from .vehicle import FlightResult, Telemetry, VehicleClient
+
+ClientFactory = Callable[[], Awaitable[VehicleClient]]
+"""Connects a client when a flight tool first needs one (e.g. ``lambda: VehicleClient.connect("127.0.0.1:14540")``)."""
+
+SCOPE_COMMAND = "flight:command"
+SCOPE_PAYLOAD = "flight:payload"
+SCOPE_READ = "flight:read"
+
+TIMEOUTS_S: dict[str, float] = {
+    "flight.takeoff": 180.0,
+    "flight.fly_to": 900.0,
+    "flight.orbit": 1800.0,
+    "flight.hover": 3600.0,
+    "flight.land": 600.0,
+    "flight.rtl": 1800.0,
+    "flight.hold": 30.0,
+    "flight.deploy_payload": 30.0,
+    "flight.status": 10.0,
+}
+"""Each tool's own timeout (the executor's bound on one call; a mission step's ``timeout_s`` may shorten it)."""
+
+NEEDS_WORLD_MODEL = "target_id needs the world model (perception issue), which is not available yet"
+
+Latitude = Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False, description="latitude, degrees (WGS-84)")]
+Longitude = Annotated[float, Field(ge=-180, le=180, allow_inf_nan=False, description="longitude, degrees (WGS-84)")]
+Metres = Annotated[float, Field(allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+
+
+class LatLon(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    lat: Latitude
+    lon: Longitude
+
+
+class _ClientSource:
+    """The client the tools use: a given one, or one the factory connects on first use (and again if closed)."""
+
+    def __init__(self, source: VehicleClient | ClientFactory) -> None:
+        self._client = source if isinstance(source, VehicleClient) else None
+        self._factory = None if isinstance(source, VehicleClient) else source
+        self._lock = threading.Lock()
+
+    async def get(self) -> VehicleClient:
+        client = self._client
+        if client is not None and not client.closed:
+            return client
+        if self._factory is None:
+            raise ToolError("the vehicle link is closed")
+        try:
+            client = await self._factory()
+        except Exception as exc:
+            raise ToolError(f"cannot connect to the vehicle: {exc}") from None
+        with self._lock:
+            current = self._client
+            if current is not None and not current.closed:  # another call connected meanwhile
+                client.close()
+                return current
+            self._client = client
+        return client
+
+
+def _done(result: FlightResult) -> FlightResult:
+    """The result of an action that completed; anything else is a ToolError with the vehicle's reason."""
+    if result.status != "ok":
+        raise ToolError(f"{result.action} {result.status}: {result.reason or 'no reason given'}")
+    return result
+
+
+def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
+    """The ``flight.*`` tool specs bound to a client (or a factory that connects one on first use)."""
+    clients = _ClientSource(source)
+
+    async def takeoff(altitude_m: Positive = 10.0) -> FlightResult:
+        """Take off and climb to a height above home, arming first if needed; returns when there.
+
+        Args:
+            altitude_m: climb to this height above home, in metres
+        """
+        client = await clients.get()
+        if not client.telemetry.armed:
+            _done(await client.arm())
+        return _done(await client.takeoff(altitude_m))
+
+    async def fly_to(
+        lat: Latitude | None = None,
+        lon: Longitude | None = None,
+        north_m: Metres | None = None,
+        east_m: Metres | None = None,
+        target_id: str | None = None,
+        alt_m: NonNegative | None = None,
+        speed_mps: Positive | None = None,
+    ) -> FlightResult:
+        """Fly to a position and hold there; returns when arrived. Give exactly one destination.
+
+        Args:
+            lat: latitude of the destination (with lon)
+            lon: longitude of the destination (with lat)
+            north_m: metres north of home (with east_m)
+            east_m: metres east of home (with north_m)
+            target_id: an object id of the world model, e.g. P-12
+            alt_m: height above home; default: keep the current one
+            speed_mps: horizontal speed; default: the vehicle's cruise speed
+        """
+        ways = [lat is not None or lon is not None, north_m is not None or east_m is not None, target_id is not None]
+        if sum(ways) != 1:
+            raise ToolError("give exactly one destination: lat and lon, north_m and east_m, or target_id")
+        if target_id is not None:
+            raise ToolError(NEEDS_WORLD_MODEL)
+        client = await clients.get()
+        if lat is not None and lon is not None:
+            return _done(await client.goto(lat, lon, alt_m, speed_mps=speed_mps, action="fly_to"))
+        if north_m is not None and east_m is not None:
+            return _done(await client.goto_local(north_m, east_m, alt_m, speed_mps=speed_mps, action="fly_to"))
+        raise ToolError("lat and lon go together, as do north_m and east_m")
+
+    async def orbit(
+        radius_m: Positive,
+        center: LatLon | None = None,
+        target_id: str | None = None,
+        turns: Positive = 1.0,
+        alt_m: NonNegative | None = None,
+    ) -> FlightResult:
+        """Circle a point (clockwise) for a number of turns, then hold; returns when done.
+
+        Args:
+            radius_m: the circle's radius in metres
+            center: the point to circle
+            target_id: an object id of the world model to circle instead of center
+            turns: how many times round
+            alt_m: height above home; default: keep the current one
+        """
+        if (center is None) == (target_id is None):
+            raise ToolError("give exactly one of center or target_id")
+        if center is None:
+            raise ToolError(NEEDS_WORLD_MODEL)
+        client = await clients.get()
+        return _done(await client.orbit(center.lat, center.lon, radius_m, turns=turns, alt_m=alt_m))
+
+    async def hover(duration_s: Positive) -> FlightResult:
+        """Hold position for a while (measured on the vehicle's clock).
+
+        Args:
+            duration_s: how long to hover, in seconds
+        """
+        client = await clients.get()
+        return _done(await client.hover(duration_s))
+
+    async def land(
+        lat: Latitude | None = None,
+        lon: Longitude | None = None,
+        target_id: str | None = None,
+        offset_m: NonNegative = 0.0,
+    ) -> FlightResult:
+        """Land here, or fly to lat/lon first; returns when on the ground.
+
+        Args:
+            lat: latitude to land at (with lon); default: here
+            lon: longitude to land at (with lat)
+            target_id: an object id of the world model to land beside
+            offset_m: keep this distance from the target when landing (only with target_id)
+        """
+        if (lat is None) != (lon is None):
+            raise ToolError("lat and lon go together")
+        if target_id is not None:
+            raise ToolError(NEEDS_WORLD_MODEL if lat is None else "give lat and lon, or target_id, not both")
+        client = await clients.get()
+        if lat is not None and lon is not None:
+            _done(await client.goto(lat, lon, None, action="land"))
+        return _done(await client.land())
+
+    async def rtl() -> FlightResult:
+        """Return to the launch point and land there; returns when on the ground."""
+        client = await clients.get()
+        return _done(await client.rtl())
+
+    async def hold() -> FlightResult:
+        """Stop and hold position where the vehicle is (ends any flight action under way)."""
+        client = await clients.get()
+        return _done(await client.hold())
+
+    async def deploy_payload(payload: str = "rescue_kit") -> FlightResult:
+        """Release the payload.
+
+        Args:
+            payload: what is carried, for the record (the vehicle has one release)
+        """
+        client = await clients.get()
+        result = _done(await client.deploy_payload())
+        return result.model_copy(update={"reason": f"released {payload}"})
+
+    async def status() -> Telemetry:
+        """The vehicle's latest telemetry: position, altitude above home, battery, armed, mode, landed state."""
+        client = await clients.get()
+        return client.telemetry
+
+    def spec(fn: Callable[..., Any], name: str, scope: str) -> ToolSpec:
+        return spec_from_function(fn, name=name, scopes=[scope], timeout_s=TIMEOUTS_S[name], idempotent=False)
+
+    return [
+        spec(takeoff, "flight.takeoff", SCOPE_COMMAND),
+        spec(fly_to, "flight.fly_to", SCOPE_COMMAND),
+        spec(orbit, "flight.orbit", SCOPE_COMMAND),
+        spec(hover, "flight.hover", SCOPE_COMMAND),
+        spec(land, "flight.land", SCOPE_COMMAND),
+        spec(rtl, "flight.rtl", SCOPE_COMMAND),
+        spec(hold, "flight.hold", SCOPE_COMMAND),
+        spec(deploy_payload, "flight.deploy_payload", SCOPE_PAYLOAD),
+        spec(status, "flight.status", SCOPE_READ),
+    ]
+
+
+def register_flight_tools(
+    registry: ToolRegistry, source: VehicleClient | ClientFactory, *, replace: bool = False
+) -> list[str]:
+    """Register the ``flight.*`` tools bound to ``source`` (a connected client, or a factory connecting one on
+    first use); returns their names."""
+    return [registry.register(s, replace=replace).name for s in flight_tools(source)]
+
+
+__all__ = [
+    "NEEDS_WORLD_MODEL",
+    "SCOPE_COMMAND",
+    "SCOPE_PAYLOAD",
+    "SCOPE_READ",
+    "TIMEOUTS_S",
+    "ClientFactory",
+    "LatLon",
+    "flight_tools",
+    "register_flight_tools",
+]
