@@ -30,9 +30,10 @@ the PX4 user guide and MAVLink developer guide):
 * SET_POSITION_TARGET_LOCAL_NED 84 and SET_POSITION_TARGET_GLOBAL_INT 86 (offboard; :mod:`flight.mavlink.offboard`).
 
 Message builders live in :mod:`flight.mavlink.telemetry`; failsafes (checked every tick after the navigator) in
-:mod:`flight.mavlink.failsafe`. The data-link failsafe counts *simulated* seconds since the last valid message from
-any peer, so a client of a vehicle paced faster than real time must send (e.g. HEARTBEAT at 1 Hz of simulated time)
-or set ``NAV_DLL_ACT`` to 0.
+:mod:`flight.mavlink.failsafe`. The data-link failsafe counts seconds since the last valid message from any peer:
+simulated seconds in lockstep (the caller drives time and its messages), wall-clock seconds while :meth:`run` runs
+free, so a client's real-time heartbeat keeps the link alive at any speed. The mission protocol is not built yet:
+MISSION_COUNT, MISSION_REQUEST_LIST and MISSION_CLEAR_ALL are answered with MISSION_ACK ``MAV_MISSION_UNSUPPORTED``.
 
 Rates are one table for all peers (PX4 keeps one per link); SET_MESSAGE_INTERVAL changes it for everyone.
 """
@@ -77,6 +78,7 @@ MAV_SEVERITY_INFO = 6
 MSG_HEARTBEAT = 0
 MSG_SYS_STATUS = 1
 MSG_PING = 4
+MISSION_REQUESTS = (43, 44, 45)  # MISSION_REQUEST_LIST, MISSION_COUNT, MISSION_CLEAR_ALL: answered UNSUPPORTED for now
 MSG_PARAM_REQUEST_READ = 20
 MSG_PARAM_REQUEST_LIST = 21
 MSG_PARAM_SET = 23
@@ -358,6 +360,13 @@ class MavlinkVehicle(TelemetryBuilders):
             self._param_set(msg, sender)
         elif msg_id in (MSG_SET_POSITION_TARGET_LOCAL_NED, MSG_SET_POSITION_TARGET_GLOBAL_INT) and self._for_us(msg):
             self._setpoint(msg, msg_id)
+        elif msg_id in MISSION_REQUESTS and self._for_us(msg):
+            # the mission protocol is not built yet: say so at once rather than leave the client to time out
+            kind = getattr(msg, "mission_type", 0)
+            ack = self._mav.mission_ack_encode(
+                msg.get_srcSystem(), msg.get_srcComponent(), mavlink2.MAV_MISSION_UNSUPPORTED, kind
+            )
+            self._send(ack, sender)
 
     def _setpoint(self, msg: Any, msg_id: int) -> None:
         decode = decode_local_ned if msg_id == MSG_SET_POSITION_TARGET_LOCAL_NED else decode_global_int
