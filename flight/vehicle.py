@@ -777,7 +777,7 @@ class VehicleClient:
 
     # -- parameters -------------------------------------------------------------------------------------------
 
-    async def get_param(self, name: str, timeout_s: float = 2.0) -> float | None:
+    async def get_param(self, name: str, timeout_s: float = 5.0) -> float | None:
         """A parameter's value (integers decoded from PX4's bytewise encoding), or None if none came."""
         ts, tc = self._target()
         for _ in range(2):
@@ -787,7 +787,7 @@ class VehicleClient:
                 return self._param_decode(msg)
         return None
 
-    async def set_param(self, name: str, value: float, timeout_s: float = 2.0) -> float | None:
+    async def set_param(self, name: str, value: float, timeout_s: float = 5.0) -> float | None:
         """Set a parameter; returns the value the vehicle echoes (it may refuse and echo the old one), or None
         without an answer. The type is the vehicle's (read first when not yet known)."""
         if name not in self._param_types and await self.get_param(name, timeout_s) is None:
