@@ -59,6 +59,16 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 from pymavlink.dialects.v20 import common as mavlink2
 
+from flight.geodesy import local_offset, offset_position
+from flight.px4 import (
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    AutoSubMode,
+    MainMode,
+    decode_custom_mode,
+    mavlink_text,
+)
+
 Address = tuple[str, int]
 CommandStatus = Literal["ok", "denied", "timeout", "unsupported", "failed"]
 LandedState = Literal["unknown", "on_ground", "in_air", "takeoff", "landing"]
@@ -95,8 +105,6 @@ COMMAND_NAMES = {
 
 MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = 6
 MAV_DO_REPOSITION_FLAGS_CHANGE_MODE = 1
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
-MAV_MODE_FLAG_SAFETY_ARMED = 128
 MAV_TYPE_GCS = 6
 MAV_AUTOPILOT_PX4 = 12
 MAV_AUTOPILOT_INVALID = 8
@@ -104,7 +112,6 @@ MAV_PARAM_TYPE_INT32 = 6
 MAV_PARAM_TYPE_REAL32 = 9
 FORCE_MAGIC = 21196
 GRIPPER_ACTION_RELEASE = 0
-PX4_MAIN_AUTO, PX4_SUB_LOITER = 4, 3
 STATUSTEXT_LEN = 50
 UINT16_MAX = 0xFFFF
 
@@ -137,28 +144,6 @@ ACK_TIMEOUT_S = 1.5
 ACK_ATTEMPTS = 3
 DENIAL_TEXT_WAIT_S = 0.3
 """After a refusal, how long to wait for the STATUSTEXT that says why if it has not come before the ACK."""
-
-_WGS84_A = 6378137.0
-_WGS84_E2 = 6.69437999014e-3
-
-
-def local_offset(lat0: float, lon0: float, lat: float, lon: float) -> tuple[float, float]:
-    """(north, east) metres of ``lat, lon`` from ``lat0, lon0``: a local tangent plane, good to centimetres over a
-    few kilometres (meridian and prime-vertical radii of WGS-84 at ``lat0``)."""
-    phi = math.radians(lat0)
-    w = math.sqrt(1.0 - _WGS84_E2 * math.sin(phi) ** 2)
-    r_meridian = _WGS84_A * (1.0 - _WGS84_E2) / w**3
-    r_normal = _WGS84_A / w
-    return math.radians(lat - lat0) * r_meridian, math.radians(lon - lon0) * r_normal * math.cos(phi)
-
-
-def offset_position(lat0: float, lon0: float, north_m: float, east_m: float) -> tuple[float, float]:
-    """The latitude and longitude ``north_m``/``east_m`` from ``lat0, lon0`` (the inverse of :func:`local_offset`)."""
-    phi = math.radians(lat0)
-    w = math.sqrt(1.0 - _WGS84_E2 * math.sin(phi) ** 2)
-    r_meridian = _WGS84_A * (1.0 - _WGS84_E2) / w**3
-    r_normal = _WGS84_A / w
-    return lat0 + math.degrees(north_m / r_meridian), lon0 + math.degrees(east_m / (r_normal * math.cos(phi)))
 
 
 def parse_address(address: str | Address) -> tuple[Address, bool]:
@@ -295,12 +280,6 @@ class _Op:
 def _resolve(future: asyncio.Future[Any], value: Any) -> None:
     if not future.done():
         future.set_result(value)
-
-
-def _text(field_value: Any) -> str:
-    if isinstance(field_value, bytes):
-        field_value = field_value.decode("utf-8", "replace")
-    return str(field_value).split("\x00", 1)[0]
 
 
 class TelemetrySubscription:
@@ -600,7 +579,7 @@ class VehicleClient:
         if kind == "HEARTBEAT" and own:
             s.armed = bool(msg.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
             if msg.autopilot == MAV_AUTOPILOT_PX4 and msg.base_mode & MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-                main, sub = (msg.custom_mode >> 16) & 0xFF, (msg.custom_mode >> 24) & 0xFF
+                main, sub = decode_custom_mode(msg.custom_mode)
                 s.mode = PX4_MODES.get((main, sub), f"px4:{main}/{sub}")
             else:
                 s.mode = f"custom:{msg.custom_mode}"
@@ -622,14 +601,14 @@ class VehicleClient:
         elif kind == "STATUSTEXT":
             self._statustext(msg)
         elif kind == "PARAM_VALUE":
-            self._param_types[_text(msg.param_id)] = int(msg.param_type)
+            self._param_types[mavlink_text(msg.param_id)] = int(msg.param_type)
             return False
         else:
             return False
         return True
 
     def _statustext(self, msg: Any) -> None:
-        text = _text(msg.text)
+        text = mavlink_text(msg.text)
         chunk_id = getattr(msg, "id", 0)
         if chunk_id:
             key = (msg.get_srcSystem(), msg.get_srcComponent(), chunk_id)
@@ -801,7 +780,9 @@ class VehicleClient:
 
     @staticmethod
     def _param_match(name: str) -> Callable[[Any], Any]:
-        return lambda m: m if m is not None and m.get_type() == "PARAM_VALUE" and _text(m.param_id) == name else None
+        return lambda m: (
+            m if m is not None and m.get_type() == "PARAM_VALUE" and mavlink_text(m.param_id) == name else None
+        )
 
     @staticmethod
     def _param_decode(msg: Any) -> float:
@@ -1026,7 +1007,8 @@ class VehicleClient:
         """Switch to Hold (PX4 AUTO.LOITER): stop and hover where the vehicle is."""
         op = self._begin("hold")
         ack = await self._command(
-            MAV_CMD_DO_SET_MODE, (float(MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), float(PX4_MAIN_AUTO), float(PX4_SUB_LOITER))
+            MAV_CMD_DO_SET_MODE,
+            (float(MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), float(MainMode.AUTO), float(AutoSubMode.LOITER)),
         )
         if not ack.accepted:
             return self._refused(op, ack)

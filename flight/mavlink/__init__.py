@@ -2,7 +2,7 @@
 
 :class:`MavlinkVehicle` (in :mod:`flight.mavlink.vehicle`) owns the socket, the message loop and the streams;
 :mod:`flight.mavlink.commands` answers COMMAND_LONG/COMMAND_INT; :mod:`flight.mavlink.navigator` flies the PX4
-modes on the :class:`~flight.sim.Simulator`; :mod:`flight.mavlink.modes` encodes PX4 modes;
+modes on the :class:`~flight.sim.Simulator`; :mod:`flight.px4` encodes PX4 modes;
 :mod:`flight.mavlink.params` holds the parameters; :mod:`flight.mavlink.failsafe` enforces the geofence, battery and
 data-link failsafes; :mod:`flight.mavlink.offboard` decodes offboard setpoints; :mod:`flight.mavlink.telemetry`
 builds the streamed messages. Each module's docstring names the MAVLink facts it relies on.
@@ -10,11 +10,11 @@ builds the streamed messages. Each module's docstring names the MAVLink facts it
 
 from flight.mavlink.commands import CommandOutcome, CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
-from flight.mavlink.modes import AutoSubMode, FlightMode, MainMode, base_mode, decode_custom_mode, encode_custom_mode
 from flight.mavlink.navigator import CommandDenied, Navigator, RtlPhase
 from flight.mavlink.offboard import OffboardSetpoint, SetpointRejected
 from flight.mavlink.params import PARAMS, ParamSpec, ParamStore, decode_value, encode_value
 from flight.mavlink.vehicle import DEFAULT_RATES_HZ, LinkStats, MavlinkVehicle
+from flight.px4 import AutoSubMode, FlightMode, MainMode, base_mode, decode_custom_mode, encode_custom_mode
 
 __all__ = [
     "DEFAULT_RATES_HZ",

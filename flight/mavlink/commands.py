@@ -34,8 +34,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from flight.mavlink.modes import MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, FlightMode
 from flight.mavlink.navigator import CommandDenied, Navigator
+from flight.px4 import MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, FlightMode
 from flight.sim import Simulator, geodetic_to_ned
 
 MAV_RESULT_ACCEPTED = 0

@@ -28,8 +28,8 @@ import math
 from collections.abc import Callable
 from enum import IntEnum
 
-from flight.mavlink.modes import FlightMode
 from flight.mavlink.navigator import CommandDenied, Navigator
+from flight.px4 import FlightMode
 
 MAV_SEVERITY_CRITICAL = 2
 MAV_SEVERITY_WARNING = 4

@@ -29,9 +29,9 @@ import math
 from collections.abc import Callable
 from enum import Enum
 
-from flight.mavlink.modes import FlightMode
 from flight.mavlink.offboard import OffboardSetpoint
 from flight.mavlink.params import ParamStore
+from flight.px4 import FlightMode
 from flight.sim import Simulator
 
 MAV_LANDED_STATE_ON_GROUND = 1

@@ -6,7 +6,7 @@ of :class:`~flight.mavlink.vehicle.MavlinkVehicle`; each builder returns a messa
 Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20/common.py``):
 
 * HEARTBEAT: MAV_TYPE_QUADROTOR 2, MAV_AUTOPILOT_PX4 12, MAV_STATE_STANDBY 3 disarmed, ACTIVE 4 armed,
-  CRITICAL 5 with the battery below ``BAT_CRIT_THR``; mode encoding in :mod:`flight.mavlink.modes`.
+  CRITICAL 5 with the battery below ``BAT_CRIT_THR``; mode encoding in :mod:`flight.px4`.
 * BATTERY_STATUS: unknown cell voltages are the total in ``voltages[0]`` and UINT16_MAX in the others; unknown
   temperature is INT16_MAX; ``energy_consumed`` -1 is unknown.
 * AUTOPILOT_VERSION ``flight_sw_version`` is ``major << 24 | minor << 16 | patch << 8 | type`` (type 255:
@@ -21,9 +21,9 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from flight.mavlink.modes import base_mode
 from flight.mavlink.navigator import Navigator
 from flight.mavlink.params import ParamStore
+from flight.px4 import base_mode
 from flight.sim import Simulator
 
 MAV_TYPE_QUADROTOR = 2

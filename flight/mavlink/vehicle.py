@@ -53,7 +53,6 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
-from flight.mavlink.modes import FlightMode
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
 from flight.mavlink.params import MAV_PARAM_TYPE_INT32, ParamStore, decode_value, encode_value
@@ -66,6 +65,7 @@ from flight.mavlink.telemetry import (
     LinkStats,
     TelemetryBuilders,
 )
+from flight.px4 import FlightMode, mavlink_text
 from flight.sim import Simulator
 
 Address = tuple[str, int]
@@ -382,16 +382,10 @@ class MavlinkVehicle(TelemetryBuilders):
 
     # -- parameters -------------------------------------------------------------------------------------------
 
-    @staticmethod
-    def _text(field: Any) -> str:
-        if isinstance(field, bytes):
-            field = field.decode("utf-8", "replace")
-        return str(field).split("\x00", 1)[0]
-
     def _param_name(self, param_id: Any, index: int) -> str | None:
         if index >= 0:
             return self.params.names[index] if index < len(self.params) else None
-        name = self._text(param_id)
+        name = mavlink_text(param_id)
         return name if name in self.params else None
 
     def _param_value(self, name: str) -> Any:
@@ -405,7 +399,7 @@ class MavlinkVehicle(TelemetryBuilders):
         )
 
     def _param_set(self, msg: Any, sender: Address) -> None:
-        name = self._text(msg.param_id)
+        name = mavlink_text(msg.param_id)
         if name not in self.params:
             self.statustext(f"Parameter {name[:16]} does not exist")
             return

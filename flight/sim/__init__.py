@@ -4,6 +4,7 @@
 vehicle's pacer). Nothing in ``flight.sim`` imports from ``agentic_core`` or ``tools``.
 """
 
+from flight.geodesy import geodetic_to_ned, ned_to_geodetic
 from flight.sim.battery import Battery, BatteryConfig, cell_ocv
 from flight.sim.controller import (
     ControlOutput,
@@ -17,7 +18,7 @@ from flight.sim.controller import (
     VelocitySetpoint,
 )
 from flight.sim.environment import Environment, GpsNoise, GpsNoiseSettings, Home, WindSettings
-from flight.sim.jsbsim_model import DT, F450Model, ModelState, geodetic_to_ned, ned_to_geodetic
+from flight.sim.jsbsim_model import DT, F450Model, ModelState
 from flight.sim.simulator import GpsFix, Simulator, VehicleState
 
 __all__ = [

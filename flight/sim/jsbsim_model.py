@@ -42,6 +42,8 @@ from dataclasses import dataclass
 
 import jsbsim
 
+from flight.geodesy import earth_radii
+
 FT = 0.3048
 """Metres per foot."""
 DT = 1.0 / 250.0
@@ -52,38 +54,6 @@ GEAR_HEIGHT_M = 0.1524
 """Distance from the centre of gravity down to the contact points (``Gear.xml``): the CG's height when landed."""
 HOVER_THROTTLE = 0.41
 """Collective throttle that holds the 1.4 kg F450 in a hover (measured)."""
-
-WGS84_A = 6378137.0
-WGS84_E2 = 6.69437999014e-3
-
-
-def earth_radii(lat_deg: float) -> tuple[float, float]:
-    """Meridian and prime-vertical radii of curvature (m) of the WGS-84 ellipsoid at a geodetic latitude."""
-    s = math.sin(math.radians(lat_deg))
-    w = math.sqrt(1.0 - WGS84_E2 * s * s)
-    r_meridian = WGS84_A * (1.0 - WGS84_E2) / (w * w * w)
-    r_normal = WGS84_A / w
-    return r_meridian, r_normal
-
-
-def geodetic_to_ned(
-    lat_deg: float, lon_deg: float, alt_m: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
-) -> tuple[float, float, float]:
-    """North, east, down (m) of a point from home, on the tangent plane at home."""
-    r_m, r_n = earth_radii(home_lat_deg)
-    north = math.radians(lat_deg - home_lat_deg) * r_m
-    east = math.radians(lon_deg - home_lon_deg) * r_n * math.cos(math.radians(home_lat_deg))
-    return north, east, home_alt_m - alt_m
-
-
-def ned_to_geodetic(
-    north: float, east: float, down: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
-) -> tuple[float, float, float]:
-    """Inverse of :func:`geodetic_to_ned`: latitude, longitude (degrees) and altitude (m)."""
-    r_m, r_n = earth_radii(home_lat_deg)
-    lat = home_lat_deg + math.degrees(north / r_m)
-    lon = home_lon_deg + math.degrees(east / (r_n * math.cos(math.radians(home_lat_deg))))
-    return lat, lon, home_alt_m - down
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,6 +20,7 @@ from collections.abc import Callable
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from flight.geodesy import geodetic_to_ned, ned_to_geodetic
 from flight.sim.battery import Battery, BatteryConfig
 from flight.sim.controller import (
     IDLE,
@@ -34,7 +35,7 @@ from flight.sim.controller import (
     VelocitySetpoint,
 )
 from flight.sim.environment import Environment, GpsNoise, Gusts, WindSettings
-from flight.sim.jsbsim_model import DT, HOVER_THROTTLE, F450Model, ModelState, geodetic_to_ned, ned_to_geodetic
+from flight.sim.jsbsim_model import DT, HOVER_THROTTLE, F450Model, ModelState
 
 STEPS_PER_SECOND = round(1.0 / DT)
 

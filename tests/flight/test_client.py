@@ -7,16 +7,10 @@ from typing import Any
 
 import pytest
 
+from flight.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
-from flight.vehicle import (
-    MAV_RESULT_UNSUPPORTED,
-    VehicleClient,
-    VehicleConnectionError,
-    local_offset,
-    offset_position,
-    parse_address,
-)
+from flight.vehicle import MAV_RESULT_UNSUPPORTED, VehicleClient, VehicleConnectionError, parse_address
 
 
 def free_udp_port():

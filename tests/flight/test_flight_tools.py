@@ -11,10 +11,11 @@ from pydantic import BaseModel
 
 from agentic_core.mission import model as mission
 from agentic_core.mission.steps import Environment, perform, prepare
+from flight.geodesy import offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.tools import NEEDS_WORLD_MODEL, TIMEOUTS_S, flight_tools, register_flight_tools
-from flight.vehicle import FlightResult, Telemetry, VehicleClient, offset_position
+from flight.vehicle import FlightResult, Telemetry, VehicleClient
 from tools import Caller, ToolExecutor, ToolRegistry
 
 PILOT = Caller(id="pilot", scopes=frozenset({"flight:command", "flight:payload", "flight:read"}))

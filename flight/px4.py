@@ -1,4 +1,5 @@
-"""PX4 flight modes as they appear on the wire: HEARTBEAT ``base_mode`` flags and the PX4 ``custom_mode`` word.
+"""PX4 on the wire, for both ends of the link (the simulated vehicle and the agent's client): HEARTBEAT
+``base_mode`` flags, the PX4 ``custom_mode`` word, and MAVLink's fixed-length text fields.
 
 Why: every MAVLink client that knows PX4 (MAVSDK, QGroundControl, MAVProxy, pymavlink's ``mavutil``) reads the
 vehicle's mode from HEARTBEAT.custom_mode and sets it with MAV_CMD_DO_SET_MODE (176), so the vehicle must speak
@@ -110,3 +111,10 @@ def base_mode(mode: FlightMode, armed: bool) -> int:
     if armed:
         flags |= MAV_MODE_FLAG_SAFETY_ARMED
     return flags
+
+
+def mavlink_text(field: bytes | str) -> str:
+    """A fixed-length MAVLink char field (STATUSTEXT.text, PARAM_VALUE.param_id) as text, without its NUL padding."""
+    if isinstance(field, bytes):
+        field = field.decode("utf-8", "replace")
+    return str(field).split("\x00", 1)[0]
