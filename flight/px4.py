@@ -23,11 +23,13 @@ from __future__ import annotations
 
 from enum import Enum, IntEnum
 
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
-MAV_MODE_FLAG_AUTO_ENABLED = 4
-MAV_MODE_FLAG_GUIDED_ENABLED = 8
-MAV_MODE_FLAG_STABILIZE_ENABLED = 16
-MAV_MODE_FLAG_SAFETY_ARMED = 128
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_MODE_FLAG_AUTO_ENABLED,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_GUIDED_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    MAV_MODE_FLAG_STABILIZE_ENABLED,
+)
 
 
 class MainMode(IntEnum):
@@ -110,7 +112,7 @@ def base_mode(mode: FlightMode, armed: bool) -> int:
         flags |= MAV_MODE_FLAG_AUTO_ENABLED
     if armed:
         flags |= MAV_MODE_FLAG_SAFETY_ARMED
-    return flags
+    return int(flags)
 
 
 def mavlink_text(field: bytes | str) -> str:

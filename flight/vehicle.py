@@ -58,11 +58,34 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_AUTOPILOT_INVALID,
+    MAV_AUTOPILOT_PX4,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_GRIPPER,
+    MAV_CMD_DO_ORBIT,
+    MAV_CMD_DO_REPOSITION,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_GET_HOME_POSITION,
+    MAV_CMD_NAV_LAND,
+    MAV_CMD_NAV_RETURN_TO_LAUNCH,
+    MAV_CMD_NAV_TAKEOFF,
+    MAV_DO_REPOSITION_FLAGS_CHANGE_MODE,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    MAV_PARAM_TYPE_INT32,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
+    MAV_RESULT_IN_PROGRESS,
+    MAV_RESULT_TEMPORARILY_REJECTED,
+    MAV_RESULT_UNSUPPORTED,
+    MAV_TYPE_GCS,
+)
 
 from flight.geodesy import local_offset, offset_position
 from flight.px4 import (
-    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-    MAV_MODE_FLAG_SAFETY_ARMED,
     AutoSubMode,
     MainMode,
     decode_custom_mode,
@@ -73,24 +96,9 @@ Address = tuple[str, int]
 CommandStatus = Literal["ok", "denied", "timeout", "unsupported", "failed"]
 LandedState = Literal["unknown", "on_ground", "in_air", "takeoff", "landing"]
 
-MAV_RESULT_ACCEPTED = 0
-MAV_RESULT_TEMPORARILY_REJECTED = 1
-MAV_RESULT_DENIED = 2
-MAV_RESULT_UNSUPPORTED = 3
-MAV_RESULT_FAILED = 4
-MAV_RESULT_IN_PROGRESS = 5
 MAV_RESULT_NAMES = {0: "ACCEPTED", 1: "TEMPORARILY_REJECTED", 2: "DENIED", 3: "UNSUPPORTED", 4: "FAILED"}
 MAV_RESULT_NAMES |= {5: "IN_PROGRESS", 6: "CANCELLED"}
 
-MAV_CMD_NAV_RETURN_TO_LAUNCH = 20
-MAV_CMD_NAV_LAND = 21
-MAV_CMD_NAV_TAKEOFF = 22
-MAV_CMD_DO_ORBIT = 34
-MAV_CMD_DO_SET_MODE = 176
-MAV_CMD_DO_REPOSITION = 192
-MAV_CMD_DO_GRIPPER = 211
-MAV_CMD_COMPONENT_ARM_DISARM = 400
-MAV_CMD_GET_HOME_POSITION = 410
 COMMAND_NAMES = {
     20: "NAV_RETURN_TO_LAUNCH",
     21: "NAV_LAND",
@@ -103,13 +111,6 @@ COMMAND_NAMES = {
     410: "GET_HOME_POSITION",
 }
 
-MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = 6
-MAV_DO_REPOSITION_FLAGS_CHANGE_MODE = 1
-MAV_TYPE_GCS = 6
-MAV_AUTOPILOT_PX4 = 12
-MAV_AUTOPILOT_INVALID = 8
-MAV_PARAM_TYPE_INT32 = 6
-MAV_PARAM_TYPE_REAL32 = 9
 FORCE_MAGIC = 21196
 GRIPPER_ACTION_RELEASE = 0
 STATUSTEXT_LEN = 50
@@ -254,7 +255,7 @@ class _Ack:
 
     @property
     def accepted(self) -> bool:
-        return self.result == MAV_RESULT_ACCEPTED
+        return bool(self.result == MAV_RESULT_ACCEPTED)
 
 
 @dataclass(eq=False, slots=True)

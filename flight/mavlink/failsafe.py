@@ -28,12 +28,14 @@ import math
 from collections.abc import Callable
 from enum import IntEnum
 
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_SEVERITY_CRITICAL,
+    MAV_SEVERITY_INFO,
+    MAV_SEVERITY_WARNING,
+)
+
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.px4 import FlightMode
-
-MAV_SEVERITY_CRITICAL = 2
-MAV_SEVERITY_WARNING = 4
-MAV_SEVERITY_INFO = 6
 
 FENCE_HOLD_MARGIN_M = 1.0
 """A geofence hold is flown this far inside the fence."""

@@ -29,18 +29,20 @@ import math
 from collections.abc import Callable
 from enum import Enum
 
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_LANDED_STATE_IN_AIR,
+    MAV_LANDED_STATE_LANDING,
+    MAV_LANDED_STATE_ON_GROUND,
+    MAV_LANDED_STATE_TAKEOFF,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_TEMPORARILY_REJECTED,
+    MAV_SEVERITY_CRITICAL,
+)
+
 from flight.mavlink.offboard import OffboardSetpoint
 from flight.mavlink.params import ParamStore
 from flight.px4 import FlightMode
 from flight.sim import Simulator
-
-MAV_LANDED_STATE_ON_GROUND = 1
-MAV_LANDED_STATE_IN_AIR = 2
-MAV_LANDED_STATE_TAKEOFF = 3
-MAV_LANDED_STATE_LANDING = 4
-
-MAV_RESULT_DENIED = 2
-MAV_RESULT_TEMPORARILY_REJECTED = 1
 
 TAKEOFF_ACCEPT_M = 0.5
 """Take-off is complete within this many metres of the target altitude."""
@@ -48,7 +50,6 @@ RTL_CLIMB_ACCEPT_M = 0.5
 RTL_HOME_ACCEPT_M = 1.0
 MIN_TAKEOFF_ALT_M = 1.0
 MIN_GPS_SATELLITES = 6
-MAV_SEVERITY_CRITICAL = 2
 
 
 class CommandDenied(Exception):
@@ -280,13 +281,13 @@ class Navigator:
         """MAV_LANDED_STATE for EXTENDED_SYS_STATE."""
         s = self.sim.state()
         if not s.armed:
-            return MAV_LANDED_STATE_ON_GROUND
+            return int(MAV_LANDED_STATE_ON_GROUND)
         landing = self.mode is FlightMode.LAND or self.rtl_phase is RtlPhase.LAND
         if landing:
-            return MAV_LANDED_STATE_LANDING
+            return int(MAV_LANDED_STATE_LANDING)
         if self.mode is FlightMode.TAKEOFF:
-            return MAV_LANDED_STATE_TAKEOFF
-        return MAV_LANDED_STATE_ON_GROUND if s.landed else MAV_LANDED_STATE_IN_AIR
+            return int(MAV_LANDED_STATE_TAKEOFF)
+        return int(MAV_LANDED_STATE_ON_GROUND if s.landed else MAV_LANDED_STATE_IN_AIR)
 
     # -- helpers ----------------------------------------------------------------------------------------------
 

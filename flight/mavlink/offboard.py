@@ -24,6 +24,14 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_FRAME_BODY_FRD,
+    MAV_FRAME_BODY_NED,
+    MAV_FRAME_BODY_OFFSET_NED,
+    MAV_FRAME_LOCAL_NED,
+    MAV_FRAME_LOCAL_OFFSET_NED,
+)
+
 from flight.sim import Simulator, geodetic_to_ned
 
 IGNORE_X, IGNORE_Y, IGNORE_Z = 1, 2, 4
@@ -32,11 +40,6 @@ IGNORE_YAW = 1024
 IGNORE_POSITION = IGNORE_X | IGNORE_Y | IGNORE_Z
 IGNORE_VELOCITY = IGNORE_VX | IGNORE_VY | IGNORE_VZ
 
-MAV_FRAME_LOCAL_NED = 1
-MAV_FRAME_LOCAL_OFFSET_NED = 7
-MAV_FRAME_BODY_NED = 8
-MAV_FRAME_BODY_OFFSET_NED = 9
-MAV_FRAME_BODY_FRD = 12
 _BODY_FRAMES = frozenset({MAV_FRAME_BODY_NED, MAV_FRAME_BODY_OFFSET_NED, MAV_FRAME_BODY_FRD})
 _LOCAL_FRAMES = frozenset({MAV_FRAME_LOCAL_NED, MAV_FRAME_LOCAL_OFFSET_NED}) | _BODY_FRAMES
 _AMSL_FRAMES = frozenset({0, 5})

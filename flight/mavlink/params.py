@@ -30,8 +30,10 @@ import math
 import struct
 from dataclasses import dataclass
 
-MAV_PARAM_TYPE_INT32 = 6
-MAV_PARAM_TYPE_REAL32 = 9
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_PARAM_TYPE_INT32,
+    MAV_PARAM_TYPE_REAL32,
+)
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,17 +20,18 @@ from dataclasses import dataclass
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_AUTOPILOT_PX4,
+    MAV_STATE_ACTIVE,
+    MAV_STATE_CRITICAL,
+    MAV_STATE_STANDBY,
+    MAV_TYPE_QUADROTOR,
+)
 
 from flight.mavlink.navigator import Navigator
 from flight.mavlink.params import ParamStore
 from flight.px4 import base_mode
 from flight.sim import Simulator
-
-MAV_TYPE_QUADROTOR = 2
-MAV_AUTOPILOT_PX4 = 12
-MAV_STATE_STANDBY = 3
-MAV_STATE_ACTIVE = 4
-MAV_STATE_CRITICAL = 5
 
 PX4_VERSION = (1, 14, 0)
 FIRMWARE_VERSION_TYPE_OFFICIAL = 255

@@ -50,18 +50,22 @@ from collections.abc import Callable
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_AUTOPILOT_PX4,
+    MAV_PARAM_TYPE_INT32,
+    MAV_SEVERITY_WARNING,
+    MAV_STATE_ACTIVE,
+    MAV_STATE_CRITICAL,
+    MAV_STATE_STANDBY,
+    MAV_TYPE_QUADROTOR,
+)
 
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
-from flight.mavlink.params import MAV_PARAM_TYPE_INT32, ParamStore, decode_value, encode_value
+from flight.mavlink.params import ParamStore, decode_value, encode_value
 from flight.mavlink.telemetry import (
-    MAV_AUTOPILOT_PX4,
-    MAV_STATE_ACTIVE,
-    MAV_STATE_CRITICAL,
-    MAV_STATE_STANDBY,
-    MAV_TYPE_QUADROTOR,
     LinkStats,
     TelemetryBuilders,
 )
@@ -70,10 +74,6 @@ from flight.sim import Simulator
 
 Address = tuple[str, int]
 
-
-MAV_SEVERITY_CRITICAL = 2
-MAV_SEVERITY_WARNING = 4
-MAV_SEVERITY_INFO = 6
 
 MSG_HEARTBEAT = 0
 MSG_SYS_STATUS = 1

@@ -6,11 +6,12 @@ import socket
 from typing import Any
 
 import pytest
+from pymavlink.dialects.v20.common import MAV_RESULT_UNSUPPORTED
 
 from flight.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
-from flight.vehicle import MAV_RESULT_UNSUPPORTED, VehicleClient, VehicleConnectionError, parse_address
+from flight.vehicle import VehicleClient, VehicleConnectionError, parse_address
 
 
 def free_udp_port():
