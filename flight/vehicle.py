@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import math
 import select
 import socket
@@ -662,9 +663,10 @@ class VehicleClient:
 
     # -- waiting ----------------------------------------------------------------------------------------------
 
-    async def _wait(self, match: Callable[[Any], Any], timeout_s: float) -> Any:
+    async def _wait(self, match: Callable[[Any], Any], timeout_s: float, send: Callable[[], None] | None = None) -> Any:
         """The first non-None ``match(msg)`` (``match(None)`` is tried at once on the current state), or None
-        after ``timeout_s``. An exception the predicate raised is returned, not raised."""
+        after ``timeout_s``. An exception the predicate raised is returned, not raised. ``send`` sends the request
+        whose answer is awaited: only once the waiter is in place, or a quick answer would slip past it."""
         loop = asyncio.get_running_loop()
         future: asyncio.Future[Any] = loop.create_future()
         waiter = _Waiter(loop, future, match)
@@ -676,6 +678,8 @@ class VehicleClient:
                 return None
             self._waiters.append(waiter)
         try:
+            if send is not None:
+                send()
             async with asyncio.timeout(max(0.0, timeout_s)):
                 return await future
         except TimeoutError:
@@ -727,13 +731,16 @@ class VehicleClient:
             return msg if msg.result != MAV_RESULT_IN_PROGRESS else None
 
         ack = None
-        for attempt in range(attempts):
+
+        def send(confirmation: int) -> None:
             if frame is None:
-                self._send_command_long(command, full, confirmation=min(attempt, 255))
+                self._send_command_long(command, full, confirmation=confirmation)
             else:
                 p = (float(full[0]), float(full[1]), float(full[2]), float(full[3]))
                 self._send_command_int(command, frame, p, x, y, z)
-            ack = await self._wait(is_ack, timeout_s)
+
+        for attempt in range(attempts):
+            ack = await self._wait(is_ack, timeout_s, send=functools.partial(send, min(attempt, 255)))
             if ack is not None:
                 break
         name = COMMAND_NAMES.get(command, str(command))
@@ -761,8 +768,8 @@ class VehicleClient:
         """A parameter's value (integers decoded from PX4's bytewise encoding), or None if none came."""
         ts, tc = self._target()
         for _ in range(2):
-            self._send(self._mav.param_request_read_encode(ts, tc, name.encode(), -1))
-            msg = await self._wait(self._param_match(name), timeout_s / 2)
+            request = self._mav.param_request_read_encode(ts, tc, name.encode(), -1)
+            msg = await self._wait(self._param_match(name), timeout_s / 2, send=functools.partial(self._send, request))
             if msg is not None:
                 return self._param_decode(msg)
         return None
@@ -775,8 +782,8 @@ class VehicleClient:
         ptype = self._param_types[name]
         wire = struct.unpack("<f", struct.pack("<i", round(value)))[0] if ptype == MAV_PARAM_TYPE_INT32 else value
         ts, tc = self._target()
-        self._send(self._mav.param_set_encode(ts, tc, name.encode(), float(wire), ptype))
-        msg = await self._wait(self._param_match(name), timeout_s)
+        request = self._mav.param_set_encode(ts, tc, name.encode(), float(wire), ptype)
+        msg = await self._wait(self._param_match(name), timeout_s, send=functools.partial(self._send, request))
         return None if msg is None else self._param_decode(msg)
 
     @staticmethod
@@ -1112,8 +1119,7 @@ class VehicleClient:
             x=round(lat * 1e7),
             y=round(lon * 1e7),
             z=math.nan if alt_m is None else alt_m,
-            attempts=1,
-        )
+        )  # resent like every command when no ACK comes: a second identical orbit changes nothing
         if ack.result == MAV_RESULT_UNSUPPORTED:
             self._end(op)
             return await self._orbit_waypoints(lat, lon, radius_m, turns, alt_m, speed_mps, direction, deadline)
