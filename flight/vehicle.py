@@ -54,7 +54,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -168,12 +168,9 @@ class VehicleConnectionError(ConnectionError):
     """No heartbeat from a vehicle within the connect timeout (or the socket could not be opened)."""
 
 
-class Telemetry(BaseModel):
-    """What the client last heard from the vehicle. ``None`` where nothing has been heard yet."""
+class _Heard(BaseModel):
+    """The vehicle's state as its messages report it: kept by the reader thread, snapshot in :class:`Telemetry`."""
 
-    model_config = ConfigDict(frozen=True)
-
-    connected: bool = Field(description="a message arrived within the last few seconds")
     time_boot_s: float | None = Field(default=None, description="the vehicle's clock (simulated time in a sim)")
     lat_deg: float | None = None
     lon_deg: float | None = None
@@ -191,6 +188,14 @@ class Telemetry(BaseModel):
     armed: bool = False
     mode: str = "unknown"
     landed_state: LandedState = "unknown"
+
+
+class Telemetry(_Heard):
+    """What the client last heard from the vehicle. ``None`` where nothing has been heard yet."""
+
+    model_config = ConfigDict(frozen=True)
+
+    connected: bool = Field(description="a message arrived within the last few seconds")
     home_lat_deg: float | None = None
     home_lon_deg: float | None = None
     home_alt_msl_m: float | None = None
@@ -221,30 +226,14 @@ class FlightResult(BaseModel):
         return self.status == "ok"
 
 
-@dataclass(slots=True)
-class _State:
+class _State(_Heard):
     """The mutable telemetry the reader thread keeps (under the client's lock)."""
 
+    model_config = ConfigDict(arbitrary_types_allowed=True)
+
     last_rx: float = -math.inf
-    time_boot_s: float | None = None
-    lat_deg: float | None = None
-    lon_deg: float | None = None
-    alt_msl_m: float | None = None
-    alt_m: float | None = None
-    north_m: float | None = None
-    east_m: float | None = None
-    down_m: float | None = None
-    vn_mps: float | None = None
-    ve_mps: float | None = None
-    vd_mps: float | None = None
-    heading_deg: float | None = None
-    battery_pct: float | None = None
-    battery_voltage_v: float | None = None
-    armed: bool = False
-    mode: str = "unknown"
-    landed_state: LandedState = "unknown"
     home: tuple[float, float, float] | None = None
-    texts: deque[tuple[int, str]] = field(default_factory=lambda: deque(maxlen=50))
+    texts: deque[tuple[int, str]] = Field(default_factory=lambda: deque(maxlen=50))
     """(serial number, text) of the last STATUSTEXTs."""
     text_count: int = 0
 
@@ -458,24 +447,8 @@ class VehicleClient:
             s = self._state
             home = s.home
             return Telemetry(
+                **{name: getattr(s, name) for name in _Heard.model_fields},
                 connected=time.monotonic() - s.last_rx < LINK_TIMEOUT_S and not self.closed,
-                time_boot_s=s.time_boot_s,
-                lat_deg=s.lat_deg,
-                lon_deg=s.lon_deg,
-                alt_msl_m=s.alt_msl_m,
-                alt_m=s.alt_m,
-                north_m=s.north_m,
-                east_m=s.east_m,
-                down_m=s.down_m,
-                vn_mps=s.vn_mps,
-                ve_mps=s.ve_mps,
-                vd_mps=s.vd_mps,
-                heading_deg=s.heading_deg,
-                battery_pct=s.battery_pct,
-                battery_voltage_v=s.battery_voltage_v,
-                armed=s.armed,
-                mode=s.mode,
-                landed_state=s.landed_state,
                 home_lat_deg=home[0] if home else None,
                 home_lon_deg=home[1] if home else None,
                 home_alt_msl_m=home[2] if home else None,
