@@ -15,6 +15,7 @@ MODULES = [
     "agentic_core.mission.expressions",
     "agentic_core.mission.model",
     "agentic_core.mission.validate",
+    "flight.camera",
     "tools",
     "tools.auth",
     "tools.breaker",
