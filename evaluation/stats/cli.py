@@ -35,7 +35,10 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
         "--format", choices=("markdown", "latex", "json"), default="markdown", help="what to print (default markdown)"
     )
     parser.add_argument(
-        "--out", metavar="DIR", type=Path, help="also write stats.md, stats.tex and stats.json into DIR"
+        "--out",
+        metavar="DIR",
+        type=Path,
+        help="also write stats.md, stats.tex, stats.json and the PNG plots (stats_*.png) into DIR",
     )
     parser.set_defaults(handler=run)
     return parser
@@ -49,6 +52,7 @@ def _split(values: Sequence[str] | None) -> list[str] | None:
 
 def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
     from evaluation.stats.pipeline import analyze
+    from evaluation.stats.plots import write_plots
 
     out = stdout or sys.stdout
     err = stderr or sys.stderr
@@ -75,6 +79,7 @@ def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO |
             (args.out / "stats.md").write_text(report.to_markdown(), encoding="utf-8")
             (args.out / "stats.tex").write_text(report.to_latex(), encoding="utf-8")
             (args.out / "stats.json").write_text(report.to_json() + "\n", encoding="utf-8")
+            write_plots(report, args.out)
         except OSError as exc:
             print(f"{PROG}: error: {args.out}: cannot write the report ({exc.strerror or exc})", file=err)
             return 2

@@ -16,6 +16,7 @@ MODULES = [
     "agentic_core.mission.model",
     "agentic_core.mission.validate",
     "flight.camera",
+    "evaluation.stats.plots",
     "tools",
     "tools.auth",
     "tools.breaker",

@@ -22,7 +22,7 @@ def test_markdown_to_stdout_and_files(tmp_path: Path, capsys: pytest.CaptureFixt
     assert main([str(_csv(tmp_path)), "--out", str(out)]) == 0
     captured = capsys.readouterr()
     assert "## Table 2 layout" in captured.out
-    assert {p.name for p in out.iterdir()} == {"stats.md", "stats.tex", "stats.json"}
+    assert {p.name for p in out.iterdir()} == {"stats.md", "stats.tex", "stats.json", "stats_x.png", "stats_rates.png"}
     assert json.loads((out / "stats.json").read_text())["group_column"] == "group"
 
 

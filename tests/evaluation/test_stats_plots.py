@@ -1,0 +1,77 @@
+"""The report's PNG plots: one per continuous outcome and one for the rates, drawn from the report's summaries."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evaluation.stats import Dataset, StatsReport, analyze
+from evaluation.stats.plots import plot_continuous, write_plots
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == PNG_SIGNATURE and data[12:16] == b"IHDR"
+    width, height = struct.unpack(">II", data[16:24])
+    return width, height
+
+
+def decision_records(path: Path) -> Path:
+    rng = np.random.default_rng(7)
+    rows = ["system,processing_time_s,person_detected,contextual"]
+    for system, scale in (("yolo", 0.02), ("rules", 0.2), ("llm", 3.0)):
+        for i in range(30):
+            rows.append(
+                f"{system},{rng.lognormal(np.log(scale), 0.3):.6f},{i % 5 != 0},{system != 'yolo' and i % 4 != 0}"
+            )
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def test_a_campaign_report_plots_time_and_rates(tmp_path: Path) -> None:
+    report = analyze(str(decision_records(tmp_path / "results.csv")))
+    written = write_plots(report, tmp_path)
+    assert [p.name for p in written] == ["stats_processing_time_s.png", "stats_rates.png"]
+    for path in written:
+        width, height = png_size(path)
+        assert width > 200 and height > 200
+
+
+def test_times_spanning_orders_of_magnitude_go_on_a_log_axis(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.axes import Axes
+
+    scales: list[str] = []
+    original = Axes.set_yscale
+
+    def record(self: Axes, value: str, **kw: object) -> None:
+        scales.append(value)
+        original(self, value, **kw)
+
+    monkeypatch.setattr(Axes, "set_yscale", record)
+    report = analyze(Dataset.from_groups({"fast": [0.01, 0.012, 0.011], "slow": [2.0, 2.5, 1.5]}, "latency_s"))
+    plot_continuous(report.continuous[0], tmp_path / "t.png")
+    assert scales == ["log"]
+    scales.clear()
+    report = analyze(Dataset.from_groups({"a": [-1.0, 0.5, 1.0], "b": [2.0, 2.5, 1.5]}, "latency_s"))
+    plot_continuous(report.continuous[0], tmp_path / "u.png")  # not all positive: linear
+    assert scales == []
+
+
+def test_a_report_read_back_from_json_plots_the_same(tmp_path: Path) -> None:
+    report = analyze(str(decision_records(tmp_path / "results.csv")))
+    again = StatsReport.model_validate_json(report.to_json())
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    first = [p.read_bytes() for p in write_plots(report, tmp_path / "a")]
+    second = [p.read_bytes() for p in write_plots(again, tmp_path / "b")]
+    assert first == second
+
+
+def test_a_group_with_no_values_is_left_out_not_an_error(tmp_path: Path) -> None:
+    report = analyze(Dataset.from_groups({"a": [1.0, 2.0, 3.0], "b": [2.0, 3.0, 4.0], "c": [np.nan, np.nan]}, "x"))
+    assert png_size(plot_continuous(report.continuous[0], tmp_path / "x.png"))[0] > 100
