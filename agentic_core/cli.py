@@ -108,12 +108,20 @@ def _split_param(text: str) -> tuple[str, str]:
     return name.strip(), value.strip()
 
 
+SCHEMAS = {
+    "mission": ("agentic_core.mission.model", "mission_json_schema", "mission files (the PolicyGraph)"),
+    "assessment": ("agentic_core.reasoning.assessment", "assessment_json_schema", "a reasoner's Assessment"),
+    "plan": ("agentic_core.reasoning.proposal", "proposal_json_schema", "a reasoner's proposed steps"),
+}
+"""``agentic-uav schema NAME``: the module and function exporting each contract's JSON Schema."""
+
+
 def _cmd_schema(args: argparse.Namespace) -> int:
+    import importlib
     import json
 
-    from .mission.model import mission_json_schema
-
-    print(json.dumps(mission_json_schema(), indent=2))
+    module, function, _ = SCHEMAS[args.which]
+    print(json.dumps(getattr(importlib.import_module(module), function)(), indent=2))
     return 0
 
 
@@ -138,7 +146,11 @@ def build_parser() -> argparse.ArgumentParser:
     plan.set_defaults(func=_cmd_plan)
 
     schema = sub.add_parser("schema", help="print a JSON Schema (for editors: autocomplete and lint)")
-    schema.add_argument("which", choices=["mission"], help="which schema")
+    schema.add_argument(
+        "which",
+        choices=list(SCHEMAS),
+        help="; ".join(f"{name}: {text}" for name, (_, _, text) in SCHEMAS.items()),
+    )
     schema.set_defaults(func=_cmd_schema)
 
     evaluate = sub.add_parser("eval", help="statistics on results files; reproduce the paper's statistics")

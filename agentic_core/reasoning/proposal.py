@@ -1,0 +1,42 @@
+"""The Plan contract: the steps a reasoner proposes in answer to an event or a failure, in the mission language.
+
+A proposal is only words until the mission validator has passed it: the steps are the same ``Step`` models a
+mission file holds, so the same checks (actions, tools, geofence, altitude) apply to a model's plan as to a
+person's.
+
+>>> proposal = Proposal.model_validate({"steps": [{"id": "hold_here", "action": "hover", "args": {"duration_s": 5}}],
+...                                     "rationale": "wait for the crowd to clear"})
+>>> [s.action for s in proposal.steps]
+['hover']
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..mission.model import Step
+
+
+class Proposal(BaseModel):
+    """Steps to splice into the running mission (empty: nothing to do, or give up), and why."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    steps: list[Step] = Field(default_factory=list, description="mission steps, in the mission file's format")
+    rationale: str = Field(default="", description="why these steps")
+
+
+def proposal_json_schema() -> dict[str, Any]:
+    """The JSON Schema of :class:`Proposal` (the structured output the planning and reflection prompts ask for)."""
+    return Proposal.model_json_schema(by_alias=True)
+
+
+def schema_text() -> str:
+    """:func:`proposal_json_schema` as the text shipped in ``prompts/schemas/plan.schema.json``."""
+    return json.dumps(proposal_json_schema(), indent=2) + "\n"
+
+
+__all__ = ["Proposal", "proposal_json_schema", "schema_text"]
