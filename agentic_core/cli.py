@@ -112,6 +112,7 @@ SCHEMAS = {
     "mission": ("agentic_core.mission.model", "mission_json_schema", "mission files (the PolicyGraph)"),
     "assessment": ("agentic_core.reasoning.assessment", "assessment_json_schema", "a reasoner's Assessment"),
     "plan": ("agentic_core.reasoning.proposal", "proposal_json_schema", "a reasoner's proposed steps"),
+    "scene": ("flight.sim.scene_file", "scene_json_schema", "simulated scene files (scenes/*.yaml)"),
 }
 """``agentic-uav schema NAME``: the module and function exporting each contract's JSON Schema."""
 
