@@ -42,8 +42,8 @@ def plot_continuous(result: ContinuousAnalysis, path: Path) -> Path:
             ax.bar(x, g.q3 - g.q1, bottom=g.q1, width=0.5, color=_BOX, edgecolor="0.35", linewidth=1)
         ax.hlines(median, x - 0.25, x + 0.25, color="0.1", linewidth=2)
         if g.mean is not None:
-            lower = g.mean - g.mean_ci_low if g.mean_ci_low is not None else 0.0
-            upper = g.mean_ci_high - g.mean if g.mean_ci_high is not None else 0.0
+            lower = max(0.0, g.mean - g.mean_ci_low) if g.mean_ci_low is not None else 0.0
+            upper = max(0.0, g.mean_ci_high - g.mean) if g.mean_ci_high is not None else 0.0
             ax.errorbar(x, g.mean, yerr=[[lower], [upper]], fmt="o", color=_MEAN, capsize=4, markersize=4)
     ax.set_xticks(range(len(groups)), [f"{g.group}\n(n={g.n})" for g in groups])
     ax.set_xlim(-0.6, len(groups) - 0.4)
@@ -73,8 +73,9 @@ def plot_rates(results: list[CategoricalAnalysis], path: Path) -> Path:
                 continue
             xs.append(x - 0.4 + width * (i + 0.5))
             heights.append(100.0 * rate.rate)
-            lower.append(100.0 * (rate.rate - rate.ci_low) if rate.ci_low is not None else 0.0)
-            upper.append(100.0 * (rate.ci_high - rate.rate) if rate.ci_high is not None else 0.0)
+            # clamped: an interval bound can sit a rounding error inside a rate of 0 or 1
+            lower.append(max(0.0, 100.0 * (rate.rate - rate.ci_low)) if rate.ci_low is not None else 0.0)
+            upper.append(max(0.0, 100.0 * (rate.ci_high - rate.rate)) if rate.ci_high is not None else 0.0)
         ax.bar(xs, heights, width=width * 0.95, label=group, yerr=[lower, upper], capsize=3)
     ax.set_xticks(range(len(binary)), [r.label for r in binary])
     ax.set_ylim(0, 105)

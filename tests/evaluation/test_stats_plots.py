@@ -75,3 +75,12 @@ def test_a_report_read_back_from_json_plots_the_same(tmp_path: Path) -> None:
 def test_a_group_with_no_values_is_left_out_not_an_error(tmp_path: Path) -> None:
     report = analyze(Dataset.from_groups({"a": [1.0, 2.0, 3.0], "b": [2.0, 3.0, 4.0], "c": [np.nan, np.nan]}, "x"))
     assert png_size(plot_continuous(report.continuous[0], tmp_path / "x.png"))[0] > 100
+
+
+def test_rates_of_zero_and_one_plot_though_their_bounds_round_inside_them(tmp_path: Path) -> None:
+    path = tmp_path / "r.csv"
+    rows = ["system,processing_time_s,person_detected"]
+    rows += [f"{s},{0.1 + i / 100},{'true' if s == 'a' else 'false'}" for s in ("a", "b") for i in range(10)]
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    written = write_plots(analyze(str(path)), tmp_path)
+    assert [p.name for p in written] == ["stats_processing_time_s.png", "stats_rates.png"]
