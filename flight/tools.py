@@ -19,28 +19,36 @@ tool                       arguments                                            
 ``flight.rtl``             none                                                     ``flight:command``
 ``flight.hold``            none (stop where you are: the mission's abort)           ``flight:command``
 ``flight.deploy_payload``  ``payload``                                              ``flight:payload``
+``flight.upload_mission``  ``items`` (:class:`~flight.vehicle.MissionItem`),        ``flight:command``
+                           ``mission_type`` (``mission``, ``fence``, ``rally``)
+``flight.start_mission``   ``from_item``, ``wait`` (until the mission is complete)  ``flight:command``
 ``flight.status``          none: the latest telemetry                               ``flight:read``
 =========================  =======================================================  ==================
 
-A ``target_id`` names an object of the world model, which the perception issue provides; until then such a call
-is an error saying so. Flight tools act on the aircraft: they are not idempotent, never retried and never cached,
-and their timeouts are minutes. A refused, failed or timed-out action raises :class:`~tools.ToolError` with the
+A ``target_id`` names an object of the world model: the tools are given a resolver (``targets``: id → latitude and
+longitude, or None for an id it does not know); without one, such a call is an error saying so. Landing beside a
+target stops ``offset_m`` short of it on the line from where the aircraft is, so it never flies over the person.
+Flight tools act on the aircraft: they are not idempotent, never retried and never cached, and their timeouts are
+minutes. A refused, failed or timed-out action raises :class:`~tools.ToolError` with the
 vehicle's reason, so its ToolResult is ``error`` with that reason; an action that completed returns the
-:class:`~flight.vehicle.FlightResult`.
+:class:`~flight.vehicle.FlightResult` (an upload, the :class:`~flight.vehicle.MissionResult`). The mission tools
+have no mission DSL action: they hand the vehicle a whole plan (a survey pattern, a fence) to fly on its own.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Awaitable, Callable
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from tools import ToolError, ToolRegistry, ToolSpec
 from tools.function import spec_from_function
 
-from .vehicle import FlightResult, Telemetry, VehicleClient
+from .geodesy import local_offset, offset_position
+from .vehicle import FlightResult, MissionItem, MissionResult, Telemetry, VehicleClient
 
 ClientFactory = Callable[[], Awaitable[VehicleClient]]
 """Connects a client when a flight tool first needs one (e.g. ``lambda: VehicleClient.connect("127.0.0.1:14540")``)."""
@@ -58,11 +66,16 @@ TIMEOUTS_S: dict[str, float] = {
     "flight.rtl": 1800.0,
     "flight.hold": 30.0,
     "flight.deploy_payload": 30.0,
+    "flight.upload_mission": 120.0,
+    "flight.start_mission": 3600.0,
     "flight.status": 10.0,
 }
 """Each tool's own timeout (the executor's bound on one call; a mission step's ``timeout_s`` may shorten it)."""
 
-NEEDS_WORLD_MODEL = "target_id needs the world model (perception issue), which is not available yet"
+NEEDS_WORLD_MODEL = "target_id needs a world model, and this vehicle's tools were given none (run with perception)"
+
+TargetResolver = Callable[[str], "tuple[float, float] | None"]
+"""Where a world-model object is: its id → (latitude, longitude), or None when there is no such object."""
 
 Latitude = Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False, description="latitude, degrees (WGS-84)")]
 Longitude = Annotated[float, Field(ge=-180, le=180, allow_inf_nan=False, description="longitude, degrees (WGS-84)")]
@@ -112,9 +125,18 @@ def _done(result: FlightResult) -> FlightResult:
     return result
 
 
-def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
-    """The ``flight.*`` tool specs bound to a client (or a factory that connects one on first use)."""
+def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver | None = None) -> list[ToolSpec]:
+    """The ``flight.*`` tool specs bound to a client (or a factory that connects one on first use), resolving
+    ``target_id`` with ``targets``."""
     clients = _ClientSource(source)
+
+    def where(target_id: str) -> tuple[float, float]:
+        if targets is None:
+            raise ToolError(NEEDS_WORLD_MODEL)
+        position = targets(target_id)
+        if position is None:
+            raise ToolError(f"there is no object {target_id!r} in the world model")
+        return position
 
     async def takeoff(altitude_m: Positive = 10.0) -> FlightResult:
         """Take off and climb to a height above home, arming first if needed; returns when there.
@@ -151,7 +173,7 @@ def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
         if sum(ways) != 1:
             raise ToolError("give exactly one destination: lat and lon, north_m and east_m, or target_id")
         if target_id is not None:
-            raise ToolError(NEEDS_WORLD_MODEL)
+            lat, lon = where(target_id)
         client = await clients.get()
         if lat is not None and lon is not None:
             return _done(await client.goto(lat, lon, alt_m, speed_mps=speed_mps, action="fly_to"))
@@ -177,8 +199,10 @@ def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
         """
         if (center is None) == (target_id is None):
             raise ToolError("give exactly one of center or target_id")
-        if center is None:
-            raise ToolError(NEEDS_WORLD_MODEL)
+        if center is None and target_id is not None:
+            lat, lon = where(target_id)
+            center = LatLon(lat=lat, lon=lon)
+        assert center is not None
         client = await clients.get()
         return _done(await client.orbit(center.lat, center.lon, radius_m, turns=turns, alt_m=alt_m))
 
@@ -207,9 +231,11 @@ def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
         """
         if (lat is None) != (lon is None):
             raise ToolError("lat and lon go together")
-        if target_id is not None:
-            raise ToolError(NEEDS_WORLD_MODEL if lat is None else "give lat and lon, or target_id, not both")
+        if target_id is not None and lat is not None:
+            raise ToolError("give lat and lon, or target_id, not both")
         client = await clients.get()
+        if target_id is not None:
+            lat, lon = beside(client.telemetry, *where(target_id), offset_m)
         if lat is not None and lon is not None:
             _done(await client.goto(lat, lon, None, action="land"))
         return _done(await client.land())
@@ -234,6 +260,35 @@ def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
         result = _done(await client.deploy_payload())
         return result.model_copy(update={"reason": f"released {payload}"})
 
+    async def upload_mission(
+        items: list[MissionItem], mission_type: Literal["mission", "fence", "rally"] = "mission"
+    ) -> MissionResult:
+        """Hand the vehicle a whole plan, replacing the one it holds of that type; returns once it has it.
+
+        Args:
+            items: the plan in order; each a MAVLink command (22 take-off, 16 waypoint, 19 loiter for a time,
+                21 land, 20 return, 178 change speed, 211 gripper) with lat/lon/alt (alt above home)
+            mission_type: mission (a flight plan), fence (areas to stay in or out of) or rally (safe points)
+        """
+        client = await clients.get()
+        result = await client.upload_mission(items, mission_type=mission_type)
+        if not result.ok:
+            raise ToolError(f"upload_mission {result.status}: {result.reason or result.result or 'no reason given'}")
+        return result
+
+    async def start_mission(from_item: Annotated[int, Field(ge=0)] | None = None, wait: bool = True) -> FlightResult:
+        """Fly the uploaded mission (arming and taking off if on the ground); with wait, return when it is done.
+
+        Args:
+            from_item: start from this item (default: the current one; a finished mission starts over)
+            wait: wait until the vehicle reports the mission complete
+        """
+        client = await clients.get()
+        started = _done(await client.start_mission(from_item=from_item))
+        if not wait:
+            return started
+        return _done(await client.wait_mission(timeout_s=TIMEOUTS_S["flight.start_mission"]))
+
     async def status() -> Telemetry:
         """The vehicle's latest telemetry: position, altitude above home, battery, armed, mode, landed state."""
         client = await clients.get()
@@ -251,16 +306,36 @@ def flight_tools(source: VehicleClient | ClientFactory) -> list[ToolSpec]:
         spec(rtl, "flight.rtl", SCOPE_COMMAND),
         spec(hold, "flight.hold", SCOPE_COMMAND),
         spec(deploy_payload, "flight.deploy_payload", SCOPE_PAYLOAD),
+        spec(upload_mission, "flight.upload_mission", SCOPE_COMMAND),
+        spec(start_mission, "flight.start_mission", SCOPE_COMMAND),
         spec(status, "flight.status", SCOPE_READ),
     ]
 
 
+def beside(telemetry: Telemetry, lat: float, lon: float, offset_m: float) -> tuple[float, float]:
+    """The point ``offset_m`` short of ``lat, lon`` on the line from the aircraft (straight south of it when the
+    aircraft's position is unknown or right above it)."""
+    if offset_m <= 0:
+        return lat, lon
+    north, east = -1.0, 0.0
+    if telemetry.lat_deg is not None and telemetry.lon_deg is not None:
+        north, east = local_offset(lat, lon, telemetry.lat_deg, telemetry.lon_deg)
+    distance = math.hypot(north, east)
+    if distance < 1e-3:
+        north, east, distance = -1.0, 0.0, 1.0
+    return offset_position(lat, lon, north / distance * offset_m, east / distance * offset_m)
+
+
 def register_flight_tools(
-    registry: ToolRegistry, source: VehicleClient | ClientFactory, *, replace: bool = False
+    registry: ToolRegistry,
+    source: VehicleClient | ClientFactory,
+    *,
+    targets: TargetResolver | None = None,
+    replace: bool = False,
 ) -> list[str]:
     """Register the ``flight.*`` tools bound to ``source`` (a connected client, or a factory connecting one on
-    first use); returns their names."""
-    return [registry.register(s, replace=replace).name for s in flight_tools(source)]
+    first use), resolving ``target_id`` with ``targets``; returns their names."""
+    return [registry.register(s, replace=replace).name for s in flight_tools(source, targets)]
 
 
 __all__ = [
@@ -271,6 +346,8 @@ __all__ = [
     "TIMEOUTS_S",
     "ClientFactory",
     "LatLon",
+    "TargetResolver",
+    "beside",
     "flight_tools",
     "register_flight_tools",
 ]

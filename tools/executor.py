@@ -159,6 +159,12 @@ class ToolExecutor:
         if self._owns_audit:
             self.audit.close()
 
+    def __enter__(self) -> ToolExecutor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
     # stages before the tool runs -----------------------------------------------------------------------------------
     def _start(
         self,

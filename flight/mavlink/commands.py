@@ -11,7 +11,7 @@ Facts relied on (MAVLink ``common.xml`` as generated into pymavlink's ``dialects
   param7 altitude); DO_SET_MODE 176 (param1 base mode, param2 PX4 main mode, param3 PX4 sub mode);
   DO_CHANGE_SPEED 178 (param1 speed type 0 air / 1 ground / 2 climb / 3 descent, param2 m/s, -1 no change);
   DO_SET_SERVO 183 (param1 instance, param2 PWM µs); DO_REPOSITION 192 (param1 ground speed, -1 default;
-  param2 MAV_DO_REPOSITION_FLAGS; param4 yaw in degrees, NaN keep; param5/6 latitude/longitude; param7 altitude);
+  param2 MAV_DO_REPOSITION_FLAGS; param4 yaw, NaN keep; param5/6 latitude/longitude; param7 altitude);
   DO_GRIPPER 211 (param2 GRIPPER_ACTION: RELEASE 0, GRAB 1, HOLD 2); COMPONENT_ARM_DISARM 400 (param1 1 arm,
   0 disarm; param2 21196 forces); GET_HOME_POSITION 410; GET_MESSAGE_INTERVAL 510; SET_MESSAGE_INTERVAL 511
   (param1 message id, param2 interval µs, -1 off, 0 default); REQUEST_MESSAGE 512 (param1 message id);
@@ -22,6 +22,10 @@ Facts relied on (MAVLink ``common.xml`` as generated into pymavlink's ``dialects
   (the same as above home here: the ground is flat).
 * PX4 reads the altitude of a COMMAND_LONG NAV_TAKEOFF / DO_REPOSITION as above mean sea level; NaN takes the
   ``MIS_TAKEOFF_ALT`` parameter (take-off) or keeps the current altitude (reposition).
+* PX4 reads DO_REPOSITION's yaw (param4) in **radians**: its navigator copies param4 straight into the position
+  setpoint's yaw, which is in radians, although ``common.xml`` gives the field in degrees. MAVSDK follows PX4
+  (``goto_location`` converts its ``yaw_deg`` to radians), so we read radians too. NAV_TAKEOFF's param4 is read in
+  degrees as ``common.xml`` says (PX4 1.14 ignores it).
 
 Payload: DO_GRIPPER RELEASE and DO_SET_SERVO with a PWM of at least :data:`PAYLOAD_RELEASE_PWM` (any instance)
 release the simulator's payload; it cannot be grabbed again.
@@ -211,7 +215,7 @@ def _set_mode(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
 
 
 def _reposition(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
-    speed, _flags, _, yaw_deg, lat, lon, z = req.params
+    speed, _flags, _, yaw_rad, lat, lon, z = req.params
     s = ctx.sim.state()
     home = ctx.sim.environment.home
     alt_rel = _altitude_above_home(ctx, req, z)
@@ -223,7 +227,8 @@ def _reposition(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
         north, east, _ = geodetic_to_ned(lat, lon, home.alt_msl_m, home.lat_deg, home.lon_deg, home.alt_msl_m)
     else:
         north, east = s.north_m, s.east_m
-    ctx.navigator.reposition(north, east, -alt_rel, _yaw(yaw_deg), speed if _finite(speed) and speed > 0 else None)
+    yaw = math.remainder(yaw_rad, math.tau) if _finite(yaw_rad) else None  # radians, as PX4 (module docstring)
+    ctx.navigator.reposition(north, east, -alt_rel, yaw, speed if _finite(speed) and speed > 0 else None)
     return _ok()
 
 

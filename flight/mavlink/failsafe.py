@@ -13,6 +13,9 @@ Behaviour (PX4 values; see :mod:`flight.mavlink.params` for the parameters and w
   0 none, 1 warning, 2 hold, 3 return, 4 terminate, 5 land. PX4 predicts breaches (``GF_PREDICT``) and so holds
   just inside; we detect the breach itself and hold at the nearest point 1 m inside the fence instead. The breach
   re-arms once the vehicle is back inside.
+* The uploaded fence areas (polygons and circles of a fence plan, :mod:`flight.mavlink.geofence`) are part of the
+  same fence: leaving an inclusion area or entering an exclusion area is a breach with the same ``GF_ACTION``; a
+  hold then goes back to the last position that was inside.
 * Battery (our policy, simpler than PX4's ``COM_LOW_BAT_ACT``): at or below ``BAT_LOW_THR`` of charge the vehicle
   returns; at or below ``BAT_CRIT_THR`` it lands where it is. Each level acts once per flight.
 * Data link: once any peer has been heard, no valid message from any peer for ``COM_DL_LOSS_T`` seconds of
@@ -89,6 +92,9 @@ class Failsafes:
         self.battery_level = 0
         """0 normal, 1 low (returned), 2 critical (landed); reset on the ground with a charged battery."""
         self.link_lost = False
+        self._last_inside: tuple[float, float, float] | None = None
+        """The last position (NED) found inside the fence areas, where a hold after an area breach goes."""
+        self._area_breach = False
         self.triggered: list[str] = []
         """Every failsafe that acted, in order (for tests and logs)."""
 
@@ -97,16 +103,17 @@ class Failsafes:
         time now, both on the vehicle's link clock (simulated time unless given)."""
         nav = self.navigator
         sim = nav.sim
-        s = sim.state()
-        flying = sim.armed and not s.landed
-        self._check_link(flying, s.time_s if now_s is None else now_s, last_rx_s)
+        s = sim.truth()  # not sim.state(): building that snapshot every tick costs more than all these checks
+        battery_pct = sim.battery.percent
+        flying = sim.armed and not s.on_ground
+        self._check_link(flying, sim.time_s if now_s is None else now_s, last_rx_s)
         if not flying:
             self.fence_breached = False
-            if s.battery_pct / 100.0 > nav.params["BAT_LOW_THR"]:
+            if battery_pct / 100.0 > nav.params["BAT_LOW_THR"]:
                 self.battery_level = 0
             return
         self._check_fence(s.north_m, s.east_m, s.alt_agl_m)
-        self._check_battery(s.battery_pct / 100.0)
+        self._check_battery(battery_pct / 100.0)
 
     # -- checks -----------------------------------------------------------------------------------------------
 
@@ -116,14 +123,22 @@ class Failsafes:
         dist = math.hypot(north_m, east_m)
         outside_h = max_h > 0 and dist > max_h
         outside_v = max_v > 0 and alt_m > max_v
-        if not (outside_h or outside_v):
+        area_why = None if outside_h or outside_v else self.navigator.fence.area_violation(north_m, east_m)
+        if not (outside_h or outside_v or area_why):
             self.fence_breached = False
+            self._last_inside = (north_m, east_m, -alt_m)
             return
         if self.fence_breached:
             return
         self.fence_breached = True
+        self._area_breach = area_why is not None
         action = GF_ACTIONS.get(int(params["GF_ACTION"]), Action.HOLD)
-        where = f"{dist:.0f} m from home" if outside_h else f"{alt_m:.0f} m above home"
+        if outside_h:
+            where = f"{dist:.0f} m from home"
+        elif outside_v:
+            where = f"{alt_m:.0f} m above home"
+        else:
+            where = str(area_why)
         self._act("geofence", action, f"Geofence breached ({where}): {_ACTION_WORDS[action]}")
 
     def _check_battery(self, fraction: float) -> None:
@@ -183,7 +198,10 @@ class Failsafes:
             self.notify(f"Failsafe {name}: {denied.reason}", MAV_SEVERITY_WARNING)
 
     def _inside_point(self) -> tuple[float, float, float]:
-        """The current position pulled back inside the fence by :data:`FENCE_HOLD_MARGIN_M` (NED)."""
+        """The current position pulled back inside the fence by :data:`FENCE_HOLD_MARGIN_M` (NED); after a breach
+        of an uploaded fence area, the last position that was inside it."""
+        if self._area_breach and self._last_inside is not None:
+            return self._last_inside
         s = self.navigator.sim.state()
         params = self.navigator.params
         north, east, alt = s.north_m, s.east_m, s.alt_agl_m

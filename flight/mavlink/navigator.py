@@ -18,9 +18,14 @@ Behaviour kept from PX4 (PX4 user guide, flight modes; not verified against PX4 
   within ``COM_OF_LOSS_T`` (so a stream is running), and when setpoints stop for ``COM_OF_LOSS_T`` the vehicle
   switches to Hold with a STATUSTEXT (PX4's ``COM_OBL_RC_ACT`` default is Position mode, which without sticks
   holds). Arming in Offboard keeps Offboard if the stream is running.
+* Mission (AUTO.MISSION) flies the uploaded plan: :mod:`flight.mavlink.mission_runner` does it through the
+  :class:`MissionDriver` hooks here. Switching to Mission, or arming in it, is refused without a valid mission;
+  arming in Mission starts it, as does switching to it while armed.
+* The geofence (:mod:`flight.mavlink.geofence`: the parameters' cylinder and any uploaded fence areas) bounds
+  every target: commands and offboard setpoints outside it are refused.
 
 Simplifications: home is the simulator's environment home (not the arming position); there is no RTL descent
-altitude or loiter before landing, no auto-disarm when armed on the ground, and Mission is not flown.
+altitude or loiter before landing, and no auto-disarm when armed on the ground.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from enum import Enum
+from typing import Protocol
 
 from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
     MAV_LANDED_STATE_IN_AIR,
@@ -39,6 +45,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_SEVERITY_CRITICAL,
 )
 
+from flight.mavlink.geofence import Geofence
 from flight.mavlink.offboard import OffboardSetpoint
 from flight.mavlink.params import ParamStore
 from flight.px4 import FlightMode
@@ -67,6 +74,45 @@ class RtlPhase(Enum):
     LAND = "land"
 
 
+class MissionDriver(Protocol):
+    """What the navigator asks of whoever flies Mission mode (:class:`~flight.mavlink.mission_runner.MissionRunner`)."""
+
+    @property
+    def landing(self) -> bool: ...
+    @property
+    def taking_off(self) -> bool: ...
+    def start_denial(self) -> str | None:
+        """Why Mission cannot be entered now (None: it can)."""
+
+    def start(self) -> None:
+        """Mission mode was entered armed (or armed in it): fly from the current item."""
+
+    def update(self) -> None:
+        """One tick in Mission mode, armed."""
+
+    def on_disarmed(self) -> None:
+        """One tick in Mission mode, disarmed (e.g. after a mission landing)."""
+
+
+class _NoMission:
+    """The driver until the vehicle installs one: Mission is never available."""
+
+    landing = False
+    taking_off = False
+
+    def start_denial(self) -> str | None:
+        return "no mission"
+
+    def start(self) -> None:
+        return None
+
+    def update(self) -> None:
+        return None
+
+    def on_disarmed(self) -> None:
+        return None
+
+
 class Navigator:
     """The current flight mode and the setpoints that fly it."""
 
@@ -82,9 +128,16 @@ class Navigator:
         self._goto: tuple[float, float, float, float | None] | None = None
         self.offboard_setpoint: OffboardSetpoint | None = None
         self.offboard_time_s: float | None = None
-        """Simulated time of the last offboard setpoint (None: never)."""
+        """When the last offboard setpoint came, on :attr:`clock` (None: never)."""
+        self.clock: Callable[[], float] = lambda: sim.time_s
+        """The clock the setpoint stream is timed on: simulated time, unless the vehicle sets its link clock (a
+        client streams setpoints at real-time rates, so faster than real time a live stream would look lost)."""
         self.notify: Callable[[str, int], None] = lambda text, severity: None
         """Where the navigator reports what it did on its own (the vehicle sends a STATUSTEXT)."""
+        self.fence = Geofence(params)
+        """The geofence every target must lie in (the vehicle installs the uploaded fence areas)."""
+        self.mission: MissionDriver = _NoMission()
+        """Flies Mission mode (the vehicle installs a :class:`~flight.mavlink.mission_runner.MissionRunner`)."""
 
     # -- requests ---------------------------------------------------------------------------------------------
 
@@ -93,6 +146,8 @@ class Navigator:
         if sim.armed:
             return
         s = sim.state()
+        if self.mode is FlightMode.MISSION and (why := self.mission.start_denial()) is not None:
+            raise CommandDenied(f"Arming denied: {why}", MAV_RESULT_TEMPORARILY_REJECTED)
         if not force:
             fix = sim.gps_fix()
             if fix.fix_type < 3 or fix.satellites < MIN_GPS_SATELLITES:
@@ -109,6 +164,8 @@ class Navigator:
             self._start_takeoff(self.params["MIS_TAKEOFF_ALT"], None)
         elif self.mode is FlightMode.OFFBOARD and self.offboard_active():
             self._fly_offboard()
+        elif self.mode is FlightMode.MISSION:
+            self.mission.start()
         else:
             self.mode = FlightMode.HOLD
 
@@ -157,8 +214,8 @@ class Navigator:
 
     def set_mode(self, mode: FlightMode) -> None:
         """Switch to ``mode`` (DO_SET_MODE). Disarmed, only the label changes (Takeoff then takes off on arming)."""
-        if mode is FlightMode.MISSION:
-            raise CommandDenied("Mode change denied: mission is not available")
+        if mode is FlightMode.MISSION and (why := self.mission.start_denial()) is not None:
+            raise CommandDenied(f"Mode change denied: {why}")
         if mode is FlightMode.OFFBOARD and not self.offboard_active():
             raise CommandDenied("Mode change denied: offboard needs a setpoint stream first")
         if mode is self.mode:
@@ -176,6 +233,11 @@ class Navigator:
         elif mode is FlightMode.OFFBOARD:
             self.rtl_phase = None
             self._fly_offboard()
+        elif mode is FlightMode.MISSION:
+            self.mode = mode
+            self.rtl_phase = None
+            self._goto = None
+            self.mission.start()
         else:  # TAKEOFF
             self.takeoff(None)
 
@@ -184,13 +246,11 @@ class Navigator:
     def offboard_active(self) -> bool:
         """True if a flyable setpoint has arrived and setpoint messages keep coming (within ``COM_OF_LOSS_T``)."""
         t = self.offboard_time_s
-        return (
-            self.offboard_setpoint is not None and t is not None and self.sim.time_s - t <= self.params["COM_OF_LOSS_T"]
-        )
+        return self.offboard_setpoint is not None and t is not None and self.clock() - t <= self.params["COM_OF_LOSS_T"]
 
     def offboard_heard(self) -> None:
         """A setpoint message arrived, flyable or not: the stream is alive (the last flyable setpoint is kept)."""
-        self.offboard_time_s = self.sim.time_s
+        self.offboard_time_s = self.clock()
 
     def offboard_target(self, setpoint: OffboardSetpoint) -> None:
         """Record a setpoint (SET_POSITION_TARGET_*); flown at once in Offboard. Positions outside the fence raise."""
@@ -239,6 +299,10 @@ class Navigator:
         self.rtl_phase = None
         self._fly(north_m, east_m, down_m, yaw_rad)
 
+    def fly_leg(self, north_m: float, east_m: float, down_m: float, yaw_rad: float | None = None) -> None:
+        """Fly to a NED point at the cruise speed, in the current mode (mission legs, checked when uploaded)."""
+        self._fly(north_m, east_m, down_m, yaw_rad)
+
     def change_speed(self, speed_mps: float) -> None:
         """Set the horizontal cruise speed, also for a go-to under way."""
         if not math.isfinite(speed_mps) or speed_mps <= 0:
@@ -250,11 +314,16 @@ class Navigator:
     # -- per tick ---------------------------------------------------------------------------------------------
 
     def update(self) -> None:
-        """Advance Takeoff and Return; called once per vehicle tick after the simulator has stepped."""
+        """Advance Takeoff, Return and Mission; called once per vehicle tick after the simulator has stepped."""
         sim = self.sim
         if not sim.armed:
             self.rtl_phase = None
             self._goto = None
+            if self.mode is FlightMode.MISSION:
+                self.mission.on_disarmed()
+            return
+        if self.mode is FlightMode.MISSION:
+            self.mission.update()
             return
         if self.mode is FlightMode.OFFBOARD:
             if not self.offboard_active():
@@ -282,10 +351,13 @@ class Navigator:
         s = self.sim.state()
         if not s.armed:
             return int(MAV_LANDED_STATE_ON_GROUND)
-        landing = self.mode is FlightMode.LAND or self.rtl_phase is RtlPhase.LAND
+        in_mission = self.mode is FlightMode.MISSION
+        landing = (
+            self.mode is FlightMode.LAND or self.rtl_phase is RtlPhase.LAND or (in_mission and self.mission.landing)
+        )
         if landing:
             return int(MAV_LANDED_STATE_LANDING)
-        if self.mode is FlightMode.TAKEOFF:
+        if self.mode is FlightMode.TAKEOFF or (in_mission and self.mission.taking_off):
             return int(MAV_LANDED_STATE_TAKEOFF)
         return int(MAV_LANDED_STATE_ON_GROUND if s.landed else MAV_LANDED_STATE_IN_AIR)
 
@@ -310,8 +382,6 @@ class Navigator:
             raise CommandDenied(f"Geofence: {alt_m:.1f} m is above the {max_v:.0f} m ceiling")
 
     def _check_fence(self, north_m: float, east_m: float, alt_m: float) -> None:
-        max_h = self.params["GF_MAX_HOR_DIST"]
-        dist = math.hypot(north_m, east_m)
-        if max_h > 0 and dist > max_h:
-            raise CommandDenied(f"Geofence: target {dist:.0f} m from home is outside the {max_h:.0f} m fence")
-        self._check_fence_altitude(alt_m)
+        why = self.fence.violation(north_m, east_m, alt_m)
+        if why is not None:
+            raise CommandDenied(f"Geofence: target {why}")

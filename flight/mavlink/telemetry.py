@@ -1,7 +1,9 @@
 """Telemetry: the streamed and requested messages the vehicle builds from the simulator's state.
 
 Why: keeps :mod:`flight.mavlink.vehicle` to the link (socket, dispatch, pacing). :class:`TelemetryBuilders` is a mixin
-of :class:`~flight.mavlink.vehicle.MavlinkVehicle`; each builder returns a message ready to pack.
+of :class:`~flight.mavlink.vehicle.MavlinkVehicle`; each builder returns a message ready to pack. Builders read the
+simulator's raw state (``sim.truth()``) and battery rather than the :class:`~flight.sim.VehicleState` snapshot: the
+same values, without validating a 23-field snapshot several times a second on every stream.
 
 Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20/common.py``):
 
@@ -9,6 +11,9 @@ Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20
   CRITICAL 5 with the battery below ``BAT_CRIT_THR``; mode encoding in :mod:`flight.px4`.
 * BATTERY_STATUS: unknown cell voltages are the total in ``voltages[0]`` and UINT16_MAX in the others; unknown
   temperature is INT16_MAX; ``energy_consumed`` -1 is unknown.
+* SYS_STATUS: MAV_SYS_STATUS_PREARM_CHECK (``0x10000000``) is "pre-arm check status, always healthy when armed";
+  PX4 reports it present and enabled, and healthy when arming would be allowed. MAVSDK's ``Health.is_armable``
+  reads exactly this bit, so without it a MAVSDK client sees a vehicle that can never be armed.
 * AUTOPILOT_VERSION ``flight_sw_version`` is ``major << 24 | minor << 16 | patch << 8 | type`` (type 255:
   release); we report PX4 1.14.0, the release whose behaviour is mimicked.
 """
@@ -28,7 +33,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_TYPE_QUADROTOR,
 )
 
-from flight.mavlink.navigator import Navigator
+from flight.mavlink.navigator import MIN_GPS_SATELLITES, Navigator
 from flight.mavlink.params import ParamStore
 from flight.px4 import base_mode
 from flight.sim import Simulator
@@ -53,6 +58,7 @@ SENSORS = (
     | mavlink2.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
     | mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
     | mavlink2.MAV_SYS_STATUS_SENSOR_BATTERY
+    | mavlink2.MAV_SYS_STATUS_PREARM_CHECK
 )
 UINT16_MAX = 0xFFFF
 INT16_MAX = 0x7FFF
@@ -108,17 +114,34 @@ class TelemetryBuilders:
             MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4, base_mode(mode, armed), mode.custom_mode, status, 3
         )
 
+    def _prearm_ok(self) -> bool:
+        """Whether arming would pass the navigator's checks (3D fix with enough satellites, battery above
+        ``BAT_LOW_THR`` and not depleted, on the ground); always true when armed, as MAVLink defines the bit."""
+        sim = self.sim
+        if sim.armed:
+            return True
+        fix = sim.gps_fix()
+        truth = sim.truth()
+        return (
+            fix.fix_type >= 3
+            and fix.satellites >= MIN_GPS_SATELLITES
+            and self._battery_fraction() > self.params["BAT_LOW_THR"]
+            and not sim.battery.depleted
+            and truth.on_ground
+        )
+
     def _sys_status(self) -> Any:
-        s = self.sim.state()
-        enabled = SENSORS if s.armed else SENSORS & ~mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+        b = self.sim.battery
+        enabled = SENSORS if self.sim.armed else SENSORS & ~mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+        health = SENSORS if self._prearm_ok() else SENSORS & ~mavlink2.MAV_SYS_STATUS_PREARM_CHECK
         return self._mav.sys_status_encode(
             SENSORS,
             enabled,
-            SENSORS,
+            health,
             0,
-            _clamp_int(s.battery_voltage_v * 1000.0, 0, UINT16_MAX - 1),
-            _clamp_int(s.battery_current_a * 100.0, -1, 32767),
-            _clamp_int(s.battery_pct, 0, 100),
+            _clamp_int(b.voltage_v * 1000.0, 0, UINT16_MAX - 1),
+            _clamp_int(b.current_a * 100.0, -1, 32767),
+            _clamp_int(b.percent, 0, 100),
             0,
             min(self.stats.rx_dropped, UINT16_MAX),
             0,
@@ -128,7 +151,7 @@ class TelemetryBuilders:
         )
 
     def _battery_status(self) -> Any:
-        s = self.sim.state()
+        b = self.sim.battery
         frac = self._battery_fraction()
         if frac <= self.params["BAT_CRIT_THR"]:
             charge = mavlink2.MAV_BATTERY_CHARGE_STATE_CRITICAL
@@ -136,17 +159,17 @@ class TelemetryBuilders:
             charge = mavlink2.MAV_BATTERY_CHARGE_STATE_LOW
         else:
             charge = mavlink2.MAV_BATTERY_CHARGE_STATE_OK
-        voltages = [_clamp_int(s.battery_voltage_v * 1000.0, 0, UINT16_MAX - 1)] + [UINT16_MAX] * 9
+        voltages = [_clamp_int(b.voltage_v * 1000.0, 0, UINT16_MAX - 1)] + [UINT16_MAX] * 9
         return self._mav.battery_status_encode(
             0,
             mavlink2.MAV_BATTERY_FUNCTION_ALL,
             mavlink2.MAV_BATTERY_TYPE_LIPO,
             INT16_MAX,
             voltages,
-            _clamp_int(s.battery_current_a * 100.0, -1, 32767),
-            _clamp_int(self.sim.battery.used_mah, 0, 2**31 - 1),
+            _clamp_int(b.current_a * 100.0, -1, 32767),
+            _clamp_int(b.used_mah, 0, 2**31 - 1),
             -1,
-            _clamp_int(s.battery_pct, 0, 100),
+            _clamp_int(b.percent, 0, 100),
             0,
             charge,
         )
@@ -158,7 +181,7 @@ class TelemetryBuilders:
         )
 
     def _global_position_int(self) -> Any:
-        s = self.sim.state()
+        s = self.sim.truth()
         hdg = round(math.degrees(s.yaw_rad) % 360.0 * 100.0) % 36000
         return self._mav.global_position_int_encode(
             self._time_boot_ms(),
@@ -173,7 +196,7 @@ class TelemetryBuilders:
         )
 
     def _local_position_ned(self) -> Any:
-        s = self.sim.state()
+        s = self.sim.truth()
         return self._mav.local_position_ned_encode(
             self._time_boot_ms(), s.north_m, s.east_m, s.down_m, s.vn_mps, s.ve_mps, s.vd_mps
         )

@@ -32,10 +32,16 @@ the PX4 user guide and MAVLink developer guide):
 Message builders live in :mod:`flight.mavlink.telemetry`; failsafes (checked every tick after the navigator) in
 :mod:`flight.mavlink.failsafe`. The data-link failsafe counts seconds since the last valid message from any peer:
 simulated seconds in lockstep (the caller drives time and its messages), wall-clock seconds while :meth:`run` runs
-free, so a client's real-time heartbeat keeps the link alive at any speed. The mission protocol is not built yet:
-MISSION_COUNT, MISSION_REQUEST_LIST and MISSION_CLEAR_ALL are answered with MISSION_ACK ``MAV_MISSION_UNSUPPORTED``.
+free, so a client's real-time heartbeat keeps the link alive at any speed.
+
+Missions (upload, download, clear, fences, Mission mode, MISSION_CURRENT at 1 Hz, MISSION_ITEM_REACHED,
+MAV_CMD_MISSION_START, MAV_CMD_DO_SET_MISSION_CURRENT) are :class:`~flight.mavlink.mission_service.MissionService`'s;
+its protocol timeouts run on the link clock as well.
 
 Rates are one table for all peers (PX4 keeps one per link); SET_MESSAGE_INTERVAL changes it for everyone.
+
+The offboard setpoint timeout (``COM_OF_LOSS_T``) runs on the link clock too, for the same reason: clients stream
+setpoints at wall-clock rates (MAVSDK at 20 Hz), which faster than real time would look like a lost stream.
 """
 
 from __future__ import annotations
@@ -62,6 +68,8 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
+from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
+from flight.mavlink.mission_service import MISSION_COMMANDS, MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
 from flight.mavlink.params import ParamStore, decode_value, encode_value
@@ -70,7 +78,7 @@ from flight.mavlink.telemetry import (
     TelemetryBuilders,
 )
 from flight.px4 import FlightMode, mavlink_text
-from flight.sim import Simulator
+from flight.sim import Simulator, VehicleState
 
 Address = tuple[str, int]
 
@@ -78,7 +86,6 @@ Address = tuple[str, int]
 MSG_HEARTBEAT = 0
 MSG_SYS_STATUS = 1
 MSG_PING = 4
-MISSION_REQUESTS = (43, 44, 45)  # MISSION_REQUEST_LIST, MISSION_COUNT, MISSION_CLEAR_ALL: answered UNSUPPORTED for now
 MSG_PARAM_REQUEST_READ = 20
 MSG_PARAM_REQUEST_LIST = 21
 MSG_PARAM_SET = 23
@@ -86,6 +93,7 @@ MSG_GPS_RAW_INT = 24
 MSG_ATTITUDE = 30
 MSG_LOCAL_POSITION_NED = 32
 MSG_GLOBAL_POSITION_INT = 33
+MSG_MISSION_CURRENT = 42
 MSG_COMMAND_INT = 75
 MSG_COMMAND_LONG = 76
 MSG_SET_POSITION_TARGET_LOCAL_NED = 84
@@ -105,6 +113,7 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     MSG_GPS_RAW_INT: 1.0,
     MSG_EXTENDED_SYS_STATE: 1.0,
     MSG_HOME_POSITION: 0.5,
+    MSG_MISSION_CURRENT: 1.0,
 }
 """Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link."""
 
@@ -155,11 +164,16 @@ class MavlinkVehicle(TelemetryBuilders):
         self.last_rx_s: float | None = None  # on the link clock: simulated time in lockstep, wall time in run()
         self._link_clock: Callable[[], float] = lambda: self.sim.time_s
         """Simulated time of the last valid message from any peer (None: none yet)."""
+        self.navigator.clock = lambda: self._link_clock()  # offboard setpoint streams are timed like the link
         self._setpoint_warned_s = -math.inf
         self.stats = LinkStats()
         self.statustexts: deque[tuple[int, str]] = deque(maxlen=100)
         """The last STATUSTEXTs sent, as (severity, text)."""
         self.tick_steps = tick_steps
+        self.on_tick: list[Callable[[VehicleState], None]] = []
+        """Called after every tick with the simulator's state, in the vehicle's thread (e.g. a camera)."""
+        self.tick_errors: deque[str] = deque(maxlen=100)
+        """What the ``on_tick`` hooks raised (they are kept running; the vehicle flies on)."""
         self._mav = mavlink2.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self._targets: list[Address] = [a for a in (gcs, api) if a is not None]
         self._peers: dict[Address, float] = {}
@@ -169,6 +183,15 @@ class MavlinkVehicle(TelemetryBuilders):
         self._lock = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.missions = MissionService(
+            self.navigator,
+            self._mav,
+            system_id=system_id,
+            component_id=component_id,
+            send=self._send,
+            notify=self.statustext,
+            clock=lambda: self._link_clock(),
+        )
         self._builders: dict[int, Callable[[], Any]] = {
             MSG_HEARTBEAT: self._heartbeat,
             MSG_SYS_STATUS: self._sys_status,
@@ -180,6 +203,7 @@ class MavlinkVehicle(TelemetryBuilders):
             MSG_EXTENDED_SYS_STATE: self._extended_sys_state,
             MSG_HOME_POSITION: self._home_position,
             MSG_AUTOPILOT_VERSION: self._autopilot_version,
+            MSG_MISSION_CURRENT: self.missions.current_message,
         }
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -236,7 +260,15 @@ class MavlinkVehicle(TelemetryBuilders):
             self.sim.step(self.tick_steps)
             self.navigator.update()
             self.failsafes.update(self.last_rx_s, self._link_clock())
+            self.missions.tick(self.sim.time_s)
             self._send_streams()
+            if self.on_tick:
+                state = self.sim.state()
+                for hook in self.on_tick:
+                    try:
+                        hook(state)
+                    except Exception as exc:  # an observer's bug must not stop the aircraft
+                        self.tick_errors.append(f"{getattr(hook, '__qualname__', hook)}: {type(exc).__name__}: {exc}")
 
     def run_for(self, seconds: float) -> None:
         """Lockstep: ``seconds`` of simulated time, as fast as possible, in the caller's thread."""
@@ -253,6 +285,8 @@ class MavlinkVehicle(TelemetryBuilders):
         self._link_clock = time.monotonic
         if self.last_rx_s is not None:
             self.last_rx_s = time.monotonic()
+        if self.navigator.offboard_time_s is not None:
+            self.navigator.offboard_time_s = time.monotonic()
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while not self._stop.is_set():
             self.step()
@@ -336,7 +370,8 @@ class MavlinkVehicle(TelemetryBuilders):
             if not self._for_us(msg):
                 return
             req = CommandRequest.from_long(msg) if msg_id == MSG_COMMAND_LONG else CommandRequest.from_int(msg)
-            outcome = handle_command(self, req)
+            mission = req.command in MISSION_COMMANDS
+            outcome = self.missions.command(req) if mission else handle_command(self, req)
             ack = self._mav.command_ack_encode(
                 req.command, outcome.result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()
             )
@@ -360,13 +395,8 @@ class MavlinkVehicle(TelemetryBuilders):
             self._param_set(msg, sender)
         elif msg_id in (MSG_SET_POSITION_TARGET_LOCAL_NED, MSG_SET_POSITION_TARGET_GLOBAL_INT) and self._for_us(msg):
             self._setpoint(msg, msg_id)
-        elif msg_id in MISSION_REQUESTS and self._for_us(msg):
-            # the mission protocol is not built yet: say so at once rather than leave the client to time out
-            kind = getattr(msg, "mission_type", 0)
-            ack = self._mav.mission_ack_encode(
-                msg.get_srcSystem(), msg.get_srcComponent(), mavlink2.MAV_MISSION_UNSUPPORTED, kind
-            )
-            self._send(ack, sender)
+        elif msg_id in MISSION_MESSAGES:
+            self.missions.handle(msg, sender)
 
     def _setpoint(self, msg: Any, msg_id: int) -> None:
         decode = decode_local_ned if msg_id == MSG_SET_POSITION_TARGET_LOCAL_NED else decode_global_int
@@ -408,6 +438,8 @@ class MavlinkVehicle(TelemetryBuilders):
         if not self.params.set(name, value):
             shown = f"{value:.0f}" if spec.param_type == MAV_PARAM_TYPE_INT32 else f"{value:g}"
             self.statustext(f"{name}: {shown} out of range {spec.minimum:g}..{spec.maximum:g}")
+        elif name.startswith("GF_"):
+            self.missions.runner.recheck()  # the fence moved: is the stored mission still inside it?
         self._send(self._param_value(name), sender)
 
     # -- sending ----------------------------------------------------------------------------------------------

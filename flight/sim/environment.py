@@ -61,29 +61,75 @@ class WindSettings:
         return cls(speed_mps * math.cos(to), speed_mps * math.sin(to), 0.0, gust_std_mps, gust_tau_s)
 
 
+class NormalStream:
+    """Standard normal draws from a generator, fetched in blocks.
+
+    Why: the simulator draws three gust values per control tick, and one call into numpy costs more than the whole
+    gust update. numpy's generators produce one stream of values whatever the size of each request (drawing 3 and 3
+    gives the values of drawing 6), so as long as every draw from ``rng`` goes through this object, the values are
+    exactly those of drawing them one request at a time.
+    """
+
+    def __init__(self, rng: np.random.Generator, block: int = 384) -> None:
+        self._rng = rng
+        self._block = block
+        self._buffer: list[float] = []
+        self._next = 0
+
+    def take(self, n: int) -> list[float]:
+        """The next ``n`` values of the stream."""
+        if self._next + n > len(self._buffer):
+            rest = self._buffer[self._next :]
+            self._buffer = rest + self._rng.standard_normal(max(self._block, n)).tolist()
+            self._next = 0
+        start = self._next
+        self._next = start + n
+        return self._buffer[start : self._next]
+
+
+Normals = np.random.Generator | NormalStream
+"""Where a process draws its noise: a generator (one numpy call per draw) or a :class:`NormalStream` over one."""
+
+
+def _take(normals: Normals, n: int) -> list[float]:
+    if isinstance(normals, NormalStream):
+        return normals.take(n)
+    return [float(z) for z in normals.standard_normal(n)]
+
+
 class GaussMarkov3:
     """Three independent first-order Gauss–Markov processes, exact discretisation (stationary from the start)."""
 
-    def __init__(self, std: tuple[float, float, float], tau_s: float, rng: np.random.Generator) -> None:
+    def __init__(self, std: tuple[float, float, float], tau_s: float, rng: Normals) -> None:
         if tau_s <= 0:
             raise ValueError("tau_s must be positive")
         self.std = std
         self.tau_s = tau_s
         self._rng = rng
-        self.value = [s * float(rng.standard_normal()) for s in std]
+        if isinstance(rng, NormalStream):
+            z = rng.take(3)
+            self.value = [s * z[i] for i, s in enumerate(std)]
+        else:
+            self.value = [s * float(rng.standard_normal()) for s in std]
+        self._dt = math.nan
+        self._a = self._b = 0.0
 
     def step(self, dt: float) -> list[float]:
-        a = math.exp(-dt / self.tau_s)
-        b = math.sqrt(1.0 - a * a)
-        z = self._rng.standard_normal(3)
-        self.value = [a * v + b * s * float(n) for v, s, n in zip(self.value, self.std, z, strict=True)]
+        if dt != self._dt:  # the coefficients depend on dt only, and the simulator steps at one rate
+            a = math.exp(-dt / self.tau_s)
+            self._dt, self._a, self._b = dt, a, math.sqrt(1.0 - a * a)
+        a, b = self._a, self._b
+        z0, z1, z2 = _take(self._rng, 3)
+        v0, v1, v2 = self.value
+        s0, s1, s2 = self.std
+        self.value = [a * v0 + b * s0 * z0, a * v1 + b * s1 * z1, a * v2 + b * s2 * z2]
         return self.value
 
 
 class Gusts:
     """The gust velocity (m/s, NED) for a :class:`WindSettings`, advanced by the simulator."""
 
-    def __init__(self, settings: WindSettings, rng: np.random.Generator) -> None:
+    def __init__(self, settings: WindSettings, rng: Normals) -> None:
         s = settings.gust_std_mps
         self._process = GaussMarkov3((s, s, 0.5 * s), settings.gust_tau_s, rng) if s > 0 else None
 
@@ -120,7 +166,7 @@ class GpsNoiseSettings:
 class GpsNoise:
     """Samples GPS position and velocity errors (NED, m and m/s) at the configured rate."""
 
-    def __init__(self, settings: GpsNoiseSettings, rng: np.random.Generator) -> None:
+    def __init__(self, settings: GpsNoiseSettings, rng: Normals) -> None:
         self.settings = settings
         self._rng = rng
         hb, vb = settings.horizontal_bias_std_m, settings.vertical_bias_std_m
@@ -137,10 +183,10 @@ class GpsNoise:
         """Advance one GPS epoch; returns the new position error (north, east, down)."""
         s = self.settings
         bn, be, bd = self._bias.step(self.period_s)
-        w = self._rng.standard_normal(6)
+        w = _take(self._rng, 6)
         hw, vw, sv = s.horizontal_white_std_m, s.vertical_white_std_m, s.velocity_std_mps
-        self.position_error = (bn + hw * float(w[0]), be + hw * float(w[1]), bd + vw * float(w[2]))
-        self.velocity_error = (sv * float(w[3]), sv * float(w[4]), sv * float(w[5]))
+        self.position_error = (bn + hw * w[0], be + hw * w[1], bd + vw * w[2])
+        self.velocity_error = (sv * w[3], sv * w[4], sv * w[5])
         return self.position_error
 
 

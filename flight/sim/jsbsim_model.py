@@ -38,7 +38,7 @@ import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import jsbsim
 
@@ -56,12 +56,14 @@ HOVER_THROTTLE = 0.41
 """Collective throttle that holds the 1.4 kg F450 in a hover (measured)."""
 
 
-@dataclass(frozen=True, slots=True)
-class ModelState:
+class ModelState(NamedTuple):
     """The F450's true state in SI units.
 
     The reference point is the landing gear's contact point, :data:`GEAR_HEIGHT_M` below the centre of gravity, so
     a landed aircraft reads ``alt_agl_m == 0``, ``alt_msl_m`` equal to the terrain and ``down_m == 0`` at home.
+
+    A named tuple (immutable, like :class:`~flight.sim.controller.ControlOutput`) rather than a frozen dataclass:
+    one is built every control tick, and a frozen dataclass costs several times more to build.
     """
 
     time_s: float
@@ -142,10 +144,21 @@ class F450Model:
             if not self._fdm.load_model("F450"):  # pragma: no cover - the model ships in the wheel
                 raise RuntimeError("JSBSim could not load the F450 model")
         self._fdm.set_dt(DT)
+        # Bound accessors of the property nodes read or written every control tick: ``fdm[name]`` looks the name
+        # up on every call, which costs more than the physics of a step when done twenty times per tick.
+        self._read = tuple(self._node(name).get_double_value for name in _STATE_PROPERTIES)
+        self._write_controls = tuple(self._node(name).set_double_value for name in _CONTROL_PROPERTIES)
+        self._write_gust = tuple(self._node(name).set_double_value for name in _GUST_PROPERTIES)
         r_m, r_n = earth_radii(home_lat_deg)
         self._k_north = math.radians(1.0) * r_m
         self._k_east = math.radians(1.0) * r_n * math.cos(math.radians(home_lat_deg))
         self.reset()
+
+    def _node(self, name: str) -> jsbsim.FGPropertyNode:
+        node = self._fdm.get_property_manager().get_node(name)
+        if node is None:  # pragma: no cover - the names are the model's, checked by the tests
+            raise RuntimeError(f"the F450 model has no property {name}")
+        return node
 
     @property
     def fdm(self) -> jsbsim.FGFDMExec:
@@ -181,11 +194,11 @@ class F450Model:
 
     def set_controls(self, throttle: float, p_rps: float, q_rps: float, r_rps: float) -> None:
         """Collective throttle ``[0, 1]`` and body-rate targets (rad/s); held until the next call."""
-        fdm = self._fdm
-        fdm["fcs/throttle-cmd-norm[0]"] = min(1.0, max(0.0, throttle))
-        fdm["fcs/aileron-cmd-norm"] = min(1.0, max(-1.0, p_rps / RATE_PER_STICK))
-        fdm["fcs/elevator-cmd-norm"] = min(1.0, max(-1.0, q_rps / RATE_PER_STICK))
-        fdm["fcs/rudder-cmd-norm"] = min(1.0, max(-1.0, r_rps / RATE_PER_STICK))
+        set_throttle, set_roll, set_pitch, set_yaw = self._write_controls
+        set_throttle(min(1.0, max(0.0, throttle)))
+        set_roll(min(1.0, max(-1.0, p_rps / RATE_PER_STICK)))
+        set_pitch(min(1.0, max(-1.0, q_rps / RATE_PER_STICK)))
+        set_yaw(min(1.0, max(-1.0, r_rps / RATE_PER_STICK)))
 
     def set_wind(self, north_mps: float, east_mps: float, down_mps: float) -> None:
         """Steady wind: the velocity (m/s, NED) the air moves towards."""
@@ -196,10 +209,10 @@ class F450Model:
 
     def set_gust(self, north_mps: float, east_mps: float, down_mps: float) -> None:
         """Gust component (m/s, NED) added by JSBSim to the steady wind."""
-        fdm = self._fdm
-        fdm["atmosphere/gust-north-fps"] = north_mps / FT
-        fdm["atmosphere/gust-east-fps"] = east_mps / FT
-        fdm["atmosphere/gust-down-fps"] = down_mps / FT
+        set_north, set_east, set_down = self._write_gust
+        set_north(north_mps / FT)
+        set_east(east_mps / FT)
+        set_down(down_mps / FT)
 
     def step(self, n: int = 1) -> None:
         """Advance ``n`` steps of :data:`DT`."""
@@ -214,34 +227,59 @@ class F450Model:
 
     def state(self) -> ModelState:
         """The true state in SI units."""
-        fdm = self._fdm
-        lat = fdm["position/lat-geod-deg"]
-        lon = fdm["position/long-gc-deg"]
-        alt = fdm["position/h-sl-meters"] - GEAR_HEIGHT_M
-        agl = fdm["position/h-agl-ft"] * FT - GEAR_HEIGHT_M
+        lat, lon, h_sl_m, h_agl_ft, vn, ve, vd, phi, theta, psi, p, q, r, wow, m0, m1, m2, m3, t = [
+            read() for read in self._read
+        ]
+        alt = h_sl_m - GEAR_HEIGHT_M
         return ModelState(
-            time_s=self.time_s,
-            lat_deg=lat,
-            lon_deg=lon,
-            alt_msl_m=alt,
-            alt_agl_m=max(0.0, agl),
-            north_m=(lat - self.home_lat_deg) * self._k_north,
-            east_m=(lon - self.home_lon_deg) * self._k_east,
-            down_m=self.home_alt_msl_m - alt,
-            vn_mps=fdm["velocities/v-north-fps"] * FT,
-            ve_mps=fdm["velocities/v-east-fps"] * FT,
-            vd_mps=fdm["velocities/v-down-fps"] * FT,
-            roll_rad=fdm["attitude/phi-rad"],
-            pitch_rad=fdm["attitude/theta-rad"],
-            yaw_rad=_wrap_pi(fdm["attitude/psi-rad"]),
-            p_rps=fdm["velocities/p-rad_sec"],
-            q_rps=fdm["velocities/q-rad_sec"],
-            r_rps=fdm["velocities/r-rad_sec"],
-            on_ground=fdm["gear/wow"] > 0.5,
-            motor_outputs=(
-                fdm["fcs/throttle-pos-norm[0]"],
-                fdm["fcs/throttle-pos-norm[1]"],
-                fdm["fcs/throttle-pos-norm[2]"],
-                fdm["fcs/throttle-pos-norm[3]"],
-            ),
+            t - self._time_offset,
+            lat,
+            lon,
+            alt,
+            max(0.0, h_agl_ft * FT - GEAR_HEIGHT_M),
+            (lat - self.home_lat_deg) * self._k_north,
+            (lon - self.home_lon_deg) * self._k_east,
+            self.home_alt_msl_m - alt,
+            vn * FT,
+            ve * FT,
+            vd * FT,
+            phi,
+            theta,
+            _wrap_pi(psi),
+            p,
+            q,
+            r,
+            wow > 0.5,
+            (m0, m1, m2, m3),
         )
+
+
+_STATE_PROPERTIES = (
+    "position/lat-geod-deg",
+    "position/long-gc-deg",
+    "position/h-sl-meters",
+    "position/h-agl-ft",
+    "velocities/v-north-fps",
+    "velocities/v-east-fps",
+    "velocities/v-down-fps",
+    "attitude/phi-rad",
+    "attitude/theta-rad",
+    "attitude/psi-rad",
+    "velocities/p-rad_sec",
+    "velocities/q-rad_sec",
+    "velocities/r-rad_sec",
+    "gear/wow",
+    "fcs/throttle-pos-norm[0]",
+    "fcs/throttle-pos-norm[1]",
+    "fcs/throttle-pos-norm[2]",
+    "fcs/throttle-pos-norm[3]",
+    "simulation/sim-time-sec",
+)
+"""Read by :meth:`F450Model.state`, in the order it unpacks them."""
+_CONTROL_PROPERTIES = (
+    "fcs/throttle-cmd-norm[0]",
+    "fcs/aileron-cmd-norm",
+    "fcs/elevator-cmd-norm",
+    "fcs/rudder-cmd-norm",
+)
+_GUST_PROPERTIES = ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps", "atmosphere/gust-down-fps")

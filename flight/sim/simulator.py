@@ -34,7 +34,7 @@ from flight.sim.controller import (
     Setpoint,
     VelocitySetpoint,
 )
-from flight.sim.environment import Environment, GpsNoise, Gusts, WindSettings
+from flight.sim.environment import Environment, GpsNoise, Gusts, NormalStream, WindSettings
 from flight.sim.jsbsim_model import DT, HOVER_THROTTLE, F450Model, ModelState
 
 STEPS_PER_SECOND = round(1.0 / DT)
@@ -120,7 +120,7 @@ class Simulator:
         self.seed = seed
         gust_seq, gps_seq = np.random.SeedSequence(seed).spawn(2)
         self._gust_rng = np.random.default_rng(gust_seq)
-        self.gps = GpsNoise(self.environment.gps, np.random.default_rng(gps_seq))
+        self.gps = GpsNoise(self.environment.gps, NormalStream(np.random.default_rng(gps_seq)))
         self._steps_per_tick = STEPS_PER_SECOND // controller_rate_hz
         self._tick_dt = self._steps_per_tick * DT
         self._phase = 0
@@ -130,9 +130,15 @@ class Simulator:
         self._payload_released = False
         self._output: ControlOutput = IDLE
         self._wind = self.environment.wind
-        self._gusts = Gusts(self._wind, self._gust_rng)
+        self._gust_normals = NormalStream(self._gust_rng)  # every gust draw goes through it: same values, cheaper
+        self._gusts = Gusts(self._wind, self._gust_normals)
         self.model.set_wind(self._wind.north_mps, self._wind.east_mps, self._wind.down_mps)
         self._truth: ModelState = self.model.state()
+        self._truth_steps = self._steps
+        """The step count at which ``_truth`` was read: a control tick right after a step reuses it."""
+        self._version = 0
+        """Bumped by everything that can change :meth:`state` (steps, arming, setpoints, payload)."""
+        self._state_cache: tuple[int, float, VehicleState] | None = None
 
     # -- time ------------------------------------------------------------------------------------------------
 
@@ -160,6 +166,8 @@ class Simulator:
             self._steps += chunk
             self._phase = (self._phase + chunk) % self._steps_per_tick
         self._truth = model.state()
+        self._truth_steps = self._steps
+        self._version += 1
 
     def run_for(self, seconds: float) -> None:
         """Advance ``seconds`` of simulated time (rounded to whole steps)."""
@@ -176,8 +184,10 @@ class Simulator:
         return False
 
     def _control_tick(self) -> None:
-        truth = self.model.state()
-        self._truth = truth
+        if self._truth_steps != self._steps:  # else the state read at the end of the last step() is still current
+            self._truth = self.model.state()
+            self._truth_steps = self._steps
+        truth = self._truth
         dt = self._tick_dt
         if self._armed:
             out = self.controller.update(truth, dt)
@@ -213,6 +223,7 @@ class Simulator:
         self.controller.set_setpoint(HoldPosition(), self._truth)
         self.model.set_engaged(True)
         self._armed = True
+        self._version += 1
         return True
 
     def disarm(self, force: bool = False) -> bool:
@@ -225,6 +236,7 @@ class Simulator:
         self._output = IDLE
         self.model.set_controls(0.0, 0.0, 0.0, 0.0)
         self.model.set_engaged(False)
+        self._version += 1
         return True
 
     def set_setpoint(self, setpoint: Setpoint) -> bool:
@@ -232,6 +244,7 @@ class Simulator:
         if not self._armed:
             return False
         self.controller.set_setpoint(setpoint, self._truth)
+        self._version += 1
         return True
 
     def takeoff(self, altitude_m: float) -> bool:
@@ -273,6 +286,7 @@ class Simulator:
         if self._payload_released:
             return False
         self._payload_released = True
+        self._version += 1
         return True
 
     @property
@@ -282,7 +296,7 @@ class Simulator:
     def set_wind(self, wind: WindSettings) -> None:
         """Change the wind from now on (steady part at once, gusts from the next control tick)."""
         self._wind = wind
-        self._gusts = Gusts(wind, self._gust_rng)
+        self._gusts = Gusts(wind, self._gust_normals)
         self.model.set_wind(wind.north_mps, wind.east_mps, wind.down_mps)
         self.model.set_gust(0.0, 0.0, 0.0)
 
@@ -297,6 +311,16 @@ class Simulator:
         return self._truth
 
     def state(self) -> VehicleState:
+        """The current snapshot. Built once per change (several readers ask every tick; building one validates 23
+        fields), keyed on everything that changes it, including a battery drained from outside."""
+        cache = self._state_cache
+        if cache is not None and cache[0] == self._version and cache[1] == self.battery.used_mah:
+            return cache[2]
+        state = self._build_state()
+        self._state_cache = (self._version, self.battery.used_mah, state)
+        return state
+
+    def _build_state(self) -> VehicleState:
         s = self._truth
         b = self.battery
         return VehicleState(

@@ -11,10 +11,10 @@ from pydantic import BaseModel
 
 from agentic_core.mission import model as mission
 from agentic_core.mission.steps import Environment, perform, prepare
-from flight.geodesy import offset_position
+from flight.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
-from flight.tools import NEEDS_WORLD_MODEL, TIMEOUTS_S, flight_tools, register_flight_tools
+from flight.tools import NEEDS_WORLD_MODEL, TIMEOUTS_S, beside, flight_tools, register_flight_tools
 from flight.vehicle import FlightResult, Telemetry, VehicleClient
 from tools import Caller, ToolExecutor, ToolRegistry
 
@@ -119,12 +119,61 @@ def test_denials_are_errors_with_the_reason_and_scopes_are_enforced(executor, ve
     assert bad.status == "error" and "invalid arguments" in bad.error
 
 
+def test_targets_are_found_through_the_resolver_and_landing_stops_short_of_them(vehicle):
+    home = vehicle.sim.environment.home
+    person = offset_position(home.lat_deg, home.lon_deg, 30.0, 0.0)
+    known = {"P-12": person}
+    registry = ToolRegistry()
+    register_flight_tools(registry, lambda: VehicleClient.connect(vehicle.address, timeout_s=5.0), targets=known.get)
+    with ToolExecutor(registry, default_caller=PILOT) as ex:
+        assert ex.call("flight.takeoff", {"altitude_m": 10}).status == "ok"
+        unknown = ex.call("flight.fly_to", {"target_id": "P-99"})
+        assert unknown.status == "error" and "no object 'P-99' in the world model" in (unknown.error or "")
+        landed = ex.call("flight.land", {"target_id": "P-12", "offset_m": 5.0})
+        assert landed.status == "ok", landed.error
+        state = landed.output["state"]
+        # came from home (south of the person): touched down about 5 m south of them, not on them
+        assert abs(state["north_m"] - 25.0) < 2.0 and abs(state["east_m"]) < 2.0
+
+
+def test_beside_puts_the_point_between_the_aircraft_and_the_target():
+    lat, lon = offset_position(21.4133, 39.8933, 0.0, 40.0)  # target 40 m east of the aircraft
+    aircraft = Telemetry(connected=True, lat_deg=21.4133, lon_deg=39.8933)
+    north, east = local_offset(21.4133, 39.8933, *beside(aircraft, lat, lon, 5.0))
+    assert abs(north) < 1e-6 and abs(east - 35.0) < 1e-6
+    assert beside(aircraft, lat, lon, 0.0) == (lat, lon)
+    north, east = local_offset(lat, lon, *beside(Telemetry(connected=True), lat, lon, 5.0))  # position unknown: south
+    assert abs(north + 5.0) < 1e-6 and abs(east) < 1e-6
+
+
+def test_a_mission_through_the_executor(executor, vehicle):
+    home = vehicle.sim.environment.home
+    points = [offset_position(home.lat_deg, home.lon_deg, n, e) for n, e in [(25.0, 0.0), (25.0, 25.0)]]
+    items = [{"command": 22, "lat": 0.0, "lon": 0.0, "alt": 8.0}]  # take-off here (lat/lon 0)
+    items += [{"command": 16, "lat": lat, "lon": lon, "alt": 10.0} for lat, lon in points]
+    items += [{"command": 20, "frame": 2}]  # return to launch: no position
+    up = executor.call("flight.upload_mission", {"items": items})
+    assert up.status == "ok", up.error
+    assert up.output["status"] == "ok" and up.output["count"] == 4 and up.output["result"] == "MAV_MISSION_ACCEPTED"
+    flown = executor.call("flight.start_mission", {})
+    assert flown.status == "ok", flown.error
+    assert flown.output["state"]["mission_state"] == "complete" and flown.output["reached"] is True
+    assert vehicle.mode.name == "RTL"  # the last item handed over to Return
+    bad = executor.call("flight.upload_mission", {"items": [{"command": 16, "frame": 2, "lat": 1.0, "lon": 2.0}]})
+    assert bad.status == "error" and "frame 2 has no position" in bad.error
+    refused = executor.call("flight.upload_mission", {"items": [{"command": 18, "lat": 21.4, "lon": 39.9}]})
+    assert refused.status == "error" and "MAV_MISSION_UNSUPPORTED" in refused.error
+    guest = Caller(id="guest", scopes=frozenset({"flight:read"}))
+    assert executor.call("flight.start_mission", {}, caller=guest).status == "denied"
+
+
 def test_the_tools_are_guarded_for_flying():
     async def never():
         raise AssertionError("not connected in this test")
 
     specs = {s.name: s for s in flight_tools(never)}
-    assert set(FLIGHT_ACTIONS.values()) | {"flight.hold", "flight.status"} == set(specs)
+    mission_tools = {"flight.upload_mission", "flight.start_mission"}  # no DSL action: whole plans
+    assert set(FLIGHT_ACTIONS.values()) | {"flight.hold", "flight.status"} | mission_tools == set(specs)
     for name, spec in specs.items():
         assert not spec.idempotent and spec.retry.attempts == 1 and spec.cache_ttl_s is None
         assert spec.is_async and spec.timeout_s == TIMEOUTS_S[name]
@@ -132,7 +181,7 @@ def test_the_tools_are_guarded_for_flying():
             name, "flight:command"
         )
         assert spec.scopes == (expected,)
-    flying = ("flight.takeoff", "flight.fly_to", "flight.orbit", "flight.rtl")
+    flying = ("flight.takeoff", "flight.fly_to", "flight.orbit", "flight.rtl", "flight.start_mission")
     assert all((specs[n].timeout_s or 0) >= 180 for n in flying)
 
 

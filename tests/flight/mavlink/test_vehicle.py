@@ -274,9 +274,3 @@ def test_paced_run_on_a_thread_answers_and_keeps_time():
     finally:
         vehicle.close()
         client.close()
-
-
-def test_the_mission_protocol_is_refused_at_once_not_ignored(link):
-    link.mav.mission_count_send(1, 1, 3, 0)
-    ack = link.wait("MISSION_ACK", timeout_s=5.0)
-    assert ack is not None and ack.type == mavutil.mavlink.MAV_MISSION_UNSUPPORTED

@@ -1,0 +1,354 @@
+"""The mission protocol, client side: upload, download and clear plans; start a mission and follow it.
+
+Why: a whole flight handed over at once survives a slow or lossy link better than step-by-step commands, and lets
+the vehicle fly on its own. :class:`MissionClient` speaks the MAVLink mission protocol as a ground station does and
+returns a :class:`~flight.client.results.MissionResult` for each transfer: ``ok``; ``denied`` with the MISSION_ACK's
+MAV_MISSION_* name and the vehicle's STATUSTEXT; ``timeout`` when the vehicle stopped answering; ``failed`` for bad
+input or a broken exchange.
+
+Facts relied on (MAVLink developer guide, "Mission Protocol"; ``common.xml`` through pymavlink; PX4's
+``mavlink_mission.cpp``):
+
+* Upload: MISSION_COUNT; the vehicle requests each item with MISSION_REQUEST_INT (PX4 may ask with the legacy
+  MISSION_REQUEST, which is answered with MISSION_ITEM_INT all the same, as the guide says); the vehicle ends with
+  MISSION_ACK. Requests are answered as they come, repeated ones too (the vehicle resends when an item is lost).
+* Download: MISSION_REQUEST_LIST → MISSION_COUNT, then MISSION_REQUEST_INT for each item → MISSION_ITEM_INT; the
+  client ends with MISSION_ACK ACCEPTED.
+* Clear: MISSION_CLEAR_ALL → MISSION_ACK.
+* An unanswered message is sent again after the client's ACK timeout, a few times (the guide: 1.5 s, 5 retries);
+  a client that gives up on an upload says so with MISSION_ACK MAV_MISSION_OPERATION_CANCELLED.
+* PX4 accepts the upload of a plan that leaves the geofence, then reports it not valid (STATUSTEXT "Geofence
+  violation for waypoint N", MISSION_CURRENT ``mission_state`` NO_MISSION); so after an ACCEPTED upload the client
+  reads the next MISSION_CURRENT, and a plan the vehicle will not fly is ``denied`` with that reason.
+* MAV_CMD_MISSION_START 300 switches to Mission and arms (PX4); MAV_CMD_DO_SET_MISSION_CURRENT 224 sets the item
+  flown next.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    MAV_CMD_DO_SET_MISSION_CURRENT,
+    MAV_CMD_MISSION_START,
+    MAV_MISSION_ACCEPTED,
+    MAV_MISSION_INVALID_SEQUENCE,
+    MAV_MISSION_OPERATION_CANCELLED,
+    MAV_RESULT_ACCEPTED,
+    MISSION_STATE_ACTIVE,
+    MISSION_STATE_COMPLETE,
+    MISSION_STATE_NO_MISSION,
+    MISSION_STATE_UNKNOWN,
+)
+
+from flight.client.core import Inbox
+from flight.client.mission_items import MISSION_TYPE_IDS, MissionItem, MissionType
+from flight.client.operations import OperationsClient
+from flight.client.results import FlightResult, MissionResult, TransferStatus, mission_result_name
+from flight.client.telemetry import TelemetryState
+
+MISSION_RETRIES = 5
+"""Resends of one unanswered mission message before giving up (the MAVLink guide's maximum)."""
+VALIDITY_WAIT_S = 2.0
+"""After an accepted upload, how long to wait for the MISSION_CURRENT that says whether the plan may fly."""
+CURRENT_WAIT_S = 1.5
+"""How long :meth:`MissionClient.start_mission` waits for a first MISSION_CURRENT (streamed at 1 Hz)."""
+MAX_ITEMS = 0xFFFF
+
+
+class MissionClient(OperationsClient):
+    """Mission transfers and Mission mode."""
+
+    # -- transfers --------------------------------------------------------------------------------------------
+
+    async def upload_mission(
+        self, items: Sequence[MissionItem], *, mission_type: MissionType = "mission"
+    ) -> MissionResult:
+        """Upload ``items`` as the vehicle's ``mission_type`` plan (replacing it whole)."""
+        started, mark, kind = time.monotonic(), self.text_mark, MISSION_TYPE_IDS[mission_type]
+        items = list(items)
+
+        def result(
+            status: TransferStatus, reason: str | None = None, ack: int | None = None, resends: int = 0
+        ) -> MissionResult:
+            return self._transfer_result(
+                "upload_mission", mission_type, started, status, reason, ack, len(items), resends
+            )
+
+        if len(items) > MAX_ITEMS:
+            return result("failed", f"{len(items)} items: a plan holds at most {MAX_ITEMS}")
+        ts, tc = self._target()
+
+        def wanted(msg: Any) -> bool:
+            kind_of = int(getattr(msg, "mission_type", 0))
+            if msg.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"):
+                return bool(msg.target_system == self.source_system and kind_of == kind)
+            return bool(msg.get_type() == "MISSION_CURRENT")
+
+        resends = 0
+        async with self._listen(wanted) as inbox:
+            outgoing = self._mav.mission_count_encode(ts, tc, len(items), kind)
+            while True:
+                msg, tries = await self._exchange(inbox, outgoing, lambda m: m.get_type() != "MISSION_CURRENT")
+                resends += tries
+                if msg is None:
+                    self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
+                    return result("timeout", self._silence("upload"), resends=resends)
+                if msg.get_type() == "MISSION_ACK":
+                    break
+                seq = int(msg.seq)
+                if not 0 <= seq < len(items):
+                    self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_INVALID_SEQUENCE, kind))
+                    return result("failed", f"the vehicle asked for item {seq} of {len(items)}", resends=resends)
+                frame, command, p1, p2, p3, p4, x, y, z = items[seq].int_fields()
+                auto = int(items[seq].autocontinue)
+                outgoing = self._mav.mission_item_int_encode(
+                    ts, tc, seq, frame, command, 0, auto, p1, p2, p3, p4, x, y, z, kind
+                )
+            if int(msg.type) != MAV_MISSION_ACCEPTED:
+                return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type), resends)
+            if kind == MISSION_TYPE_IDS["mission"] and items:
+                current = await self._next_current(inbox, len(items))
+                if current is not None and int(current.mission_state) == MISSION_STATE_NO_MISSION:
+                    why = "; ".join(await self._texts_after(mark)) or "its mission check failed"
+                    reason = f"the vehicle stored the mission but will not fly it: {why}"
+                    return result("denied", reason, MAV_MISSION_ACCEPTED, resends)
+        return result("ok", ack=MAV_MISSION_ACCEPTED, resends=resends)
+
+    async def download_mission(self, *, mission_type: MissionType = "mission") -> MissionResult:
+        """The vehicle's ``mission_type`` plan, in ``items``."""
+        started, mark, kind = time.monotonic(), self.text_mark, MISSION_TYPE_IDS[mission_type]
+        ts, tc = self._target()
+        got: list[MissionItem] = []
+        resends = 0
+
+        def result(status: TransferStatus, reason: str | None = None, ack: int | None = None) -> MissionResult:
+            return self._transfer_result(
+                "download_mission", mission_type, started, status, reason, ack, len(got), resends, got
+            )
+
+        def wanted(msg: Any) -> bool:
+            types = ("MISSION_COUNT", "MISSION_ITEM_INT", "MISSION_ITEM", "MISSION_ACK")
+            return bool(
+                msg.get_type() in types
+                and msg.target_system == self.source_system
+                and int(getattr(msg, "mission_type", 0)) == kind
+            )
+
+        async with self._listen(wanted) as inbox:
+            request = self._mav.mission_request_list_encode(ts, tc, kind)
+            msg, resends = await self._exchange(
+                inbox, request, lambda m: m.get_type() in ("MISSION_COUNT", "MISSION_ACK")
+            )
+            if msg is None:
+                return result("timeout", self._silence("download"))
+            if msg.get_type() == "MISSION_ACK":
+                return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type))
+            count = int(msg.count)
+            for seq in range(count):
+                request = self._mav.mission_request_int_encode(ts, tc, seq, kind)
+
+                def answers(m: Any, seq: int = seq) -> bool:
+                    return m.get_type() == "MISSION_ACK" or (m.get_type() != "MISSION_COUNT" and int(m.seq) == seq)
+
+                msg, tries = await self._exchange(inbox, request, answers)
+                resends += tries
+                if msg is None:
+                    return result("timeout", self._silence(f"download (item {seq} of {count})"))
+                if msg.get_type() == "MISSION_ACK":
+                    return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type))
+                try:
+                    got.append(MissionItem.from_message(msg))
+                except ValueError as exc:
+                    self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
+                    return result("failed", f"item {seq} from the vehicle is not valid: {exc}")
+            self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_ACCEPTED, kind))
+        return result("ok")
+
+    async def clear_mission(self, *, mission_type: MissionType | None = "mission") -> MissionResult:
+        """Clear the vehicle's ``mission_type`` plan (None: all three)."""
+        started, mark = time.monotonic(), self.text_mark
+        kind = 255 if mission_type is None else MISSION_TYPE_IDS[mission_type]
+        ts, tc = self._target()
+
+        def wanted(msg: Any) -> bool:
+            return bool(
+                msg.get_type() == "MISSION_ACK"
+                and msg.target_system == self.source_system
+                and int(getattr(msg, "mission_type", 0)) == kind
+            )
+
+        async with self._listen(wanted) as inbox:
+            msg, resends = await self._exchange(inbox, self._mav.mission_clear_all_encode(ts, tc, kind), wanted)
+        label: MissionType = mission_type or "mission"
+        if msg is None:
+            return self._transfer_result(
+                "clear_mission", label, started, "timeout", self._silence("clear"), None, 0, resends
+            )
+        ack = int(msg.type)
+        if ack != MAV_MISSION_ACCEPTED:
+            reason = await self._refusal(mark, ack)
+            return self._transfer_result("clear_mission", label, started, "denied", reason, ack, 0, resends)
+        return self._transfer_result("clear_mission", label, started, "ok", None, ack, 0, resends)
+
+    async def _exchange(self, inbox: Inbox, outgoing: Any, answers: Callable[[Any], bool]) -> tuple[Any | None, int]:
+        """Send ``outgoing`` and return the first message in ``inbox`` that ``answers`` it, resending after each
+        ACK timeout up to :data:`MISSION_RETRIES` times; (the answer or None, the number of resends)."""
+        self._send(outgoing)
+        resends = 0
+        deadline = time.monotonic() + self.ack_timeout_s
+        while True:
+            msg = await inbox.get(deadline - time.monotonic())
+            if msg is not None:
+                if answers(msg):
+                    return msg, resends
+                continue
+            if resends >= MISSION_RETRIES:
+                return None, resends
+            resends += 1
+            self._send(outgoing)
+            deadline = time.monotonic() + self.ack_timeout_s
+
+    async def _next_current(self, inbox: Inbox, count: int) -> Any | None:
+        """The first MISSION_CURRENT in ``inbox`` reporting ``count`` items, within :data:`VALIDITY_WAIT_S`."""
+        deadline = time.monotonic() + VALIDITY_WAIT_S
+        while (left := deadline - time.monotonic()) > 0:
+            msg = await inbox.get(left)
+            if msg is not None and msg.get_type() == "MISSION_CURRENT" and int(msg.total) == count:
+                return msg
+        return None
+
+    async def _refusal(self, mark: int, result: int) -> str:
+        name = mission_result_name(result)
+        texts = await self._texts_after(mark)
+        return f"{name}: {'; '.join(texts)}" if texts else name
+
+    def _silence(self, what: str) -> str:
+        tries = MISSION_RETRIES + 1
+        why = f"no answer from the vehicle to the {what} after {tries} tries of {self.ack_timeout_s:g} s"
+        return why if self.telemetry.connected else why + " (no telemetry from the vehicle)"
+
+    def _transfer_result(
+        self,
+        action: str,
+        mission_type: MissionType,
+        started: float,
+        status: TransferStatus,
+        reason: str | None,
+        ack: int | None,
+        count: int,
+        resends: int,
+        items: list[MissionItem] | None = None,
+    ) -> MissionResult:
+        return MissionResult(
+            action=action,
+            status=status,
+            mission_type=mission_type,
+            result=None if ack is None else mission_result_name(ack),
+            reason=reason,
+            count=count,
+            items=items or [],
+            resends=resends,
+            elapsed_s=time.monotonic() - started,
+            state=self.telemetry,
+        )
+
+    # -- flying it --------------------------------------------------------------------------------------------
+
+    async def start_mission(self, *, from_item: int | None = None, timeout_s: float = 10.0) -> FlightResult:
+        """Start the uploaded mission (MAV_CMD_MISSION_START: Mission mode, arming first if needed) from its
+        current item, or from ``from_item``; a finished mission starts again from item 0. Returns once the
+        vehicle's first MISSION_CURRENT after the ACK reports it active (or already complete); a vehicle that
+        does not report mission states, once it reports Mission mode. :meth:`wait_mission` follows it to the end."""
+        op = self._begin("start_mission")
+        # whether the mission is finished comes with MISSION_CURRENT (1 Hz): a fresh client waits for one
+        await self._wait(lambda _m: True if self._state.mission_state != "unknown" else None, CURRENT_WAIT_S)
+        first = from_item
+        if first is None and self.telemetry.mission_state == "complete":
+            first = 0
+        if first is not None:
+            ack = await self._command(MAV_CMD_DO_SET_MISSION_CURRENT, (float(first),))
+            if not ack.accepted:
+                return self._refused(op, ack)
+
+        def evidence(msg: Any) -> bool:
+            return bool(msg.get_type() in ("MISSION_CURRENT", "HEARTBEAT", "COMMAND_ACK"))
+
+        # listen before sending: the mission may start (and a short one end) before a wait could be set up
+        async with self._listen(evidence) as inbox:
+            ack = await self._command(MAV_CMD_MISSION_START, (0.0, 0.0))
+            if not ack.accepted:
+                return self._refused(op, ack)
+            started = await self._started(inbox, timeout_s)
+        if not started:
+            return self._result(op, "timeout", reason=f"the mission did not start in {timeout_s:g} s", ack=ack.result)
+        return self._result(op, "ok", reached=True, ack=ack.result)
+
+    async def _started(self, inbox: Inbox, timeout_s: float) -> bool:
+        """Whether, after MISSION_START's ACK in ``inbox``, the vehicle says the mission runs (or ran to its end).
+        Messages before the ACK describe the vehicle before it took the command, so they do not count."""
+        acked = False
+        deadline = time.monotonic() + timeout_s
+        while (left := deadline - time.monotonic()) > 0:
+            msg = await inbox.get(left)
+            if msg is None:
+                return False
+            kind = msg.get_type()
+            if kind == "COMMAND_ACK":
+                acked = acked or (msg.command == MAV_CMD_MISSION_START and msg.result == MAV_RESULT_ACCEPTED)
+            elif acked and kind == "MISSION_CURRENT":
+                state = int(getattr(msg, "mission_state", MISSION_STATE_UNKNOWN))
+                if state in (MISSION_STATE_ACTIVE, MISSION_STATE_COMPLETE):
+                    return True
+            elif acked and kind == "HEARTBEAT" and self._mission_mode_without_states():
+                return True
+        return False
+
+    def _mission_mode_without_states(self) -> bool:
+        """In Mission mode, by a vehicle that reports no mission states (the only sign a mission runs)."""
+        t = self.telemetry
+        return t.mission_state == "unknown" and t.mode == "mission"
+
+    async def wait_mission(self, timeout_s: float = 3600.0) -> FlightResult:
+        """Follow the mission under way until the vehicle reports it complete (MISSION_CURRENT); ``failed`` when
+        it is left unfinished (another mode, a failsafe) or the plan disappears."""
+        op = self._begin("wait_mission")
+        seen_active = [False]
+
+        def finished(s: TelemetryState) -> bool:
+            return s.mission_state == "complete"
+
+        def left(_msg: Any) -> Any:
+            s = self._state
+            if finished(s):
+                return "complete"
+            if s.mission_state == "active":
+                seen_active[0] = True
+            elif seen_active[0] and s.mission_state in ("paused", "no_mission", "not_started"):
+                return f"the mission stopped unfinished at item {s.mission_seq} (mode {s.mode})"
+            if op.superseded_by is not None:
+                return f"superseded by {op.superseded_by}"
+            return None
+
+        outcome = await self._wait(left, timeout_s)
+        if outcome == "complete":
+            total = self.telemetry.mission_total
+            return self._result(op, "ok", reason=f"mission complete ({total} items)", reached=True)
+        if outcome is None:
+            return self._result(op, "timeout", reason=f"not complete in {timeout_s:.0f} s", reached=False)
+        texts = self.texts_since(op.text_mark)
+        return self._result(op, "failed", reason=str(outcome) + (f" ({texts[-1]})" if texts else ""), reached=False)
+
+    async def set_current_mission_item(self, seq: int) -> FlightResult:
+        """Make item ``seq`` the one flown next (flown at once in Mission mode)."""
+        op = self._begin("set_current_mission_item")
+        if seq < 0 or not math.isfinite(seq):
+            return self._result(op, "failed", reason=f"no item {seq}")
+        ack = await self._command(MAV_CMD_DO_SET_MISSION_CURRENT, (float(seq),))
+        if not ack.accepted:
+            return self._refused(op, ack)
+        status, reason, reached = await self._fly_wait(op, lambda s: s.mission_seq == seq, 5.0, flying=False)
+        return self._result(op, status, reason=reason, reached=reached, ack=ack.result)
