@@ -9,6 +9,7 @@ returns, with the state observed at its end.
 
 from __future__ import annotations
 
+import asyncio
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,6 +28,11 @@ from flight.client.telemetry import TelemetryState
 FLYING_MODES = frozenset({"hold", "takeoff", "position", "orbit"})
 """Modes in which a go-to, take-off, orbit or hover is still being flown; a switch to any other (RTL, Land: a
 failsafe, or another client) interrupts it."""
+
+
+WALL_SLACK = 20.0
+"""How many times its budget of the vehicle's time an action may take in wall time (a frozen vehicle's bound)."""
+OUT_OF_TIME = "out of the vehicle's time"
 
 
 @dataclass(eq=False, slots=True)
@@ -91,6 +97,25 @@ class OperationsClient(CommandClient):
             status = "failed"
         return self._result(op, status, reason=ack.reason, ack=ack.result)
 
+    async def _wait_on_vehicle_clock(self, check: Callable[[Any], Any], timeout_s: float, start: float | None) -> Any:
+        """:meth:`_wait` for ``check``, in one-second slices: it ends when ``check`` answers, when ``timeout_s`` of
+        wall time has passed with the vehicle's clock standing still (a vehicle that stopped), or after
+        :data:`WALL_SLACK` × ``timeout_s`` of wall time in any case; without a vehicle clock, after ``timeout_s``."""
+        loop = asyncio.get_running_loop()
+        now = loop.time()
+        deadline = now + timeout_s * (WALL_SLACK if start is not None else 1.0)
+        last_clock, last_progress = start, now
+        while True:
+            outcome = await self._wait(check, min(1.0, max(0.0, deadline - now)))
+            now = loop.time()
+            if outcome is not None or now >= deadline:
+                return outcome
+            clock = self._state.time_boot_s
+            if clock is not None and clock != last_clock:
+                last_clock, last_progress = clock, now
+            elif now - last_progress >= timeout_s:
+                return None
+
     async def _fly_wait(
         self,
         op: Operation,
@@ -101,12 +126,19 @@ class OperationsClient(CommandClient):
         modes: frozenset[str] = FLYING_MODES,
     ) -> tuple[CommandStatus, str | None, bool]:
         """Wait until ``done(state)``. (status, reason, reached): ``failed`` when superseded by a newer command or,
-        for ``flying`` actions, when the vehicle disarms or switches to a mode not in ``modes``."""
+        for ``flying`` actions, when the vehicle disarms or switches to a mode not in ``modes``.
+
+        ``timeout_s`` runs on the vehicle's own clock when it reports one (a simulator running slower than real
+        time, say under a heavy camera load, has not failed to arrive), bounded by :data:`WALL_SLACK` times as
+        much wall time; a vehicle whose clock stops for ``timeout_s`` of wall time has timed out."""
+        start = self._state.time_boot_s
 
         def check(_msg: Any) -> Any:
             s = self._state
             if done(s):
                 return "reached"
+            if start is not None and s.time_boot_s is not None and s.time_boot_s - start > timeout_s:
+                return OUT_OF_TIME
             if op.superseded_by is not None:
                 return f"superseded by {op.superseded_by}"
             if flying:
@@ -118,9 +150,11 @@ class OperationsClient(CommandClient):
                     return "interrupted: the vehicle disarmed"
             return None
 
-        outcome = await self._wait(check, timeout_s)
+        outcome = await self._wait_on_vehicle_clock(check, timeout_s, start)
         if outcome == "reached":
             return "ok", None, True
+        if outcome == OUT_OF_TIME:
+            outcome = None
         texts = self.texts_since(op.text_mark)
         if outcome is None:
             why = f"not reached in {timeout_s:.0f} s"
