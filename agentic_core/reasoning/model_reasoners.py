@@ -1,0 +1,164 @@
+"""The reasoners that consult a language model: ``llm`` (every assessment) and ``hybrid`` (rules first).
+
+``llm`` renders the World Model into the assessment prompt and asks the model for an :class:`Assessment` as
+structured output; a model that fails (timeout, refusal, output that breaks the schema twice) gives a failed
+:class:`Decision` with the reason, which the agent handles like any failed tool.
+
+``hybrid`` is the paper's recommended design: the rule reasoner (tier 1) reads every frame, and only a critical
+event — its severity ``high`` or worse — is put to the model (tier 2); an identical situation (the same subject
+at the same rule severity) is not asked twice, its earlier answer is reused. :attr:`HybridReasoner.saved` counts
+the model calls this avoided.
+
+The World Model can hold a thousand people; the prompt carries at most ``max_objects`` of them, the subject and the
+people motionless or isolated first, then the nearest to the subject, and says how many it left out.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from typing import Any, Protocol
+
+import prompts
+
+from ..perception.world_model import WorldModel, WorldObject
+from .assessment import Assessment, Decision, Severity
+from .llm import ChatRequest, LLMResult, Message
+from .rules import RuleReasoner
+
+
+class StructuredChat(Protocol):
+    """What these reasoners need of an LLM client (every client in :mod:`agentic_core.reasoning.llm` has it)."""
+
+    @property
+    def model(self) -> str: ...
+
+    def chat_structured_sync(self, request: ChatRequest, output: type[Assessment]) -> LLMResult: ...
+
+
+def world_model_prompt(world: WorldModel, focus: str | None = None, max_objects: int = 40) -> str:
+    """The World Model as compact JSON for a prompt: at most ``max_objects`` objects, the most telling first."""
+    data = world.to_dict()
+    objects = world.objects
+    if len(objects) > max_objects:
+        subject = world.get(focus) if focus else None
+        cx, cy = (subject.pose.north, subject.pose.east) if subject else (world.ego_pose.north, world.ego_pose.east)
+        flagged = {r.subj for r in world.relations if r.pred in ("isolated_from", "stationary")}
+
+        def priority(o: WorldObject) -> tuple[int, int, float]:
+            return (o.id != focus, o.id not in flagged, math.hypot(o.pose.north - cx, o.pose.east - cy))
+
+        kept = {o.id for o in sorted(objects, key=priority)[:max_objects]}
+        data["objects"] = [o for o in data["objects"] if o["id"] in kept]
+        data["relations"] = [r for r in data["relations"] if r["subj"] in kept]
+        data["omitted_objects"] = len(objects) - len(kept)
+    return json.dumps(data, separators=(",", ":"), ensure_ascii=False)
+
+
+class LLMReasoner:
+    """Every assessment by the model: the system and assessment prompts, an :class:`Assessment` back."""
+
+    def __init__(
+        self, client: StructuredChat, *, goal: str = "", max_objects: int = 40, temperature: float | None = 0.0
+    ) -> None:
+        self.client = client
+        self.goal = goal
+        self.max_objects = max_objects
+        self.temperature = temperature
+        self.name = f"llm:{client.model}"
+
+    def request(self, world: WorldModel, focus: str | None = None) -> ChatRequest:
+        """The chat request for one assessment (public so a trace can show exactly what was asked)."""
+        ego = world.ego_pose
+        user = prompts.render(
+            "assess",
+            goal=self.goal or "patrol and assist anyone in need",
+            time_s=f"{world.timestamp:.1f}",
+            ego=f"lat {ego.lat:.6f}, lon {ego.lon:.6f}, {-ego.down:.0f} m above home",
+            focus_line=f"Focus on object {focus}.\n" if focus else "",
+            world_model=world_model_prompt(world, focus, self.max_objects),
+        )
+        return ChatRequest(
+            messages=[Message.system(prompts.template("system")), Message.user(user)], temperature=self.temperature
+        )
+
+    def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
+        start = time.perf_counter()
+        result = self.client.chat_structured_sync(self.request(world, focus), Assessment)
+        return self._decision(result, time.perf_counter() - start)
+
+    def _decision(self, result: LLMResult, elapsed: float) -> Decision:
+        common: dict[str, Any] = {
+            "reasoner": self.name,
+            "processing_time_s": elapsed,
+            "model_time_s": min(result.latency_s, elapsed),
+            "llm_calls": 1,
+            "prompt_tokens": result.usage.prompt_tokens,
+            "completion_tokens": result.usage.completion_tokens,
+            "escalated": True,
+        }
+        if result.ok and isinstance(result.parsed, Assessment):
+            return Decision(assessment=result.parsed, **common)
+        return Decision(assessment=None, error=f"{result.status}: {result.error or 'no assessment'}", **common)
+
+
+class HybridReasoner:
+    """Rules on every frame; the model only on critical events, and never twice for the same situation."""
+
+    name = "hybrid"
+
+    def __init__(self, rules: RuleReasoner, model: LLMReasoner, *, escalate_at: Severity = "high") -> None:
+        self.rules = rules
+        self.model = model
+        self.escalate_at = escalate_at
+        self.consulted = 0
+        """Model calls made."""
+        self.saved = 0
+        """Assessments that would have been a model call in the ``llm`` design: rule-only ones and reused ones."""
+        self._answers: dict[tuple[str | None, str], Decision] = {}
+
+    def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
+        start = time.perf_counter()
+        tier1 = self.rules.assess(world, focus)
+        if tier1.assessment is None or not tier1.assessment.at_least(self.escalate_at):
+            self.saved += 1
+            return tier1.model_copy(update={"reasoner": self.name})
+        key = (tier1.assessment.subject_id, tier1.assessment.severity)
+        earlier = self._answers.get(key)
+        if earlier is not None:
+            self.saved += 1
+            return earlier.model_copy(
+                update={
+                    "processing_time_s": time.perf_counter() - start,
+                    "cached": True,
+                    "model_time_s": 0.0,
+                    "llm_calls": 0,
+                    "prompt_tokens": 0,
+                    "completion_tokens": 0,
+                }
+            )
+        decision = self.model.assess(world, focus or tier1.assessment.subject_id)
+        self.consulted += 1
+        decision = decision.model_copy(
+            update={"reasoner": self.name, "processing_time_s": time.perf_counter() - start, "escalated": True}
+        )
+        if decision.ok:
+            self._answers[key] = decision
+            return decision
+        # The model failed: the rules' own reading stands, and the failure is kept on the record.
+        return tier1.model_copy(
+            update={
+                "reasoner": self.name,
+                "processing_time_s": decision.processing_time_s,
+                "model_time_s": decision.model_time_s,
+                "llm_calls": decision.llm_calls,
+                "prompt_tokens": decision.prompt_tokens,
+                "completion_tokens": decision.completion_tokens,
+                "escalated": True,
+                "error": f"model failed, rules' assessment kept: {decision.error}",
+            }
+        )
+
+
+__all__ = ["HybridReasoner", "LLMReasoner", "StructuredChat", "world_model_prompt"]
