@@ -1,0 +1,187 @@
+"""``agentic-uav eval campaign``: run scenes through systems, then the metrics and the paper's statistics.
+
+Example (ten generated scenes, the baseline and the rule reasoner, two worker processes)::
+
+    agentic-uav eval campaign --scenes 10 --seed 0 --systems yolo,rules --workers 2 --out runs/campaign-10
+
+Run the same command again after an interruption to resume; the directory then also holds ``stats.md``,
+``stats.json``, ``stats.tex`` and the plots (``stats_*.png``) of :mod:`evaluation.stats` on ``results.jsonl``.
+
+Exit status: 0 when the campaign is complete, 2 on bad input (an unknown system, a bad LLM spec, an unreadable
+scene file, ``--workers 0``, a directory holding a different campaign), 1 when a job fails, 130 when interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from flight.sim.scene_model import Scene
+
+    from .manifest import SceneSource
+
+PROG = "agentic-uav eval campaign"
+
+
+def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add this command's arguments to ``parser``."""
+    scenes = parser.add_mutually_exclusive_group()
+    scenes.add_argument(
+        "--scenes", type=int, metavar="N", help="generate N scenes from --seed (default 44, as in the paper)"
+    )
+    scenes.add_argument(
+        "--scene-file", action="extend", nargs="+", metavar="FILE", help="scene files (YAML/JSON) instead"
+    )
+    parser.add_argument("--seed", type=int, default=0, metavar="S", help="campaign seed (default 0)")
+    parser.add_argument(
+        "--systems",
+        default="yolo,rules",
+        metavar="LIST",
+        help="comma-separated [NAME=]KIND[:LLM_SPEC]: yolo, rules, hybrid, llm, llm:PROVIDER:MODEL[@URL] "
+        "(default yolo,rules)",
+    )
+    parser.add_argument("--llm", metavar="SPEC", help="the model of a bare 'llm' or 'hybrid' (PROVIDER:MODEL[@URL])")
+    parser.add_argument("--workers", type=int, default=1, metavar="K", help="worker processes (default 1)")
+    parser.add_argument("--frames", type=int, default=360, metavar="N", help="camera frames at 30 Hz (default 360)")
+    parser.add_argument(
+        "--assess-every", type=int, default=30, metavar="N", help="frames between assessments; 0: final only (30)"
+    )
+    parser.add_argument("--altitude", type=float, default=30.0, metavar="M", help="hover height, metres (default 30)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="the campaign directory")
+    parser.add_argument("--no-stats", action="store_true", help="skip the statistics report")
+    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
+    """Entry point: ``main(["--scenes", "4", "--out", "runs/c"])`` returns the exit status."""
+    out = stdout or sys.stdout
+    err = stderr or sys.stderr
+    parser = configure_parser(argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n\n")[0]))
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help (0) and usage errors (2), its message already printed
+        return int(exc.code) if isinstance(exc.code, int) else 2
+    try:
+        return _run(args, out, err)
+    except _UsageError as exc:
+        print(f"{PROG}: error: {exc}", file=err)
+        return 2
+
+
+class _UsageError(Exception):
+    pass
+
+
+def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pydantic import ValidationError
+
+    from .episode import EpisodeSettings
+    from .runner import CampaignError, CampaignPlan, run_campaign
+    from .systems import SystemSpecError, parse_systems
+
+    if args.workers < 1:
+        raise _UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.seed < 0:
+        raise _UsageError(f"--seed must be 0 or more, got {args.seed}")
+    if args.frames < 1:
+        raise _UsageError(f"--frames must be at least 1, got {args.frames}")
+    if args.assess_every < 0:
+        raise _UsageError(f"--assess-every must be 0 or more, got {args.assess_every}")
+    if not 2.0 < args.altitude <= 500.0:
+        raise _UsageError(f"--altitude must be above 2 and at most 500 m, got {args.altitude:g}")
+    try:
+        systems = parse_systems(args.systems, llm=args.llm)
+        if args.llm:
+            parse_systems(f"llm:{args.llm}")  # a bad --llm is an error even when no system uses it
+    except SystemSpecError as exc:
+        raise _UsageError(str(exc)) from None
+    scenes, source = _scenes(args)
+    settings = EpisodeSettings(frames=args.frames, assess_every=args.assess_every, altitude_m=args.altitude)
+    try:
+        plan = CampaignPlan(scenes=scenes, systems=systems, settings=settings, seed=args.seed, scene_source=source)
+    except ValidationError as exc:
+        raise _UsageError(str(exc.errors()[0]["msg"]).removeprefix("Value error, ")) from None
+    try:
+        result = run_campaign(plan, args.out, workers=args.workers, quiet=args.quiet, stream=err)
+    except CampaignError as exc:
+        print(f"{PROG}: error: {exc}", file=err)
+        return 2 if exc.usage else 1
+    except KeyboardInterrupt:
+        print(f"\n{PROG}: interrupted; run the same command again to resume in {args.out}", file=err)
+        return 130
+    stats_line = "skipped (--no-stats)" if args.no_stats else _stats(args.out, len(systems))
+    table = result.metrics.to_markdown().split("\n\nRates count")[0]
+    print(table, file=out)
+    n_scenes, n_systems = len(scenes), len(systems)
+    resumed = f", {result.resumed_from} from an earlier run" if result.resumed_from else ""
+    print(
+        f"\ncampaign complete: {len(result.records)} records ({n_scenes} scenes × {n_systems} systems; "
+        f"{result.ran} run now{resumed}) in {args.out}",
+        file=out,
+    )
+    files = result.files
+    print(f"  manifest: {files['manifest']}", file=out)
+    print(f"  records:  {files['results_jsonl']}, {files['results_csv']}", file=out)
+    print(f"  metrics:  {files['metrics_md']}, {files['metrics_json']}", file=out)
+    print(f"  stats:    {stats_line}", file=out)
+    return 0
+
+
+def _scenes(args: argparse.Namespace) -> tuple[list[Scene], SceneSource]:
+    from flight.sim.scene_file import SceneFileError, load_scene
+    from flight.sim.scene_gen import generate_scenes
+
+    from .manifest import SceneSource
+
+    if args.scene_file:
+        scenes = []
+        for name in args.scene_file:
+            try:
+                scenes.append(load_scene(Path(name)))
+            except SceneFileError as exc:
+                raise _UsageError(str(exc)) from None
+        return scenes, SceneSource(kind="files", count=len(scenes), files=list(args.scene_file))
+    count = 44 if args.scenes is None else args.scenes
+    if count < 1:
+        raise _UsageError(f"--scenes must be at least 1, got {count}")
+    if count > 10_000:
+        raise _UsageError(f"--scenes is at most 10000, got {count}")
+    scenes = generate_scenes(count, seed=args.seed)
+    return scenes, SceneSource(kind="generated", count=count, seed=args.seed)
+
+
+def _stats(out_dir: Path, n_systems: int) -> str:
+    """The paper's statistics on the campaign's records, into ``out_dir``; a line saying what was written."""
+    if n_systems < 2:
+        return "skipped (the statistics compare two or more systems)"
+    from evaluation.stats.errors import InputError
+    from evaluation.stats.pipeline import analyze
+    from evaluation.stats.plots import write_plots
+
+    try:
+        report = analyze(out_dir / "results.jsonl")
+    except InputError as exc:
+        return f"skipped ({exc})"
+    except Exception as exc:  # the campaign is complete and recorded; a failed report must not hide that
+        return f"failed ({type(exc).__name__}: {exc}); run: agentic-uav eval stats {out_dir / 'results.jsonl'}"
+    try:
+        (out_dir / "stats.md").write_text(report.to_markdown(), encoding="utf-8")
+        (out_dir / "stats.tex").write_text(report.to_latex(), encoding="utf-8")
+        (out_dir / "stats.json").write_text(report.to_json() + "\n", encoding="utf-8")
+    except OSError as exc:
+        return f"not written ({exc.strerror or exc})"
+    written = f"{out_dir / 'stats.md'}, {out_dir / 'stats.json'}, {out_dir / 'stats.tex'}"
+    try:
+        plots = write_plots(report, out_dir)
+    except Exception as exc:  # a plotting failure leaves the report itself standing
+        return f"{written}; plots failed ({type(exc).__name__}: {exc})"
+    return f"{written}; plots: {', '.join(p.name for p in plots)}"
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

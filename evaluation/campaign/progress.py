@@ -1,0 +1,97 @@
+"""The campaign's progress line on stderr: records done of the total, the rate, the time left.
+
+On a terminal the line is redrawn in place after every record; to a file or pipe a line is written at most every
+``every_s`` seconds (and at the end), so logs stay short. ``quiet`` writes nothing.
+
+>>> import io
+>>> out = io.StringIO()
+>>> progress = Progress(total=4, already=2, stream=out, clock=iter([0.0, 2.0, 2.0]).__next__, every_s=0.0)
+>>> progress.advance(2, "gen-2")
+>>> print(out.getvalue().strip())
+campaign: 4/4 records (100%), 1.00 records/s, ETA 0:00:00, last gen-2
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from typing import TextIO
+
+
+class Progress:
+    """Counts finished records and reports them (see the module docs); ``already`` were done before this run."""
+
+    def __init__(
+        self,
+        total: int,
+        already: int = 0,
+        *,
+        stream: TextIO | None = None,
+        quiet: bool = False,
+        every_s: float = 10.0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.total = total
+        self.done = already
+        self.already = already
+        self.stream = stream if stream is not None else sys.stderr
+        self.quiet = quiet
+        self.every_s = every_s
+        self.clock = clock
+        self.started = clock()
+        self._last_line = -float("inf")
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self._drawn = False
+
+    def note(self, text: str) -> None:
+        """A message of its own line (resuming, workers, ...)."""
+        if not self.quiet:
+            self._clear()
+            print(f"campaign: {text}", file=self.stream, flush=True)
+
+    def advance(self, records: int, label: str = "") -> None:
+        """``records`` more records are finished (the last of them about ``label``)."""
+        self.done += records
+        if self.quiet:
+            return
+        now = self.clock()
+        if self._tty:
+            self.stream.write("\r\x1b[2K" + self.line(now, label))
+            self.stream.flush()
+            self._drawn = True
+        elif now - self._last_line >= self.every_s or self.done >= self.total:
+            print(self.line(now, label), file=self.stream, flush=True)
+            self._last_line = now
+
+    def finish(self) -> None:
+        """End the redrawn line (a terminal gets its newline)."""
+        if self._drawn and not self.quiet:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._drawn = False
+
+    def line(self, now: float, label: str = "") -> str:
+        elapsed = max(now - self.started, 1e-9)
+        fresh = self.done - self.already
+        rate = fresh / elapsed
+        left = self.total - self.done
+        eta = _clock_text(left / rate) if rate > 0 else "?"
+        share = 100.0 * self.done / self.total if self.total else 100.0
+        last = f", last {label}" if label else ""
+        return f"campaign: {self.done}/{self.total} records ({share:.0f}%), {rate:.2f} records/s, ETA {eta}{last}"
+
+    def _clear(self) -> None:
+        if self._drawn:
+            self.stream.write("\r\x1b[2K")
+            self._drawn = False
+
+
+def _clock_text(seconds: float) -> str:
+    total = round(seconds)
+    hours, rest = divmod(total, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}"
+
+
+__all__ = ["Progress"]
