@@ -18,7 +18,7 @@ $(VENV)/.installed-dev: pyproject.toml | $(PY)
 	touch $(VENV)/.installed $@
 
 demo: $(VENV)/.installed
-	$(PY) -m agentic_core demo
+	$(PY) -m agentic_core run missions/hajj_emergency.yaml
 
 lint: $(VENV)/.installed-dev
 	$(PY) -m ruff check .
@@ -38,6 +38,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/mission_compile.py
 	$(PY) benchmarks/tool_overhead.py
 	$(PY) benchmarks/sim_speed.py
+	$(PY) benchmarks/perception.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

@@ -24,13 +24,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-EVAL_COMMANDS = ("stats", "paper")
-DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli", "sim": "flight.cli"}
+EVAL_COMMANDS = ("stats", "paper", "campaign")
+DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli", "sim": "flight.cli", "run": "agentic_core.run.cli"}
 """Commands whose layer parses its own arguments (and ``--help``)."""
 
 
 def _run_eval(command: str, argv: Sequence[str]) -> int:
-    """``eval stats|paper`` parse their own arguments (and ``--help``) in the evaluation package.
+    """``eval stats|paper|campaign`` parse their own arguments (and ``--help``) in the evaluation package.
 
     Imported here, not at start-up: the statistics stack (scipy, statsmodels) takes over a second to load.
     """
@@ -38,6 +38,10 @@ def _run_eval(command: str, argv: Sequence[str]) -> int:
         from evaluation.stats.cli import main as stats_main
 
         return stats_main(argv)
+    if command == "campaign":
+        from evaluation.campaign.cli import main as campaign_main
+
+        return campaign_main(argv)
     from evaluation.paper.cli import main as paper_main
 
     return paper_main(argv)
@@ -113,6 +117,7 @@ SCHEMAS = {
     "assessment": ("agentic_core.reasoning.assessment", "assessment_json_schema", "a reasoner's Assessment"),
     "plan": ("agentic_core.reasoning.proposal", "proposal_json_schema", "a reasoner's proposed steps"),
     "scene": ("flight.sim.scene_file", "scene_json_schema", "simulated scene files (scenes/*.yaml)"),
+    "world-model": ("agentic_core.perception.world_model", "world_model_schema", "the World Model Contract"),
 }
 """``agentic-uav schema NAME``: the module and function exporting each contract's JSON Schema."""
 
@@ -159,6 +164,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, text in (
         ("stats", "the paper's statistics pipeline on a results file (see: agentic-uav eval stats --help)"),
         ("paper", "recompute the paper's statistics from its published figures (agentic-uav eval paper --help)"),
+        ("campaign", "run scenes through systems: records, metrics, statistics (agentic-uav eval campaign --help)"),
     ):
         eval_sub.add_parser(name, help=text, add_help=False)  # listed here; parsed by _run_eval
     sub.add_parser("tools", help="list and describe the registered tools (agentic-uav tools --help)", add_help=False)
@@ -166,6 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser(
         "sim", help="the simulated quadrotor on MAVLink/UDP, like PX4 SITL (agentic-uav sim --help)", add_help=False
     )
+    sub.add_parser("run", help="fly a mission end to end and write its report (agentic-uav run --help)", add_help=False)
     return parser
 
 

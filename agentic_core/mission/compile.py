@@ -99,6 +99,8 @@ class MissionRuntime:
     static: dict[str, Step] = field(default_factory=dict)
     document_ids: set[str] = field(default_factory=set)
     dependents: dict[str, list[str]] = field(default_factory=dict)
+    verdicts: dict[tuple[str, Any], bool] = field(default_factory=dict)  # (trigger, event id) -> the gate's say
+    declined: list[dict[str, Any]] = field(default_factory=list)  # gate refusals not yet logged
 
     def __post_init__(self) -> None:
         self.static = {s.id: s for s in self.plan.steps}
@@ -129,6 +131,9 @@ class MissionRuntime:
             return {"status": {step_id: "cancelled"}}
         if not self.may_run(step_id, state):
             return {"status": {step_id: "blocked"}}  # paused while a trigger's sub-plan runs
+        started_by_an_edge = step_id in self.static and self.deps(step_id, state)
+        if started_by_an_edge and not state.get("preempted_by") and self.preempting(state):
+            return {"status": {step_id: "blocked"}}  # a trigger fires as it starts: the scheduler decides
         waiting = [d for d in self.deps(step_id, state) if status.get(d) not in DONE]
         if waiting:
             return {"status": {step_id: "blocked"}}
@@ -227,6 +232,9 @@ class MissionRuntime:
             update.setdefault("log", []).append({"step": trigger.id, "status": "fired", "event": event})
             if trigger.preempt:
                 preempted = update["preempted_by"] = trigger.id
+        if self.declined:
+            update.setdefault("log", []).extend(self.declined)
+            self.declined = []
         goto: list[str | Send] = []
         marks: dict[str, str] = {}
         view: dict[str, Any] = {**state, "spliced": spliced, "preempted_by": preempted}
@@ -275,10 +283,28 @@ class MissionRuntime:
             return None
         if not value:
             return None
-        event = value[0] if isinstance(value, list) else value
-        if fired and event == (state.get("events") or {}).get(trigger.id):
-            return None
-        return event
+        last = _identity((state.get("events") or {}).get(trigger.id)) if fired else None
+        for event in value if isinstance(value, list) else [value]:
+            if fired and _identity(event) == last:
+                continue
+            if self.approved(trigger, event):
+                return event
+        return None
+
+    def approved(self, trigger: Trigger, event: Any) -> bool:
+        """The gate's verdict on an event (asked once per trigger and object); no gate approves everything."""
+        if self.env.gate is None:
+            return True
+        key = (trigger.id, _identity(event))
+        if key not in self.verdicts:
+            self.verdicts[key] = bool(self.env.gate(trigger, event))
+            if not self.verdicts[key]:
+                self.declined.append({"step": trigger.id, "status": "declined", "event": event})
+        return self.verdicts[key]
+
+    def preempting(self, state: Mapping[str, Any]) -> bool:
+        """Whether a pre-empting trigger fires now (so a step about to start should wait for the scheduler)."""
+        return any(t.preempt and self.fires(t, state) is not None for t in self.plan.triggers)
 
     def landed(self, owned: list[str], spliced: Mapping[str, Any], status: Mapping[str, str]) -> bool:
         return any(status.get(sid) == "ok" and spliced[sid]["step"].get("action") in ("land", "rtl") for sid in owned)
@@ -357,8 +383,17 @@ class MissionRuntime:
         return list(dict.fromkeys(found))
 
     def abort(self, state: MissionState) -> dict[str, Any]:
+        """Stop where the aircraft is (``flight.hold``): an aborted mission leaves it hovering for the operator,
+        never flying on to a step that no longer makes sense."""
         failed = sorted(k for k, v in (state.get("status") or {}).items() if v == "failed")
-        return {"halt": "abort", "log": [{"step": ABORT, "status": "aborted", "after": failed}]}
+        if any(entry.get("step") == ABORT for entry in state.get("log") or []):
+            return {"halt": "abort"}
+        try:
+            result = self.env.dispatch("flight.hold", {}, None)
+            hold = {"hold": result.status, "error": result.error}
+        except Exception as exc:  # the last resort must not raise past the mission
+            hold = {"hold": "error", "error": f"{type(exc).__name__}: {exc}"}
+        return {"halt": "abort", "log": [{"step": ABORT, "status": "aborted", "after": failed, **hold}]}
 
     def rtl(self, state: MissionState) -> dict[str, Any]:
         if any(entry.get("step") == RTL for entry in state.get("log") or []):
@@ -405,6 +440,13 @@ def compile_mission(
             step.id, rt.on_fail_route(step.id), {"next": END, REFLECT: REFLECT, ABORT: ABORT, RTL: RTL}
         )
     return g.compile(checkpointer=checkpointer)
+
+
+def _identity(event: Any) -> Any:
+    """What makes two events the same: a world-model object's id (its pose and timers change every frame)."""
+    if isinstance(event, Mapping):
+        return event.get("id", event)
+    return getattr(event, "id", event)
 
 
 def _step_node(rt: MissionRuntime, step_id: str) -> Callable[[MissionState], dict[str, Any]]:

@@ -42,6 +42,7 @@ class Environment:
     vehicle: Provider = dict
     world: Provider = field(default=lambda: {"objects": [], "relations": []})  # an empty world model
     approve: Callable[[dict[str, Any]], Any] | None = None  # headless approval policy; None: ask via interrupt()
+    gate: Callable[[Any, Any], bool] | None = None  # (trigger, event) -> act? The reasoner's say; None: always act
     clock: Callable[[], float] = time.monotonic
     sleep: Callable[[float], None] = time.sleep
 

@@ -2,8 +2,11 @@
 
 import doctest
 import importlib
+from pathlib import Path
 
 import pytest
+
+REPO = Path(__file__).resolve().parents[2]
 
 MODULES = [
     "agentic_core.graph",
@@ -16,10 +19,38 @@ MODULES = [
     "agentic_core.mission.model",
     "agentic_core.mission.validate",
     "flight.camera",
+    "flight.sim.scene_model",
+    "flight.sim.scene",
+    "flight.sim.scene_file",
+    "flight.sim.scene_gen",
+    "flight.sim.detector",
     "evaluation.stats.plots",
+    "evaluation.campaign.records",
+    "evaluation.campaign.systems",
+    "evaluation.campaign.episode",
+    "evaluation.campaign.manifest",
+    "evaluation.campaign.progress",
+    "evaluation.campaign.metrics",
+    "evaluation.campaign.runner",
     "prompts",
     "agentic_core.reasoning.assessment",
     "agentic_core.reasoning.proposal",
+    "agentic_core.reasoning.rules",
+    "agentic_core.perception",
+    "agentic_core.perception.annotate",
+    "agentic_core.perception.association",
+    "agentic_core.perception.geometry",
+    "agentic_core.perception.kalman",
+    "agentic_core.perception.measurement",
+    "agentic_core.perception.metrics",
+    "agentic_core.perception.pipeline",
+    "agentic_core.perception.scene_graph",
+    "agentic_core.perception.tracker",
+    "agentic_core.perception.world_model",
+    "agentic_core.run.perception_loop",
+    "agentic_core.run.trace",
+    "agentic_core.run.cli",
+    "agentic_core.reasoning.reasoners",
     "agentic_core.reasoning.llm",
     "agentic_core.reasoning.llm.client",
     "agentic_core.reasoning.llm.config",
@@ -45,7 +76,8 @@ MODULES = [
 
 
 @pytest.mark.parametrize("name", MODULES)
-def test_docstring_examples(name: str) -> None:
+def test_docstring_examples(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(REPO)  # examples may read the shipped missions/ and scenes/
     result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0, f"{name} has no runnable example"
     assert result.failed == 0

@@ -211,33 +211,51 @@ def test_headless_approval_policy(answer: bool, lands: bool) -> None:
         assert "did not approve" in out["errors"]["down"] and out["halt"] == "rtl"
 
 
-def test_emergency_trigger_preempts_the_patrol_and_runs_its_sub_plan() -> None:
+@pytest.mark.parametrize("severity", ["critical", "low"])
+def test_emergency_trigger_preempts_the_patrol_and_runs_its_sub_plan(severity: str) -> None:
     world: dict[str, Any] = {"objects": [], "relations": []}
+    vehicle = {"landed_state": "on_ground"}
     scans = [0]
 
     def scan(args: dict[str, Any]) -> Result:
+        if args.get("focus"):  # the confirmation, after hovering over the person
+            assessment = {"severity": severity, "surrounding_features": "Lying still.", "rationale": "r"}
+            return Result("ok", {"assessment": assessment})
         scans[0] += 1
-        if scans[0] == 3:  # the third look finds someone collapsed, apart from the crowd
+        if scans[0] == 3:  # the third look finds someone motionless, apart from the crowd
             world["objects"] = [
-                {"id": "P-12", "class": "person", "stationary_s": 14.0, "pose": {"lat": 21.4121, "lon": 39.8941}}
+                {"id": "P-12", "class": "person", "stationary_s": 3.0, "pose": {"lat": 21.4121, "lon": 39.8941}}
             ]
             world["relations"] = [{"subj": "P-12", "pred": "isolated_from", "obj": "crowd"}]
         return Result("ok", {"persons": len(world["objects"])})
 
-    rec = Recorder({"perception.analyze_scene": scan})
+    def fly(state: str) -> Callable[[dict[str, Any]], Result]:
+        def act(args: dict[str, Any]) -> Result:
+            vehicle["landed_state"] = state
+            return Result("ok", {"status": "ok", "reached": True})
+
+        return act
+
+    script = {"perception.analyze_scene": scan, "flight.land": fly("on_ground"), "flight.takeoff": fly("in_air")}
+    rec = Recorder(script)
     plan = load_mission(MISSIONS / "hajj_emergency.yaml")
-    app = compile_mission(plan, Environment(rec, world=lambda: world, approve=lambda r: "approve"))
-    out = app.invoke(initial_state(plan), {"recursion_limit": 500})
+    env = Environment(rec, world=lambda: world, vehicle=lambda: vehicle, approve=lambda r: "approve")
+    out = compile_mission(plan, env).invoke(initial_state(plan), {"recursion_limit": 500})
     assert out["fired"] == ["collapsed_person"]
-    assert out["status"]["patrol"] == "preempted" and out["status"]["go_home"] == "preempted"
-    assert "flight.rtl" not in rec.tools()
     tools = rec.tools()
-    assert tools.index("flight.land") < tools.index("flight.deploy_payload")
+    assert all(out["status"][s] == "ok" for s in ("approach", "observe", "confirm"))
+    if severity == "low":  # a false alarm: logged, no landing, and the patrol goes on to the end
+        assert "flight.land" not in tools and "alerts.notify" not in tools and "incidents.log" in tools
+        assert out["status"]["patrol"] == "ok" and out["status"]["go_home"] == "ok" and tools[-1] == "flight.rtl"
+        return
+    assert out["status"]["patrol"] == "preempted" and out["status"]["go_home"] == "preempted"
+    assert tools.index("alerts.notify") < tools.index("flight.land") < tools.index("flight.deploy_payload")
+    assert tools[-2:] == ["flight.takeoff", "flight.rtl"] and "incidents.log" not in tools
     land = dict(rec.calls)["flight.land"]
     assert land == {"target_id": "P-12", "offset_m": 5.0}
     notify = dict(rec.calls)["alerts.notify"]
     assert notify["subject"] == "Collapsed pilgrim at 21.4121, 39.8941" and notify["to"] == "medical-team@example.org"
-    assert all(out["status"][s] == "ok" for s in ("approach", "confirm", "land_near", "release_kit", "alert_medics"))
+    assert all(out["status"][s] == "ok" for s in ("land_near", "release_kit", "alert_medics", "lift_off", "back_home"))
 
 
 def test_patrol_repeats_its_rounds_then_goes_home() -> None:

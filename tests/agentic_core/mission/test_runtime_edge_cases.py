@@ -116,7 +116,7 @@ steps:
         rec,
         env={"vehicle": lambda: {"battery_pct": 10}},
     )
-    assert rec.tools() == [] and "is false" in out["errors"]["patrol"]
+    assert rec.tools() == ["flight.hold"] and "is false" in out["errors"]["patrol"]  # aborted: hold where it is
 
 
 def test_a_dispatcher_that_raises_fails_the_step_and_its_policy_applies() -> None:
@@ -326,7 +326,7 @@ steps:
         rec,
         reflector=lambda failure: [revision],
     )
-    assert out["halt"] == "abort" and rec.tools() == ["svc.a"]
+    assert out["halt"] == "abort" and rec.tools() == ["svc.a", "flight.hold"]
     assert any(why in str(e.get("error")) for e in out["log"] if e.get("status") == "revision rejected")
 
 
@@ -427,3 +427,69 @@ steps:
         rec,
     )
     assert rec.tools().count("flight.rtl") == 1 and out["halt"] == "rtl"
+
+
+GATED = """
+plan_id: p
+goal: g
+steps:
+  - {id: a, action: hover, args: {duration_s: 1}}
+  - {id: b, action: hover, depends_on: [a], args: {duration_s: 1}}
+  - {id: c, action: hover, depends_on: [b], args: {duration_s: 1}}
+triggers:
+  - id: t
+    when: "find(world, class_='person')"
+    once: false
+    preempt: false
+    steps: [{id: warn, action: notify, args: {subject: "${event.id}", body: seen}}]
+"""
+
+
+@pytest.mark.parametrize("act", [True, False])
+def test_a_trigger_acts_only_when_the_gate_says_so(act: bool) -> None:
+    asked: list[str] = []
+
+    def gate(trigger: Any, event: Any) -> bool:
+        asked.append(f"{trigger.id}:{event['id']}")
+        return act
+
+    rec = Recorder()
+    world = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
+    out = run(GATED, rec, env={"world": lambda: world, "gate": gate})
+    assert asked and set(asked) == {"t:P-1"}
+    assert ("alerts.notify" in rec.tools()) is act
+    declined = [e for e in out["log"] if e.get("status") == "declined"]
+    assert bool(declined) is not act
+
+
+def test_the_same_object_is_one_event_though_its_fields_change() -> None:
+    """A world-model object's timers and pose change every frame: it is the same person, so no second firing."""
+    seconds = [0]
+
+    def look(args: dict[str, Any]) -> Result:
+        seconds[0] += 5
+        return Result("ok", {})
+
+    def world() -> dict[str, Any]:
+        return {"objects": [{"id": "P-1", "class": "person", "stationary_s": seconds[0]}], "relations": []}
+
+    rec = Recorder({"flight.hover": look})
+    run(GATED, rec, env={"world": world})
+    assert [args["subject"] for tool, args in rec.calls if tool == "alerts.notify"] == ["P-1"]
+
+
+def test_an_aborted_mission_holds_where_it_is_once() -> None:
+    rec = Recorder(BOOM)
+    out = run(
+        """
+plan_id: p
+goal: g
+steps:
+  - {id: up, action: takeoff}
+  - {id: check, action: call_tool, tool: svc.check, depends_on: [up]}
+  - {id: go, action: fly_to, depends_on: [check], args: {north_m: 100, east_m: 0}}
+""",
+        rec,
+    )
+    assert out["halt"] == "abort" and rec.tools() == ["flight.takeoff", "svc.check", "flight.hold"]
+    assert next(e for e in out["log"] if e.get("step") == "__abort__")["hold"] == "ok"

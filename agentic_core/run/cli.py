@@ -1,0 +1,90 @@
+"""``agentic-uav run MISSION``: fly a mission end to end and write ``runs/<run-id>/`` with its report.
+
+Exit status: 0 when the mission completed or returned home, 1 when it was aborted or failed, 2 for bad input (a
+mission, scene or option that cannot be used; the message names the file, line and field).
+
+>>> args = build_parser().parse_args(["missions/hajj_emergency.yaml", "--speed", "max", "--param", "rounds=1"])
+>>> args.speed, args.param, args.reasoner
+(None, ['rounds=1'], 'rules')
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from flight.cli import parse_speed
+
+PROG = "agentic-uav run"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=PROG, description="Fly a mission on the simulated vehicle, end to end.")
+    parser.add_argument("mission", type=Path, metavar="MISSION", help="the mission file (YAML or JSON)")
+    parser.add_argument("--scene", type=Path, help="the simulated scene (default: scenes/<mission name>.yaml)")
+    parser.add_argument(
+        "--reasoner", default="rules", choices=("yolo", "rules", "llm", "hybrid"), help="who assesses (default rules)"
+    )
+    parser.add_argument(
+        "--llm", metavar="SPEC", help="the model for llm/hybrid, e.g. openai:gpt-4o (or AGENTIC_UAV_LLM)"
+    )
+    parser.add_argument("--speed", type=parse_speed, default=None, help="times real time, or max (default max)")
+    parser.add_argument("--decline", action="store_true", help="answer operator approvals with no (default yes)")
+    parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where run folders go (default runs)")
+    parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="set a mission parameter")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the simulation and the detector (default 0)")
+    parser.add_argument(
+        "--max-wall-s", type=float, default=900.0, help="stop the mission and return home after this long (900)"
+    )
+    parser.add_argument("--camera-hz", type=float, default=30.0, help="frames per second of the camera (30)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from .runner import RunError, RunSettings, run_mission
+
+    args = build_parser().parse_args(argv)
+    params: dict[str, str] = {}
+    for item in args.param:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            print(f"{PROG}: error: --param takes NAME=VALUE, got {item!r}", file=sys.stderr)
+            return 2
+        params[name.strip()] = value.strip()
+    if args.scene is not None and not args.scene.is_file():
+        print(f"{PROG}: error: {args.scene}: no such scene file", file=sys.stderr)
+        return 2
+    try:
+        settings = RunSettings(
+            mission=args.mission,
+            scene=args.scene,
+            reasoner=args.reasoner,
+            llm=args.llm,
+            speed=args.speed,
+            approve=not args.decline,
+            runs_dir=args.runs_dir,
+            params=params,
+            seed=args.seed,
+            max_wall_s=args.max_wall_s,
+            camera_hz=args.camera_hz,
+        )
+    except ValidationError as exc:  # an option out of range (pydantic names it)
+        first = exc.errors()[0]
+        print(f"{PROG}: error: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
+        return 2
+    try:
+        result = run_mission(settings, progress=None if args.quiet else sys.stderr)
+    except (RunError, ValueError) as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    summary = result.summary
+    print(f"{summary.outcome}: {summary.mission} in {summary.sim_duration_s:.0f} s of flight; report: {result.report}")
+    return 0 if summary.outcome in ("completed", "returned") else 1
+
+
+__all__ = ["build_parser", "main"]

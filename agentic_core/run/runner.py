@@ -1,0 +1,455 @@
+"""``agentic-uav run MISSION``: fly a mission end to end on the embedded defaults.
+
+The simulated F450 runs behind its MAVLink endpoint on 127.0.0.1 (a free port), with perception on its tick: the
+simulated camera over the mission's scene, the detector, the tracker and the World Model. The mission is compiled
+onto the graph runtime with a SQLite checkpointer; every action goes through the tools executor — ``flight.*``
+over the agent's MAVLink client, ``alerts.notify`` to SMTP or the run's outbox, ``perception.analyze_scene`` to the
+reasoner. A trigger's condition is the tier-1 rule; before its sub-plan runs, the reasoner assesses the event
+(tier 2) and only a ``high`` or ``critical`` assessment lets it act. Everything lands in ``runs/<run-id>/``:
+``trace.jsonl``, ``world_models.jsonl``, ``audit.jsonl``, ``alerts/`` and ``report.md`` with ``trajectory.png``.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from flight.camera import CameraSpec
+from flight.mavlink import MavlinkVehicle
+from flight.sim import Environment as SimEnvironment
+from flight.sim import Simulator
+from flight.sim.detector import SimulatedCamera
+from flight.sim.scene_file import load_scene
+from flight.sim.scene_model import Scene
+from flight.sim.simulator import VehicleState
+from flight.tools import register_flight_tools
+from flight.vehicle import VehicleClient
+from tools import Caller, ToolError, ToolExecutor, ToolRegistry, ToolResult
+from tools.audit import JsonlAuditLog
+from tools.builtin import register_builtins
+from tools.builtin.config import BuiltinConfig
+from tools.function import spec_from_function
+
+from ..graph.checkpoint.sqlite import SqliteSaver
+from ..mission import Environment, compile_mission, initial_state
+from ..mission.compile import parse_param
+from ..mission.model import PolicyGraph, Trigger
+from ..mission.validate import load_mission
+from ..reasoning.assessment import Decision
+from ..reasoning.reasoners import Reasoner, make_reasoner
+from .attachments import materialize
+from .perception_loop import PerceptionLoop
+from .report import RunSummary, TrackPoint, write_report
+from .trace import TraceWriter
+
+AGENT = Caller(
+    id="agent",
+    scopes=frozenset(
+        {"flight:command", "flight:payload", "flight:read", "alerts:send", "weather:read", "incidents:read"}
+        | {"incidents:write", "perception:read"}
+    ),
+)
+"""The mission's caller: every scope the built-in, flight and perception tools ask for."""
+
+ACT_AT = ("high", "critical")
+"""Assessments that let a trigger's sub-plan run."""
+
+WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
+"""Long flight actions during which the triggers are watched: a leg is stopped when one holds for someone new."""
+
+
+@dataclass(frozen=True)
+class Interrupted:
+    """What the mission sees of a flight action stopped for a trigger: done, and why it ended early."""
+
+    output: dict[str, Any]
+    status: str = "ok"
+    error: str | None = None
+
+
+class RunSettings(BaseModel):
+    """Everything a run is told; the defaults are the embedded ones (rules reasoner, simulated vehicle)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mission: Path
+    scene: Path | None = Field(default=None, description="default: scenes/<mission name>.yaml when it exists")
+    reasoner: str = "rules"
+    llm: str | None = None
+    speed: float | None = Field(default=None, description="times real time; None: as fast as it goes")
+    approve: bool = Field(default=True, description="headless answer to operator approvals")
+    runs_dir: Path = Path("runs")
+    params: dict[str, str] = Field(default_factory=dict)
+    seed: int = 0
+    camera_hz: float = Field(default=30.0, gt=0, le=120, description="frames per second of the simulated camera")
+    max_wall_s: float = Field(default=900.0, gt=0, description="give up (and land) after this much wall time")
+
+
+class RunError(Exception):
+    """A run that cannot start: a bad mission, scene or option. The message names the file and field."""
+
+
+@dataclass
+class RunResult:
+    run_id: str
+    run_dir: Path
+    report: Path
+    summary: RunSummary
+    final_state: dict[str, Any] = field(default_factory=dict)
+    track: list[TrackPoint] = field(default_factory=list)
+
+
+def default_scene(mission: Path) -> Path | None:
+    """``scenes/<mission stem>.yaml`` beside the mission's folder or in the working directory, if it exists."""
+    for root in (mission.resolve().parent.parent, Path.cwd()):
+        candidate = root / "scenes" / f"{mission.stem}.yaml"
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+class MissionRun:
+    """One run: builds the vehicle, perception, tools and mission; :meth:`execute` flies it."""
+
+    def __init__(self, settings: RunSettings, *, progress: TextIO | None = None) -> None:
+        self.settings = settings
+        self.progress = progress
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        self.run_id = f"{stamp}-{settings.mission.stem}-{settings.reasoner}"
+        self.run_dir = settings.runs_dir / self.run_id
+        self.alerts_dir = self.run_dir / "alerts"
+        self.registry = ToolRegistry()
+        config = BuiltinConfig.from_env(
+            outbox_dir=self.alerts_dir, incidents_db=self.run_dir / "incidents.db", attachment_dirs=[self.run_dir]
+        )
+        register_builtins(self.registry, config)
+        scene_path = settings.scene or default_scene(settings.mission)
+        self.scene: Scene | None = self._load_scene(scene_path) if scene_path else None
+        home = self.scene.home.to_home() if self.scene else None
+        self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=settings.seed)
+        self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
+        camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
+        self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
+        self.track: list[TrackPoint] = []
+        self._client: VehicleClient | None = None
+        self._last_decision: Decision | None = None
+        self._alert_sent_s: float | None = None
+        self._lock = threading.Lock()
+        self._verdicts: dict[tuple[str, str | None], bool] = {}  # (trigger, object) -> act? (the reasoner asked once)
+        self._pending: tuple[str, str | None] | None = None  # approved while flying, not yet taken up by the mission
+        self._subplan = False  # a trigger's sub-plan is running: its own flight actions are not interrupted
+        self.decisions = 0
+        self.vehicle.on_tick.append(self._sample_track)
+        if self.loop is not None:
+            self.vehicle.on_tick.append(self.loop.on_tick)
+        register_flight_tools(self.registry, self._connect, targets=self._target)
+        self.registry.register(spec_from_function(self._analyze_scene, name="perception.analyze_scene",
+                                                  scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
+        try:
+            self.plan = self._load_mission()
+            self.reasoner: Reasoner = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
+            self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
+            self._param_values = dict(initial_state(self.plan, self.params).get("params") or {})
+        except Exception:
+            self.vehicle.close()
+            raise
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        self.trace = TraceWriter(self.run_dir / "trace.jsonl", sim_clock=lambda: self.sim.time_s)
+        self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
+        self.executor = ToolExecutor(
+            self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=AGENT
+        )
+
+    # ---- set-up ----
+
+    def _load_mission(self) -> PolicyGraph:
+        from ..mission.source import MissionError
+
+        try:
+            return load_mission(self.settings.mission, tools=self.registry)
+        except MissionError as exc:
+            raise RunError(str(exc)) from None
+
+    def _load_scene(self, path: Path) -> Scene:
+        from flight.sim.scene_file import SceneFileError
+
+        try:
+            return load_scene(path)
+        except SceneFileError as exc:
+            raise RunError(str(exc)) from None
+
+    async def _connect(self) -> VehicleClient:
+        client = await VehicleClient.connect(self.vehicle.address, timeout_s=10.0)
+        self._client = client
+        return client
+
+    # ---- what the tools and the mission read ----
+
+    def _target(self, object_id: str) -> tuple[float, float] | None:
+        world = self.loop.world if self.loop else None
+        found = world.get(object_id) if world else None
+        return (found.pose.lat, found.pose.lon) if found else None
+
+    def _vehicle_view(self) -> dict[str, Any]:
+        client = self._client
+        return client.telemetry.model_dump() if client is not None else {}
+
+    def _sample_track(self, state: VehicleState) -> None:
+        if not self.track or state.time_s - self.track[-1].sim_t >= 0.5:
+            self.track.append(
+                TrackPoint(
+                    sim_t=state.time_s, north_m=state.north_m, east_m=state.east_m, alt_m=-state.down_m,
+                    armed=state.armed,
+                )
+            )  # fmt: skip
+
+    # ---- the reasoner, as a tool and as the trigger gate ----
+
+    def _decide(self, focus: str | None, why: str) -> Decision:
+        world = self.loop.world if self.loop else None
+        if world is None:
+            raise ToolError("no world model: this run has no scene, so there is nothing to analyse")
+        decision = self.reasoner.assess(world, focus)
+        with self._lock:
+            self._last_decision = decision
+            self.decisions += 1
+            self._world_log.write(world.to_json() + "\n")
+            self._world_log.flush()
+        self.trace.write(
+            "decision", why=why, focus=focus, **decision.model_dump(mode="json"),
+            summary=f"{decision.reasoner} on {focus or 'the scene'}: "
+            + (decision.assessment.severity if decision.assessment else f"failed ({decision.error})"),
+        )  # fmt: skip
+        self._say(f"decision ({why}): " + (decision.assessment.severity if decision.assessment else "failed"))
+        return decision
+
+    def _analyze_scene(self, focus: str | None = None, min_confidence: float = 0.5) -> dict[str, Any]:
+        """Assess the scene (or one object of the World Model) with the configured reasoner.
+
+        Args:
+            focus: an object id of the world model, or a description of what to look at
+            min_confidence: fail when the assessment's confidence is below this
+        """
+        decision = self._decide(focus, "analyze_scene")
+        if decision.assessment is None:
+            raise ToolError(f"the reasoner failed: {decision.error}")
+        if decision.assessment.persons_detected and decision.assessment.confidence < min_confidence:
+            raise ToolError(
+                f"confidence {decision.assessment.confidence:.2f} is below the required {min_confidence:.2f}"
+            )
+        return decision.model_dump(mode="json")
+
+    def _gate(self, trigger: Trigger, event: Any) -> bool:
+        """Tier 2: the reasoner assesses the event a trigger's rule found (once per object); only high or critical
+        acts."""
+        focus = getattr(event, "id", None) or (event.get("id") if isinstance(event, Mapping) else None)
+        key = (trigger.id, focus)
+        if key in self._verdicts:
+            if self._pending == key:
+                self._pending = None  # the mission has taken it up
+            return self._verdicts[key]
+        decision = self._decide(focus, f"trigger {trigger.id}")
+        act = decision.assessment is not None and decision.assessment.severity in ACT_AT
+        self._verdicts[key] = act
+        self.trace.write("trigger", trigger=trigger.id, event=focus, act=act,
+                         summary=f"{trigger.id} on {focus}: {'act' if act else 'no action'}")  # fmt: skip
+        return act
+
+    # ---- the mission's tool calls ----
+
+    def _dispatch(self, tool: str, args: dict[str, Any], timeout_s: float | None) -> ToolResult | Interrupted:
+        if tool == "alerts.notify":
+            args = materialize(
+                args,
+                out_dir=self.alerts_dir,
+                stamp=f"{self.sim.time_s:08.1f}s",
+                loop=self.loop,
+                position=self._position,
+                last_decision=lambda: self._last_decision.model_dump(mode="json") if self._last_decision else None,
+            )
+        if tool in WATCHED_TOOLS and self._pending is not None and not self._subplan:
+            trigger_id, object_id = self._pending  # the rest of a repeat's pass: hold until the trigger fires
+            return Interrupted({"interrupted_by": trigger_id, "event": object_id, "hold": "already holding"})
+        if tool in WATCHED_TOOLS and self.plan.triggers and self.loop is not None and not self._subplan:
+            watched = self._call_watching(tool, args, timeout_s)
+            if isinstance(watched, Interrupted):
+                return watched
+            result = watched
+        else:
+            result = self.executor.call(tool, args, timeout_s=timeout_s)
+        self.trace.write(
+            "tool", name=tool, args=args, status=result.status, error=result.error, latency_s=result.latency_s
+        )
+        if tool == "alerts.notify" and result.status == "ok":
+            self._alert_sent_s = self.sim.time_s
+            self.trace.write("alert", summary=f"{args.get('subject')} → {result.output.get('delivered_via')}",
+                             path=result.output.get("path"))  # fmt: skip
+        self._say(f"{tool} {result.status}" + (f": {result.error}" if result.error else ""))
+        return result
+
+    def _call_watching(self, tool: str, args: dict[str, Any], timeout_s: float | None) -> ToolResult | Interrupted:
+        """Run a flight action while watching the triggers; stop it (``flight.hold``) when one holds for an object
+        the reasoner has not been asked about, so the mission's scheduler fires the trigger right away."""
+        box: dict[str, ToolResult] = {}
+
+        def call() -> None:
+            box["result"] = self.executor.call(tool, args, timeout_s=timeout_s)
+
+        worker = threading.Thread(target=call, name=f"run-{tool}", daemon=True)
+        worker.start()
+        while worker.is_alive():
+            worker.join(0.1)
+            found = self._new_event() if worker.is_alive() else None
+            if found is None or not self._gate(*found):
+                continue
+            trigger_id, object_id = self._pending = (found[0].id, getattr(found[1], "id", None))
+            hold = self.executor.call("flight.hold", {})
+            worker.join()
+            self.trace.write(
+                "tool", name=tool, args=args, status="interrupted", trigger=trigger_id, event=object_id,
+                hold=hold.status, summary=f"{tool} stopped: {trigger_id} holds for {object_id}",
+            )  # fmt: skip
+            self._say(f"{tool} stopped: trigger {trigger_id} holds for {object_id}")
+            return Interrupted({"interrupted_by": trigger_id, "event": object_id, "hold": hold.status})
+        return box["result"]
+
+    def _new_event(self) -> tuple[Trigger, Any] | None:
+        """The first trigger whose condition holds now for an object not yet put to the reasoner, and the object."""
+        from ..mission.expressions import Expression
+
+        where = {
+            "params": self._param_values,
+            "world": self.loop.world if self.loop else None,
+            "vehicle": self._vehicle_view(),
+            "steps": {},
+            "event": None,
+            "mission": {},
+        }
+        for trigger in self.plan.triggers:
+            try:
+                value = Expression.parse(trigger.when).evaluate(where)
+            except Exception:  # it reads step outputs or is not true yet: the scheduler will judge it
+                continue
+            events = value if isinstance(value, list) else [value] if value else []
+            for event in events:
+                if (trigger.id, getattr(event, "id", None)) not in self._verdicts:
+                    return trigger, event
+        return None
+
+    def _position(self) -> dict[str, Any] | None:
+        view = self._vehicle_view()
+        if not view:
+            return None
+        last = self._last_decision.assessment if self._last_decision else None
+        subject = self._target(last.subject_id) if last and last.subject_id else None
+        return {
+            "aircraft": {k: view.get(k) for k in ("lat_deg", "lon_deg", "alt_m")},
+            "subject": {"id": last.subject_id, "lat": subject[0], "lon": subject[1]} if subject and last else None,
+        }
+
+    def _approve(self, request: dict[str, Any]) -> bool:
+        self.trace.write("approval", request=request, answer=self.settings.approve,
+                         summary=f"{request.get('step')}: {'approved' if self.settings.approve else 'declined'} "
+                         "(headless policy)")  # fmt: skip
+        return self.settings.approve
+
+    def _say(self, text: str) -> None:
+        if self.progress is not None:
+            print(f"[{self.sim.time_s:7.1f} s] {text}", file=self.progress, flush=True)
+
+    # ---- running ----
+
+    def execute(self) -> RunResult:
+        """Fly the mission; always stops the vehicle and writes the report."""
+        wall0 = time.monotonic()
+        self.vehicle.start(speed=self.settings.speed)
+        self.trace.write("run", event="start", mission=str(self.settings.mission), reasoner=self.reasoner.name,
+                         summary=f"start {self.plan.plan_id} with {self.reasoner.name}")  # fmt: skip
+        env = Environment(
+            dispatch=self._dispatch,
+            vehicle=self._vehicle_view,
+            world=lambda: self.loop.world if self.loop else {"objects": [], "relations": []},
+            approve=self._approve,
+            gate=self._gate,
+        )
+        final: dict[str, Any] = {}
+        outcome = "failed"
+        over = False
+        try:
+            with SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
+                graph = compile_mission(self.plan, env, checkpointer=saver)
+                config = {"configurable": {"thread_id": self.run_id}, "recursion_limit": 10_000}
+                for update in graph.stream(initial_state(self.plan, self.params), config, stream_mode="updates"):
+                    if time.monotonic() - wall0 > self.settings.max_wall_s:
+                        over = True
+                        break
+                    for node, change in update.items():
+                        if isinstance(change, dict) and "preempted_by" in change:
+                            self._subplan = bool(change["preempted_by"])
+                        for step, status in ((change or {}).get("status") or {}).items():
+                            self.trace.write("step", node=node, step=step, status=status,
+                                             summary=f"{step} {status}")  # fmt: skip
+                final = dict(graph.get_state(config).values)
+            halt = final.get("halt")
+            outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
+            if over:
+                outcome = "interrupted"
+                self.trace.write(
+                    "log", level="error", summary=f"over {self.settings.max_wall_s:.0f} s of wall time: RTL"
+                )
+                self.executor.call("flight.rtl", {})
+        except Exception as exc:  # a bug must still land the aircraft and leave a report
+            self.trace.write("log", level="error", error=f"{type(exc).__name__}: {exc}")
+            outcome = "failed"
+        finally:
+            self._finish()
+        summary = self._summary(outcome, time.monotonic() - wall0)
+        report = write_report(self.run_dir, summary, self.trace.records, self.track, self.scene)
+        self.trace.close()
+        return RunResult(self.run_id, self.run_dir, report, summary, final, list(self.track))
+
+    def _finish(self) -> None:
+        self.trace.write("run", event="end", summary="end")
+        self.executor.close()
+        self.vehicle.close()
+        self._world_log.close()
+
+    def _summary(self, outcome: str, wall_s: float) -> RunSummary:
+        decisions = self.trace.of_kind("decision")
+        alerts = sorted(str(p) for p in self.alerts_dir.glob("*") if p.is_file()) if self.alerts_dir.exists() else []
+        return RunSummary(
+            run_id=self.run_id,
+            mission=str(self.settings.mission),
+            scene=self.scene.id if self.scene else None,
+            reasoner=self.reasoner.name,
+            outcome=outcome,
+            sim_duration_s=self.sim.time_s,
+            wall_duration_s=wall_s,
+            alerts=alerts,
+            decisions=len(decisions),
+            llm_calls=sum(int(d.get("llm_calls", 0)) for d in decisions),
+            tokens=sum(int(d.get("prompt_tokens", 0)) + int(d.get("completion_tokens", 0)) for d in decisions),
+            frames=self.loop.frames if self.loop else 0,
+            perception_ms_per_frame=1000 * self.loop.busy_s / self.loop.frames
+            if self.loop and self.loop.frames
+            else None,
+            casualties=list(self.scene.ground_truth.casualties) if self.scene else [],
+            first_detected_s={k: v for k, v in (self.loop.first_detected.items() if self.loop else [])
+                              if self.scene and k in self.scene.ground_truth.casualties},
+            alert_sent_s=self._alert_sent_s,
+        )  # fmt: skip
+
+
+def run_mission(settings: RunSettings, progress: TextIO | None = sys.stderr) -> RunResult:
+    """Build and fly one run (see the module docstring); raises :class:`RunError` for bad input."""
+    return MissionRun(settings, progress=progress).execute()
+
+
+__all__ = ["AGENT", "MissionRun", "RunError", "RunResult", "RunSettings", "default_scene", "run_mission"]

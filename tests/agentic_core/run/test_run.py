@@ -1,0 +1,172 @@
+"""``agentic-uav run`` end to end: the simulated vehicle over MAVLink, perception over a scene, the tools, the
+reasoner, the trace and the report. The scenes are the paper's two with thin crowds, so a run takes seconds."""
+
+from __future__ import annotations
+
+import email
+import json
+import math
+from email.message import Message
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from agentic_core.cli import main
+from agentic_core.run.runner import RunResult, RunSettings, run_mission
+from flight.geodesy import local_offset
+from flight.sim.scene_file import load_scene
+from tests.tools.builtin.conftest import Inbox, _start
+
+from ..reasoning.llm.standin import StandIn, openai_completion
+
+REPO = Path(__file__).resolve().parents[3]
+SCENES = Path(__file__).parent / "scenes"
+EMERGENCY = REPO / "missions" / "hajj_emergency.yaml"
+PATROL = REPO / "missions" / "hajj_patrol.yaml"
+
+
+def fly(tmp_path: Path, mission: Path, scene: str, **options: Any) -> RunResult:
+    settings = RunSettings(
+        mission=mission, scene=SCENES / f"{scene}.yaml", runs_dir=tmp_path / "runs", params={"rounds": "1"}, **options
+    )
+    return run_mission(settings, progress=None)
+
+
+def records(result: RunResult, kind: str) -> list[dict[str, Any]]:
+    lines = (result.run_dir / "trace.jsonl").read_text(encoding="utf-8").splitlines()
+    return [r for r in map(json.loads, lines) if r["kind"] == kind]
+
+
+def tools_called(result: RunResult) -> list[str]:
+    return [r["name"] for r in records(result, "tool") if r.get("status") != "interrupted"]
+
+
+@pytest.fixture
+def smtp(monkeypatch: pytest.MonkeyPatch) -> Any:
+    controller, server = _start(Inbox())
+    monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", server.host)
+    monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(server.port))
+    monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")
+    yield server
+    controller.stop()
+
+
+def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(tmp_path: Path, smtp: Any) -> None:
+    result = fly(tmp_path, EMERGENCY, "small_emergency")
+    summary = result.summary
+    assert summary.outcome in ("completed", "returned"), summary
+    tools = tools_called(result)
+    # the patrol leg was stopped for the person, who was then approached, watched, confirmed and helped
+    assert [r for r in records(result, "trigger") if r["act"]], "the trigger never acted"
+    for earlier, later in [("alerts.notify", "flight.land"), ("flight.land", "flight.deploy_payload")]:
+        assert tools.index(earlier) < tools.index(later), tools
+    assert tools[-1] == "flight.rtl" and "incidents.log" not in tools
+    verdicts = [r["assessment"]["severity"] for r in records(result, "decision") if r["why"] == "analyze_scene"]
+    assert "critical" in verdicts
+
+    # it landed beside P-12 (5 m short, on the side it came from), not on them and not elsewhere
+    scene = load_scene(SCENES / "small_emergency.yaml")
+    casualty = scene.actor("P-12").position
+    touch = [p for p in _track(result) if p["alt_m"] < 0.5 and p["sim_t"] > 20]
+    assert touch, "never touched down away from home"
+    gap = math.hypot(touch[0]["north_m"] - casualty.north, touch[0]["east_m"] - casualty.east)
+    assert 2.0 < gap < 9.0, gap
+
+    # the alert went out by SMTP, with the GPS position, the assessment and the annotated image attached
+    (envelope,) = smtp.inbox.envelopes
+    message = email.message_from_bytes(envelope.content)
+    assert message["To"] == "medical-team@example.org" and message["Subject"].startswith("Collapsed pilgrim at 21.41")
+    lat, lon = (float(x) for x in message["Subject"].removeprefix("Collapsed pilgrim at ").split(","))
+    north, east = local_offset(scene.home.lat_deg, scene.home.lon_deg, lat, lon)
+    assert math.hypot(north - casualty.north, east - casualty.east) < 3.0  # the tracked position, within metres
+    names = sorted(str(part.get_filename()) for part in _attachments(message))
+    assert [n.split("-", 1)[1] for n in names] == [
+        "assessment.json", "position.json", "snapshot.png", "world_model.json"
+    ]  # fmt: skip
+    body = _text(message)
+    assert "isolated from pedestrian flow" in body
+
+    # the run's folder holds what the issue names
+    folder = result.run_dir
+    assert (folder / "report.md").is_file() and (folder / "trajectory.png").read_bytes()[:4] == b"\x89PNG"
+    worlds = (folder / "world_models.jsonl").read_text(encoding="utf-8").splitlines()
+    assert len(worlds) == summary.decisions and json.loads(worlds[-1])["objects"]
+    report = (folder / "report.md").read_text(encoding="utf-8")
+    assert "Casualty P-12 (ground truth): first detected at" in report and "alert sent at" in report
+
+
+def test_the_normal_scene_brings_no_intervention(tmp_path: Path) -> None:
+    """The emergency mission over normal activity: people resting in the shade are not casualties."""
+    result = fly(tmp_path, EMERGENCY, "small_normal")
+    tools = tools_called(result)
+    assert "alerts.notify" not in tools and "flight.land" not in tools and "flight.deploy_payload" not in tools
+    assert tools[-1] == "flight.rtl" and result.summary.outcome == "completed"
+    assert not list(result.run_dir.glob("alerts/*.eml"))
+
+
+def test_the_patrol_mission_runs_and_logs_crowd_density(tmp_path: Path) -> None:
+    result = fly(tmp_path, PATROL, "small_normal", camera_hz=5.0)  # no trigger to confirm: a slower camera will do
+    tools = tools_called(result)
+    assert tools.count("incidents.log") == 2 and tools[-1] == "flight.rtl"
+    assert result.summary.outcome == "completed" and "flight.land" not in tools
+
+
+def test_a_declined_landing_sends_the_aircraft_home_without_dropping_the_kit(tmp_path: Path) -> None:
+    result = fly(tmp_path, EMERGENCY, "small_emergency", approve=False)
+    tools = tools_called(result)
+    assert "alerts.notify" in tools and "flight.land" not in tools and "flight.deploy_payload" not in tools
+    assert [r for r in records(result, "approval") if r["answer"] is False]
+    assert tools[-1] == "flight.rtl"
+
+
+def test_the_hybrid_reasoner_consults_the_model_only_on_the_critical_event(tmp_path: Path) -> None:
+    answer = {
+        "persons_detected": 1, "confidence": 0.9, "severity": "critical",
+        "surrounding_features": "A pilgrim lying motionless on open ground, far from the flow of the crowd.",
+        "recommended_actions": ["deploy_rescue_kit", "alert_medical_team"], "rationale": "collapsed",
+    }  # fmt: skip
+    with StandIn() as server:
+        server.script(*[openai_completion(json.dumps(answer)) for _ in range(6)])
+        result = fly(
+            tmp_path, EMERGENCY, "small_emergency", reasoner="hybrid", llm=f"openai-compatible:m@{server.url}/v1"
+        )
+        calls = len(server.bodies())
+    decisions = records(result, "decision")
+    assert 1 <= calls <= 3 and sum(d["llm_calls"] for d in decisions) == calls
+    assert any(d["cached"] or not d["escalated"] for d in decisions)  # most assessments never reached the model
+    assert "flight.deploy_payload" in tools_called(result)
+    assert result.summary.llm_calls == calls
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["no_such_mission.yaml"], "no_such_mission.yaml"),
+        ([str(EMERGENCY), "--scene", "nowhere.yaml"], "nowhere.yaml: no such scene file"),
+        ([str(EMERGENCY), "--param", "rounds=many"], "rounds"),
+        ([str(EMERGENCY), "--reasoner", "llm"], "needs a model"),
+    ],
+)
+def test_bad_input_is_a_message_and_status_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, args: list[str], message: str
+) -> None:
+    monkeypatch.delenv("AGENTIC_UAV_LLM", raising=False)
+    assert main(["run", *args, "--runs-dir", str(tmp_path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())  # nothing half-made
+
+
+def _track(result: RunResult) -> list[dict[str, Any]]:
+    return [point.model_dump() for point in result.track]
+
+
+def _attachments(message: Message) -> list[Message]:
+    return [part for part in message.walk() if part.get_filename()]
+
+
+def _text(message: Message) -> str:
+    part = next(p for p in message.walk() if p.get_content_type() == "text/plain")
+    payload = part.get_payload(decode=True)
+    return payload.decode() if isinstance(payload, bytes) else str(payload)
