@@ -27,6 +27,7 @@ from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
 from .model import PolicyGraph, RepeatStep, Step, Trigger
 from .steps import Environment, StepFailed, evaluate, run_iteration, run_with_retries, scope
+from .tool_check import ToolCatalog
 from .validate import check_revision, iter_steps
 
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
@@ -96,6 +97,7 @@ class MissionRuntime:
     env: Environment
     reflector: Reflector = abort_reflector
     max_reflections: int = 3
+    tools: ToolCatalog | None = None  # a revision's call_tool steps are checked against it
     static: dict[str, Step] = field(default_factory=dict)
     document_ids: set[str] = field(default_factory=set)
     dependents: dict[str, list[str]] = field(default_factory=dict)
@@ -358,7 +360,7 @@ class MissionRuntime:
                 return Command(update={**update, "reflections": count}, goto=ABORT)
             try:
                 steps = STEPS_ADAPTER.validate_python(revised)
-                problems = check_revision(self.plan, steps, [*self.document_ids, *spliced])
+                problems = check_revision(self.plan, steps, [*self.document_ids, *spliced], self.tools)
                 if problems:
                     raise StepFailed("; ".join(problems))
                 new = self.splice(steps, origin=f"reflection:{step_id}", existing=spliced)
@@ -413,9 +415,11 @@ def compile_mission(
     reflector: Reflector = abort_reflector,
     checkpointer: BaseCheckpointSaver | None = None,
     max_reflections: int = 3,
+    tools: ToolCatalog | None = None,
 ) -> CompiledStateGraph:
-    """The mission as a runnable graph; invoke it with ``initial_state(plan, params)``."""
-    rt = MissionRuntime(plan, env, reflector, max_reflections)
+    """The mission as a runnable graph; invoke it with ``initial_state(plan, params)``. ``tools``, the catalogue
+    (a ToolRegistry), is what a reflector's revised ``call_tool`` steps are checked against."""
+    rt = MissionRuntime(plan, env, reflector, max_reflections, tools)
     g = StateGraph(MissionState)
     for step in plan.steps:
         g.add_node(step.id, _step_node(rt, step.id))

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from flight.sim.scene_model import Scene
 
-TIMELINE_KINDS = ("run", "step", "trigger", "decision", "approval", "alert", "abort")
+TIMELINE_KINDS = ("run", "step", "trigger", "decision", "approval", "alert", "reflection", "abort")
 
 
 class TrackPoint(BaseModel):

@@ -39,11 +39,12 @@ from tools.function import spec_from_function
 
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
-from ..mission.compile import parse_param
+from ..mission.compile import Reflector, abort_reflector, parse_param
 from ..mission.model import PolicyGraph, Trigger
 from ..mission.validate import load_mission
 from ..reasoning.assessment import Decision
 from ..reasoning.reasoners import Reasoner, make_reasoner
+from ..reasoning.reflection import LLMReflector
 from .attachments import materialize
 from .perception_loop import PerceptionLoop
 from .report import RunSummary, TrackPoint, write_report
@@ -343,6 +344,15 @@ class MissionRun:
                     return trigger, event
         return None
 
+    def _reflector(self) -> Reflector:
+        """A model's reflection when the reasoner has a model (llm, hybrid); else the default, which aborts."""
+        client = getattr(self.reasoner, "client", None) or getattr(
+            getattr(self.reasoner, "model", None), "client", None
+        )
+        if client is None:
+            return abort_reflector
+        return LLMReflector(client, self.plan, record=lambda entry: self.trace.write("reflection", **entry))
+
     def _position(self) -> dict[str, Any] | None:
         view = self._vehicle_view()
         if not view:
@@ -384,7 +394,9 @@ class MissionRun:
         over = False
         try:
             with SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
-                graph = compile_mission(self.plan, env, checkpointer=saver)
+                graph = compile_mission(
+                    self.plan, env, checkpointer=saver, reflector=self._reflector(), tools=self.registry
+                )
                 config = {"configurable": {"thread_id": self.run_id}, "recursion_limit": 10_000}
                 for update in graph.stream(initial_state(self.plan, self.params), config, stream_mode="updates"):
                     if time.monotonic() - wall0 > self.settings.max_wall_s:

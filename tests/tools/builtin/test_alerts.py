@@ -166,7 +166,7 @@ def test_notify_accepts_what_the_mission_dsl_sends(
     args.update(to="medic@team.example", subject="Collapsed pilgrim at 21.42, 39.87", body="Motionless for 40 s.")
     result = harness(config).call("alerts.notify", args)
     assert result.ok, result.error
-    assert result.output["unavailable"] == ["position", "snapshot", "world_model"]
+    assert result.output["unavailable"] == ["position", "snapshot", "world_model", "assessment"]
 
 
 def _steps(node: object) -> list[dict[str, Any]]:
