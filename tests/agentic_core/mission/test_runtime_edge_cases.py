@@ -52,19 +52,7 @@ steps:
     assert rec.tools().count("flight.rtl") == 1
 
 
-def test_a_trigger_that_may_fire_again_does_so_for_a_new_event_under_fresh_ids() -> None:
-    world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
-    looks = [0]
-
-    def look(args: dict[str, Any]) -> Result:
-        looks[0] += 1
-        if looks[0] == 2:
-            world["objects"] = [{"id": "P-2", "class": "person"}]
-        return Result("ok", {})
-
-    rec = Recorder({"flight.hover": look})
-    out = run(
-        """
+GATED = """
 plan_id: p
 goal: g
 steps:
@@ -77,10 +65,21 @@ triggers:
     once: false
     preempt: false
     steps: [{id: warn, action: notify, args: {subject: "${event.id}", body: seen}}]
-""",
-        rec,
-        env={"world": lambda: world},
-    )
+"""
+
+
+def test_a_trigger_that_may_fire_again_does_so_for_a_new_event_under_fresh_ids() -> None:
+    world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
+    looks = [0]
+
+    def look(args: dict[str, Any]) -> Result:
+        looks[0] += 1
+        if looks[0] == 2:
+            world["objects"] = [{"id": "P-2", "class": "person"}]
+        return Result("ok", {})
+
+    rec = Recorder({"flight.hover": look})
+    out = run(GATED, rec, env={"world": lambda: world})
     subjects = [args["subject"] for tool, args in rec.calls if tool == "alerts.notify"]
     assert subjects == ["P-1", "P-2"]
     assert out["status"]["warn"] == "ok" and out["status"]["warn_2"] == "ok"
@@ -427,22 +426,6 @@ steps:
         rec,
     )
     assert rec.tools().count("flight.rtl") == 1 and out["halt"] == "rtl"
-
-
-GATED = """
-plan_id: p
-goal: g
-steps:
-  - {id: a, action: hover, args: {duration_s: 1}}
-  - {id: b, action: hover, depends_on: [a], args: {duration_s: 1}}
-  - {id: c, action: hover, depends_on: [b], args: {duration_s: 1}}
-triggers:
-  - id: t
-    when: "find(world, class_='person')"
-    once: false
-    preempt: false
-    steps: [{id: warn, action: notify, args: {subject: "${event.id}", body: seen}}]
-"""
 
 
 @pytest.mark.parametrize("act", [True, False])
