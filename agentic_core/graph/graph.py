@@ -88,6 +88,8 @@ def _literal_values_from_text(text: str) -> tuple[tuple[str, ...] | None, bool]:
 
 def _routes(annotation: Any) -> tuple[tuple[str, ...] | None, bool]:
     """The names a return annotation allows, and whether it is a ``Command`` (resolved or raw text)."""
+    if annotation is None:  # most nodes and routers: nothing to resolve
+        return None, False
     if isinstance(annotation, str):
         return _literal_values_from_text(annotation)
     is_command = annotation is Command or get_origin(annotation) is Command
@@ -220,7 +222,8 @@ class StateGraph:
         """Add a node: a function of the state returning an update dict, a ``Command`` or None; or a subgraph."""
         from .compiled import CompiledStateGraph
 
-        reject_unsupported("add_node()", kwargs)
+        if kwargs:
+            reject_unsupported("add_node()", kwargs)
         if action is None:
             if isinstance(node, str):
                 raise GraphError(f"add_node({node!r}) needs a function: add_node({node!r}, fn)")
@@ -248,8 +251,9 @@ class StateGraph:
             params = _parameters(action)
             spec.takes_config = "config" in params
             spec.takes_writer = "writer" in params
-            spec.is_async = inspect.iscoroutinefunction(action) or inspect.iscoroutinefunction(
-                getattr(action, "__call__", None)  # noqa: B004 - async callable objects
+            spec.is_async = inspect.iscoroutinefunction(action) or (
+                not inspect.isfunction(action)  # a plain function's __call__ is never a coroutine function
+                and inspect.iscoroutinefunction(getattr(action, "__call__", None))  # noqa: B004 - async callables
             )
             literal, is_command = _routes(_return_annotation(action))
             if literal is not None:
@@ -342,19 +346,29 @@ class StateGraph:
         )
 
     def validate(self, interrupt: Sequence[str] = ()) -> None:
-        """Raise :class:`GraphCompileError` for unknown nodes, no entry point or nodes with no path to END."""
+        """Raise :class:`GraphCompileError` for unknown nodes, no entry point or nodes with no path to END.
+
+        Each name is looked up first and the text naming where it was used is written only for an unknown one:
+        a graph of a few thousand edges is checked without formatting a few thousand messages."""
+        nodes = self.nodes
         for a, b in self.edges:
-            self._check_name(a, f"edge {a!r} -> {b!r}", allow=(START,))
-            self._check_name(b, f"edge {a!r} -> {b!r}", allow=(END,))
+            if a not in nodes and a != START:
+                self._check_name(a, f"edge {a!r} -> {b!r}", allow=(START,))
+            if b not in nodes and b != END:
+                self._check_name(b, f"edge {a!r} -> {b!r}", allow=(END,))
         for j in self.joins:
             for s in j.sources:
-                self._check_name(s, f"join edge {list(j.sources)!r} -> {j.target!r}")
-            self._check_name(j.target, f"join edge {list(j.sources)!r} -> {j.target!r}", allow=(END,))
+                if s not in nodes:
+                    self._check_name(s, f"join edge {list(j.sources)!r} -> {j.target!r}")
+            if j.target not in nodes and j.target != END:
+                self._check_name(j.target, f"join edge {list(j.sources)!r} -> {j.target!r}", allow=(END,))
         for br in self.branches:
-            self._check_name(br.source, f"conditional edge from {br.source!r}", allow=(START,))
+            if br.source not in nodes and br.source != START:
+                self._check_name(br.source, f"conditional edge from {br.source!r}", allow=(START,))
             if br.path_map is not None:
                 for key, tgt in br.path_map.items():
-                    self._check_name(tgt, f"path_map of router {br.name!r} (key {key!r})", allow=(END,))
+                    if tgt not in nodes and tgt != END:
+                        self._check_name(tgt, f"path_map of router {br.name!r} (key {key!r})", allow=(END,))
                 if br.literal is not None:
                     outside = [v for v in br.literal if v not in br.path_map]
                     if outside:
@@ -362,9 +376,10 @@ class StateGraph:
                             f"router {br.name!r} on {br.source!r} is annotated to return {outside!r}, which "
                             f"path_map does not map; add them to path_map or fix the annotation"
                         )
-        for spec in self.nodes.values():
+        for spec in nodes.values():
             for d in spec.destinations or ():
-                self._check_name(d, f"destinations of node {spec.name!r}", allow=(END,))
+                if d not in nodes and d != END:
+                    self._check_name(d, f"destinations of node {spec.name!r}", allow=(END,))
         for name in interrupt:
             if name != "*":
                 self._check_name(name, "interrupt_before/interrupt_after")

@@ -34,7 +34,7 @@ import difflib
 import functools
 import math
 import operator
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from .functions import ARITY as _ARITY
@@ -126,7 +126,7 @@ _ALLOWED = (
 class Expression:
     """A parsed, whitelisted expression; build one with :meth:`parse`."""
 
-    __slots__ = ("_names", "_offset", "_text", "_tree", "source")
+    __slots__ = ("_fields", "_names", "_offset", "_roots", "_text", "_tree", "source")
 
     def __init__(self, source: str) -> None:
         self.source = source
@@ -151,7 +151,11 @@ class Expression:
             raise ExpressionError(f"invalid syntax {where} of {_quote(source)}: {why}", source, col) from None
         except (ValueError, RecursionError, MemoryError) as exc:
             raise ExpressionError(f"cannot parse {_quote(source)}: {exc}", source) from None
-        self._names = _Checker(self).run()
+        checker = _Checker(self)
+        self._names = checker.run()
+        # what validation asks of every expression, answered once here rather than by walking the tree again
+        self._roots = frozenset(name for name, _ in self._names)
+        self._fields = {root: frozenset(fields) for root, fields in checker.fields.items()}
 
     @classmethod
     def parse(cls, source: str) -> Expression:
@@ -161,18 +165,11 @@ class Expression:
     @property
     def root_names(self) -> frozenset[str]:
         """The top-level names the expression reads (function names excluded)."""
-        return frozenset(name for name, _ in self._names)
+        return self._roots
 
     def fields_of(self, root: str) -> frozenset[str]:
         """The fields read directly off a root name: ``{"alt"}`` for ``params.alt + 1`` and root ``params``."""
-        return _fields_of(self, root)
-
-    def _fields_of(self, root: str) -> frozenset[str]:
-        return frozenset(
-            node.attr
-            for node in ast.walk(self._tree)
-            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == root
-        )
+        return self._fields.get(root, _NO_FIELDS)
 
     def check_names(self, known: Iterable[str]) -> None:
         """Raise ExpressionError for the first name not in ``known``, suggesting the closest known one."""
@@ -210,12 +207,17 @@ class Expression:
         return hash(self.source)
 
 
+_NO_FIELDS: frozenset[str] = frozenset()
+
+
 class _Checker:
-    """Walks the tree once: refuses what is not whitelisted, bounds the depth, collects root names."""
+    """Walks the tree once: refuses what is not whitelisted, bounds the depth, collects root names and the
+    fields read directly off a name (``params.alt``)."""
 
     def __init__(self, expr: Expression) -> None:
         self.expr = expr
         self.names: list[tuple[str, int]] = []
+        self.fields: dict[str, set[str]] = {}  # root name -> the fields read off it
 
     def run(self) -> tuple[tuple[str, int], ...]:
         stack: list[tuple[ast.AST, int]] = [(self.expr._tree.body, 1)]
@@ -236,8 +238,11 @@ class _Checker:
                 raise fail(node, f"names starting with '_' are not allowed ({node.id!r})")
             if node.id not in _ALIASES:
                 self.names.append((node.id, self.expr._col(node)))
-        elif isinstance(node, ast.Attribute) and node.attr.startswith("_"):
-            raise fail(node, f"fields starting with '_' are not allowed ({node.attr!r})")
+        elif isinstance(node, ast.Attribute):
+            if node.attr.startswith("_"):
+                raise fail(node, f"fields starting with '_' are not allowed ({node.attr!r})")
+            if isinstance(node.value, ast.Name):
+                self.fields.setdefault(node.value.id, set()).add(node.attr)
         elif isinstance(node, ast.Call):
             return self.call(node)
         elif isinstance(node, ast.Dict) and None in node.keys:
@@ -428,7 +433,7 @@ def _split(text: str) -> tuple[str | Expression, ...]:
             )
         if literal or start > i:
             parts.append(literal + text[i:start])
-        parts.append(Expression(text[start + 2 : end]))
+        parts.append(_parse_cached(text[start + 2 : end]))
         literal, i = "", end + 1
     if literal or i < len(text):
         parts.append(literal + text[i:])
@@ -445,26 +450,38 @@ def _at(path: str, exc: ExpressionError) -> ExpressionError:
     return ExpressionError(f"{exc.message} (template at {path or 'the top level'})", exc.source, exc.col)
 
 
-def _strings(value: Any, path: str) -> Iterator[tuple[str, str]]:
+_LEAVES = (int, float, type(None))
+
+
+def _template_strings(value: Any, keys: tuple[Any, ...], out: list[tuple[tuple[Any, ...], str]]) -> None:
+    """Append to ``out`` the strings holding ``${`` in a nested value, with the keys (and list indexes) leading
+    to each. The path text is written later, only for those; numbers, booleans and None are passed over without
+    a call, or a (slow) check against the Mapping ABC."""
     if isinstance(value, str):
-        yield path, value
-    elif isinstance(value, Mapping):
-        for key, item in value.items():
-            yield from _strings(item, _child(path, key))
+        if "${" in value:
+            out.append((keys, value))
+        return
+    items: Iterable[tuple[Any, Any]]
+    if isinstance(value, _LEAVES):
+        return
+    if isinstance(value, Mapping):
+        items = value.items()
     elif isinstance(value, list | tuple):
-        for index, item in enumerate(value):
-            yield from _strings(item, f"{path}[{index}]")
+        items = enumerate(value)
+    else:
+        return
+    for key, item in items:
+        if isinstance(item, str):
+            if "${" in item:
+                out.append(((*keys, key), item))
+        elif not isinstance(item, _LEAVES):
+            _template_strings(item, (*keys, key), out)
 
 
 @functools.lru_cache(maxsize=4096)
 def _parse_cached(source: str) -> Expression:
     """Expressions are immutable once parsed: the same text (a template used by many steps) parses once."""
     return Expression(source)
-
-
-@functools.lru_cache(maxsize=4096)
-def _fields_of(expr: Expression, root: str) -> frozenset[str]:
-    return expr._fields_of(root)
 
 
 @functools.lru_cache(maxsize=16)
@@ -475,7 +492,10 @@ def _name_set(names: tuple[str, ...]) -> frozenset[str]:
 def find_templates(value: Any) -> list[tuple[str, Expression]]:
     """Every ``${...}`` in a nested dict/list/str as (path like ``args.points[2]``, parsed expression)."""
     found: list[tuple[str, Expression]] = []
-    for path, text in _strings(value, ""):
+    strings: list[tuple[tuple[Any, ...], str]] = []
+    _template_strings(value, (), strings)
+    for keys, text in strings:
+        path = functools.reduce(_child, keys, "")  # args.points[2].lat (an index is written as a key's repr is)
         try:
             found.extend((path, part) for part in _split(text) if isinstance(part, Expression))
         except ExpressionError as exc:

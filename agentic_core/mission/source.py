@@ -6,7 +6,9 @@ document, so a pydantic error at ``steps.2.args.alt_m`` becomes ``mission.yaml:1
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import gc
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -41,16 +43,25 @@ class SourceMap:
     """Where each value (and each mapping key) of a document starts, by path; 1-based lines and columns.
 
     Positions are looked up in the composed YAML tree only when a problem needs one, so loading a valid
-    mission pays nothing for them. ``problems`` holds what was wrong but did not stop loading (a duplicate
-    key); validation reports them with everything else it finds."""
+    mission pays nothing for them: :func:`load_document` keeps the ``text``, not the tree (tens of thousands of
+    objects for a large mission), and the tree is composed again the first time a position is asked for.
+    ``problems`` holds what was wrong but did not stop loading (a duplicate key); validation reports them with
+    everything else it finds."""
 
     file: str
     root: yaml.Node | None = None
     problems: list[Problem] = field(default_factory=list)
+    text: str | None = None  # the document ``root`` is composed from when it is first needed
+
+    def tree(self) -> yaml.Node | None:
+        """The composed document (None for an empty one, or a map with neither tree nor text)."""
+        if self.root is None and self.text is not None:
+            self.root = _compose_for_positions(self.text)
+        return self.root
 
     def _find(self, path: Path) -> tuple[yaml.Node | None, yaml.Node | None, int]:
         """The value node and key node at ``path`` (the deepest that exists), and how many parts matched."""
-        node, key_node, depth = self.root, None, 0
+        node, key_node, depth = self.tree(), None, 0
         for part in path:
             nxt = key = None
             if isinstance(node, yaml.MappingNode):
@@ -81,49 +92,109 @@ def _pos(node: yaml.Node) -> tuple[int, int]:
 
 
 def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> Any:
-    """Construct the value of ``node``, noting duplicate keys and refusing aliases that refer to themselves."""
+    """Construct the value of ``node``, noting duplicate keys and refusing aliases that refer to themselves.
+
+    Values that are plain strings (most of a mission) are taken straight off their node, without a call per
+    value; PyYAML's constructors run only for the other scalars (numbers, booleans, null, ...)."""
+    if isinstance(node, yaml.ScalarNode):
+        return _scalar(node, loader)
     if id(node) in active:
         line, col = _pos(node)
         raise MissionError(
             [Problem(smap.file, line, col, "a YAML alias refers to itself: the document would be infinite")]
         )
+    active.add(id(node))
+    out: Any
     if isinstance(node, yaml.MappingNode):
-        seen: dict[Any, tuple[int, int]] = {}
-        for key_node, _ in node.value:  # duplicates among the keys as written (merged ones may be overridden)
-            if key_node.tag == "tag:yaml.org,2002:merge" or not isinstance(key_node, yaml.ScalarNode):
+        out = _mapping(node, smap, loader, active)
+    else:
+        out = [
+            item.value
+            if item.tag == _STR_TAG and isinstance(item, yaml.ScalarNode)
+            else _build(item, smap, loader, active)
+            for item in node.value
+        ]
+    active.discard(id(node))
+    return out
+
+
+def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> dict[Any, Any]:
+    """The dict of a mapping node. Duplicate keys (among the keys as written: merged ones may be overridden) are
+    noted in ``smap.problems``, their positions looked up only then; merge keys (``<<: *defaults``) are
+    flattened by PyYAML, only when the mapping has one (or a ``=`` key, which flattening turns into text)."""
+    seen: dict[str, yaml.Node] = {}
+    flatten = False
+    for key_node, _ in node.value:
+        tag = key_node.tag
+        if tag in (_MERGE_TAG, _VALUE_TAG):
+            flatten = True
+            if tag == _MERGE_TAG:
                 continue
+        if not isinstance(key_node, yaml.ScalarNode):
+            continue
+        key = key_node.value
+        first = seen.get(key)
+        if first is not None:
+            line, col = _pos(key_node)
+            message = f"duplicate key {key!r} (first at line {_pos(first)[0]}); the last wins"
+            smap.problems.append(Problem(smap.file, line, col, message))
+        seen[key] = key_node
+    if flatten:
+        loader.flatten_mapping(node)
+    out: dict[Any, Any] = {}
+    for key_node, value_node in node.value:
+        if not isinstance(key_node, yaml.ScalarNode):
+            key = None
+        elif key_node.tag == _STR_TAG:
             key = key_node.value
-            if key in seen:
-                line, col = _pos(key_node)
-                message = f"duplicate key {key!r} (first at line {seen[key][0]}); the last wins"
-                smap.problems.append(Problem(smap.file, line, col, message))
-            seen[key] = _pos(key_node)
-        loader.flatten_mapping(node)  # YAML merge keys: <<: *defaults
-        active.add(id(node))
-        out: dict[Any, Any] = {}
-        for key_node, value_node in node.value:
-            key = loader.construct_object(key_node) if isinstance(key_node, yaml.ScalarNode) else None
-            if key is None or isinstance(key, list | dict):
-                line, col = _pos(key_node)
-                raise MissionError([Problem(smap.file, line, col, "a mapping key must be a plain name or number")])
+        else:
+            key = loader.construct_object(key_node)
+        if key is None or isinstance(key, list | dict):
+            line, col = _pos(key_node)
+            raise MissionError([Problem(smap.file, line, col, "a mapping key must be a plain name or number")])
+        if value_node.tag == _STR_TAG and isinstance(value_node, yaml.ScalarNode):
+            out[key] = value_node.value
+        else:
             out[key] = _build(value_node, smap, loader, active)
-        active.discard(id(node))
-        return out
-    if isinstance(node, yaml.SequenceNode):
-        active.add(id(node))
-        items = [_build(item, smap, loader, active) for item in node.value]
-        active.discard(id(node))
-        return items
+    return out
+
+
+def _scalar(node: yaml.ScalarNode, loader: yaml.SafeLoader) -> Any:
     if node.tag == _STR_TAG:
-        return node.value  # most scalars: no constructor needed
+        return node.value  # no constructor needed
     construct = loader.yaml_constructors.get(node.tag)
     return construct(loader, node) if construct is not None else loader.construct_object(node)
 
 
 _STR_TAG = "tag:yaml.org,2002:str"
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+_VALUE_TAG = "tag:yaml.org,2002:value"  # a plain ``=`` key; flatten_mapping makes it a string
 
 
-_Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when present: 10x faster
+_SafeLoader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when present: 10x faster
+
+
+class _Loader(_SafeLoader):  # type: ignore[misc,valid-type]  # a base class chosen at run time
+    """The safe loader, resolving the tag of each distinct plain scalar once per document.
+
+    libyaml's composer calls the (Python) resolver for every scalar, which tries a few regular expressions each
+    time; a mission repeats the same keys and values (``id``, ``action``, ``args``, ``30``) hundreds of times.
+    Without path resolvers (the safe loader has none) a plain scalar's tag depends on its text alone, and a
+    quoted one is always a string."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._tags: dict[str, str] = {}
+
+    def resolve(self, kind: type[yaml.Node], value: Any, implicit: tuple[bool, bool]) -> str:
+        if kind is yaml.ScalarNode and not self.yaml_path_resolvers:
+            if not implicit[0]:
+                return _STR_TAG
+            tag = self._tags.get(value)
+            if tag is None:
+                tag = self._tags[value] = str(super().resolve(kind, value, implicit))
+            return tag
+        return str(super().resolve(kind, value, implicit))
 
 
 def _yaml_problem(file: str, exc: yaml.MarkedYAMLError) -> Problem:
@@ -141,17 +212,72 @@ def _position_of(text: str, index: int) -> tuple[int, int]:
     return before.count("\n") + 1, index - (before.rfind("\n") + 1) + 1
 
 
-def load_document(text: str, file: str) -> tuple[Any, SourceMap]:
-    """Parse YAML (or JSON, which is YAML) into plain data and its source map; raises :class:`MissionError`."""
-    smap = SourceMap(file)
-    loader: yaml.SafeLoader | None = None
+@contextlib.contextmanager
+def _cyclic_gc_paused() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector while a document is composed and turned into data.
+
+    The composed tree is tens of thousands of objects (a node and two marks per value) that live only while
+    the document is read and hold no reference cycle (the one exception, an alias inside itself, is refused;
+    the collector frees it later). With the collector on, every 700 new objects start a collection that walks
+    the young ones again, promoting the tree from generation to generation until a full collection walks the
+    whole heap: several milliseconds for a large mission, for nothing. Freed by reference counting once the
+    document is read, the tree is never seen by the collector. The collector is the process's: other threads
+    see their collections put off by those milliseconds, no more. A collector that was off stays off."""
+    if not gc.isenabled():
+        yield
+        return
+    gc.disable()
     try:
-        loader = _Loader(text)
+        yield
+    finally:
+        gc.enable()
+
+
+def _parse(text: str, smap: SourceMap) -> Any:
+    """Compose ``text`` and build its data; the tree is dropped on return (``smap`` composes it again if a
+    position is needed)."""
+    loader = _Loader(text)
+    try:
         node = loader.get_single_node()
         if node is None:
-            raise MissionError([Problem(file, 1, 1, "the file is empty; a mission needs plan_id, goal and steps")])
-        smap.root = node
-        data = _build(node, smap, loader, set())
+            raise MissionError([Problem(smap.file, 1, 1, "the file is empty; a mission needs plan_id, goal and steps")])
+        return _build(node, smap, loader, set())
+    finally:
+        loader.dispose()
+
+
+def _compose_for_positions(text: str) -> yaml.Node | None:
+    """The tree of a document that loaded, as loading left it: merge keys flattened, as :func:`_mapping` does
+    (flattening a mapping is idempotent and flattens the mappings merged into it first, so the order in which
+    mappings are visited, once each, does not matter). No Python recursion: a document nested as deeply as
+    loading allowed is composed at any depth of the caller's stack."""
+    loader = _Loader(text)
+    try:
+        root: yaml.Node | None = loader.get_single_node()
+        stack = [root] if root is not None else []
+        seen: set[int] = set()
+        while stack:
+            node = stack.pop()
+            if id(node) in seen:
+                continue
+            seen.add(id(node))
+            if isinstance(node, yaml.MappingNode):
+                if any(key.tag in (_MERGE_TAG, _VALUE_TAG) for key, _ in node.value):
+                    loader.flatten_mapping(node)
+                stack.extend(value for _, value in node.value)
+            elif isinstance(node, yaml.SequenceNode):
+                stack.extend(node.value)
+        return root
+    finally:
+        loader.dispose()
+
+
+def load_document(text: str, file: str) -> tuple[Any, SourceMap]:
+    """Parse YAML (or JSON, which is YAML) into plain data and its source map; raises :class:`MissionError`."""
+    smap = SourceMap(file, text=text)
+    try:
+        with _cyclic_gc_paused():
+            data = _parse(text, smap)
     except yaml.MarkedYAMLError as exc:
         raise MissionError([_yaml_problem(file, exc)]) from None
     except yaml.reader.ReaderError as exc:
@@ -163,9 +289,8 @@ def load_document(text: str, file: str) -> tuple[Any, SourceMap]:
         raise MissionError([Problem(file, 1, 1, f"YAML error: {exc}")]) from None
     except RecursionError:
         raise MissionError([Problem(file, 1, 1, "the document is nested too deeply")]) from None
+    except MissionError:  # already positioned (an empty file, a list as a key): not to be wrapped again
+        raise
     except ValueError as exc:  # a scalar YAML resolves but Python cannot hold (an integer of 5,000 digits)
         raise MissionError([Problem(file, 1, 1, f"a value cannot be read: {exc}")]) from None
-    finally:
-        if loader is not None:
-            loader.dispose()
     return data, smap

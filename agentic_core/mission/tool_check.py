@@ -12,6 +12,8 @@ from typing import Any, Protocol
 import jsonschema
 
 ArgPath = tuple[str | int, ...]
+Validators = dict[str, jsonschema.protocols.Validator]
+"""Schema validators kept by tool name, so that a mission calling one tool many times builds its validator once."""
 
 
 class ToolCatalog(Protocol):
@@ -28,9 +30,21 @@ def unknown_tool_message(name: str, catalog: ToolCatalog) -> str:
     return f"unknown tool {name!r}: no such tool is registered{hint}"
 
 
-def argument_problems(name: str, args: Mapping[str, Any], catalog: ToolCatalog) -> Iterator[tuple[ArgPath, str]]:
-    """``(path inside args, message)`` for each way the written arguments break the tool's input schema."""
-    validator = jsonschema.Draft202012Validator(catalog.input_schema(name))
+def argument_problems(
+    name: str,
+    args: Mapping[str, Any],
+    catalog: ToolCatalog,
+    validators: Validators | None = None,
+) -> Iterator[tuple[ArgPath, str]]:
+    """``(path inside args, message)`` for each way the written arguments break the tool's input schema.
+
+    ``validators`` keeps each tool's schema validator between calls (by tool name), for a mission that calls
+    the same tool many times: building one costs more than checking a step's arguments with it."""
+    validator = validators.get(name) if validators is not None else None
+    if validator is None:
+        validator = jsonschema.Draft202012Validator(catalog.input_schema(name))
+        if validators is not None:
+            validators[name] = validator
     for error in validator.iter_errors(dict(args)):
         if isinstance(error.instance, str) and "${" in error.instance:
             continue  # its value, even its type, is known only when the step runs

@@ -12,24 +12,21 @@ and limits a step already breaks (a ``fly_to`` outside the geofence or above the
 
 from __future__ import annotations
 
-import difflib
 import re
-import types
-import typing
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path as FilePath
-from typing import Any
+from typing import Any, NamedTuple
 
-import networkx as nx
 from pydantic import BaseModel, ValidationError
 
 from .expressions import Expression, ExpressionError, find_templates
 from .geometry import Polygon, haversine_m
-from .model import ACTIONS, STEP_MODELS, BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
+from .model import BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
+from .schema_errors import schema_problems, suggest
 from .source import MissionError, Path, Problem, SourceMap, load_document
 from .steps import SCOPE_ROOTS
-from .tool_check import ToolCatalog, argument_problems, unknown_tool_message
+from .tool_check import ToolCatalog, Validators, argument_problems, unknown_tool_message
 
 
 @dataclass(frozen=True)
@@ -59,169 +56,6 @@ def iter_steps(plan: PolicyGraph) -> Iterator[StepSite]:
         yield from walk(trigger.steps, ("triggers", t, "steps"), f"trigger:{trigger.id}")
 
 
-def _suggest(word: str, choices: Iterable[str]) -> str:
-    match = difflib.get_close_matches(word, list(choices), n=1)
-    return f" (did you mean {match[0]!r}?)" if match else ""
-
-
-def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
-    """Turn a pydantic error location into a document path, skipping union tags and resolving aliases."""
-    path: list[str | int] = []
-    node = data
-    tag_seen: Any = None
-    for part in loc:
-        if isinstance(node, dict) and part == node.get("action") and part in ACTIONS and tag_seen is not node:
-            tag_seen = node  # the discriminator's tag (once: a step may also have a key of that name)
-            continue
-        if isinstance(node, list) and isinstance(part, int) and part < len(node):  # noqa: SIM114 - apart, so mypy narrows each
-            path.append(part)
-            node = node[part]
-        elif isinstance(node, dict) and part in node:
-            path.append(part)
-            node = node[part]
-        elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
-            path.append(part.rstrip("_"))  # if_ / else_ are written if / else
-            node = node[part.rstrip("_")]
-        elif isinstance(part, str) and isinstance(node, dict) and part not in ACTIONS and part != "[key]":
-            path.append(part)  # a missing field: its parent's position is used
-            break
-    return tuple(path)
-
-
-def _model_at(data: Any, path: Path) -> type[BaseModel] | None:
-    """The mission model that the mapping at ``path`` is validated as (for did-you-mean on unknown fields)."""
-    ann: Any = PolicyGraph
-    node: Any = data
-    for part in path:
-        ann = _narrow(ann, node)
-        if isinstance(part, int):
-            ann = _narrow(typing.get_args(ann)[0] if typing.get_args(ann) else Any, None)
-            node = node[part] if isinstance(node, list) and part < len(node) else None
-            continue
-        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
-            return None
-        fields = {f.alias or name: f for name, f in ann.model_fields.items()}
-        if part not in fields:
-            return None
-        ann = fields[part].annotation
-        node = node.get(part) if isinstance(node, dict) else None
-    ann = _narrow(ann, node)
-    return ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
-
-
-def _narrow(ann: Any, node: Any) -> Any:
-    """Unwrap Annotated/Optional/unions to what ``node`` is: a step by its action, a model for a mapping."""
-    while typing.get_origin(ann) is typing.Annotated:
-        ann = typing.get_args(ann)[0]
-    members = typing.get_args(ann) if typing.get_origin(ann) in (typing.Union, types.UnionType) else (ann,)
-    action = node.get("action") if isinstance(node, dict) else None
-    if isinstance(action, str) and action in STEP_MODELS:
-        return STEP_MODELS[action]
-    for member in members:
-        while typing.get_origin(member) is typing.Annotated:
-            member = typing.get_args(member)[0]
-        if isinstance(node, dict) and isinstance(member, type) and issubclass(member, BaseModel):
-            return member
-        if isinstance(node, list) and typing.get_origin(member) is list:
-            return member
-    return members[0] if len(members) == 1 else ann
-
-
-def _describe(data: Any, path: Path) -> str:
-    """``steps.2.args`` as a person reads it: ``step 'go' args``."""
-    words: list[str] = []
-    node = data
-    for part in path:
-        if isinstance(node, dict):
-            node = node.get(part)
-        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
-            node = node[part]
-        else:
-            node = None
-        ident = node.get("id") if isinstance(part, int) and isinstance(node, dict) else None
-        if isinstance(ident, str) and words and words[-1] in ("steps", "then", "else", "triggers"):
-            words[-1] = f"{'trigger' if words[-1] == 'triggers' else 'step'} {ident!r}"
-        elif isinstance(part, int) and words:
-            words[-1] += f"[{part}]"
-        else:
-            words.append(str(part))
-    return " ".join(words) or "the mission"
-
-
-_KINDS = {
-    "float": "a number",
-    "int": "a whole number",
-    "list": "a list",
-    "dict": "a mapping",
-    "model": "a mapping",
-    "string": "text",
-    "bool": "true or false",
-}
-
-
-def _schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[Problem]:
-    problems: list[Problem] = []
-    grouped: dict[Path, list[Any]] = {}
-    for err in error.errors():
-        grouped.setdefault(_data_path(data, tuple(err["loc"])), []).append(err)
-    for path, group in grouped.items():
-        errs = _relevant(group)
-        kinds = [str(e["type"]) for e in errs]
-        where = _describe(data, path)
-        if any("[key]" in e["loc"] for e in errs):
-            problems.append(
-                smap.problem(
-                    path, f"{where}: a name must be letters, digits and _ (not starting with a digit)", key=True
-                )
-            )
-            continue
-        if "union_tag_invalid" in kinds:
-            err = errs[kinds.index("union_tag_invalid")]
-            given = err["input"].get("action") if isinstance(err["input"], dict) else None
-            problems.append(smap.problem((*path, "action"), f"unknown action {given!r}{_suggest(str(given), ACTIONS)}"))
-            continue
-        if "union_tag_not_found" in kinds:
-            problems.append(smap.problem(path, f"{where}: a step needs an 'action' (one of {', '.join(ACTIONS)})"))
-            continue
-        template = [
-            e
-            for e in errs
-            if (e["type"] == "string_pattern_mismatch" and "${" in str(e.get("ctx", {}).get("pattern", "")))
-            or (e["type"] == "string_pattern_mismatch" and "\\$" in str(e.get("ctx", {}).get("pattern", "")))
-        ]
-        if template and len(errs) > len(template):
-            wanted = sorted(
-                {_KINDS.get(k.split("_")[0], k.split("_")[0]) for k in kinds if k != "string_pattern_mismatch"}
-            )
-            others = [e for e in errs if e not in template]
-            detail = (
-                others[0]["msg"]
-                if len(others) == 1 and others[0]["type"] not in ("float_type", "float_parsing")
-                else ""
-            )
-            message = f"{where}: expected {' or '.join(wanted)} or a ${{...}} expression, got {errs[0]['input']!r}"
-            problems.append(smap.problem(path, message + (f" ({detail})" if detail else "")))
-            continue
-        for err in errs:
-            kind = err["type"]
-            if kind == "extra_forbidden":
-                field = str(path[-1]) if path else "?"
-                model = _model_at(data, path[:-1])
-                known = [f.alias or n for n, f in model.model_fields.items()] if model else []
-                hint = _suggest(field, known) or (f" (known: {', '.join(known)})" if known else "")
-                problems.append(
-                    smap.problem(path, f"unknown field {field!r} in {_describe(data, path[:-1])}{hint}", key=True)
-                )
-            elif kind == "missing":
-                missing = str(err["loc"][-1]).rstrip("_")
-                parent = path[:-1] if path and path[-1] == missing else path
-                problems.append(smap.problem(parent, f"{_describe(data, parent)}: missing required field {missing!r}"))
-            else:
-                message = str(err["msg"]).removeprefix("Value error, ")
-                problems.append(smap.problem(path, f"{where}: {message}"))
-    return problems
-
-
 def _fields(model: Any) -> dict[str, Any]:
     """A model's field values without pydantic's slow ``__getattr__`` for absent names (None gives {})."""
     return model.__dict__ if isinstance(model, BaseModel) else {}
@@ -235,22 +69,37 @@ def _template_path(where: str) -> Path:
     return tuple(parts)
 
 
-_MAPPING_ERRORS = frozenset({"dict_type", "model_type", "model_attributes_type"})
+_NUMBER = (int, float)
 
 
-def _relevant(errors: list[Any]) -> list[Any]:
-    """Of the errors a union gives for one value, those of the member the value's shape chose (a list is not
-    told it should have been a mapping)."""
-    value = errors[0].get("input")
-    if isinstance(value, int | float) and not isinstance(value, bool) and len(errors) > 1:
-        return [e for e in errors if e["type"] != "string_type"]  # a number is not told it should be a ${...}
-    if isinstance(value, list):
-        kept = [e for e in errors if e["type"] not in _MAPPING_ERRORS]
-    elif isinstance(value, dict):
-        kept = [e for e in errors if e["type"] != "list_type"]
-    else:
-        kept = errors
-    return kept or errors
+def _has_cycle(preds: Mapping[str, Iterable[str]]) -> bool:
+    """Whether a dependency graph (each step -> the steps it waits for) has a cycle, in linear time: without one,
+    the steps can all be taken away, one that waits for nothing left at a time (Kahn's algorithm)."""
+    waiting: dict[str, int] = {}
+    dependents: dict[str, list[str]] = {}
+    for step_id, deps in preds.items():
+        count = 0
+        for dep in deps:
+            dependents.setdefault(dep, []).append(step_id)
+            count += 1
+        waiting[step_id] = count
+    ready = [step_id for step_id, count in waiting.items() if count == 0]
+    removed = 0
+    while ready:
+        removed += 1
+        for step_id in dependents.get(ready.pop(), ()):
+            waiting[step_id] -= 1
+            if waiting[step_id] == 0:
+                ready.append(step_id)
+    return removed < len(waiting)
+
+
+class _Readable(NamedTuple):
+    """The steps one step can count on having run: its ancestors as the bits of ``mask`` (a bit per step, see
+    ``_Checker.ancestors``), and the steps in ``names``."""
+
+    mask: int
+    names: frozenset[str]
 
 
 class _Checker:
@@ -267,9 +116,13 @@ class _Checker:
         self.sites = list(iter_steps(plan))
         self.by_id: dict[str, StepSite] = {}
         self._fence: Polygon | None = None
-        self.graph: nx.DiGraph = nx.DiGraph()
-        self._readable: dict[tuple[str, bool], set[str]] = {}
-        self._ancestors: dict[str, set[str]] = {}
+        # the dependency graph, edges from a dependency to the step waiting for it; predecessors in the order
+        # the edges were added (a dict: an edge given twice counts once)
+        self.preds: dict[str, dict[str, None]] = {}
+        self._bit: dict[str, int] = {}  # each step's bit in the ancestor masks
+        self._ancestors: dict[str, int] = {}
+        self._outer = frozenset(outer_ids)
+        self._readable: dict[tuple[str, bool], _Readable] = {}
         self.bodies: dict[Path, list[str]] = {}  # the step ids of each step list, in order, by its path
         for site in self.sites:
             self.bodies.setdefault(site.path[:-1], []).append(site.step.id)
@@ -313,29 +166,60 @@ class _Checker:
                 self.problems.append(
                     self.smap.problem(
                         ("dependencies", key),
-                        f"dependencies names unknown step {key!r}{_suggest(key, self.by_id)}",
+                        f"dependencies names unknown step {key!r}{suggest(key, self.by_id)}",
                         key=True,
                     )
                 )
-        graph = self.graph = nx.DiGraph()
+        preds = self.preds = {}
         for site in self.sites:
-            graph.add_node(site.step.id)
-            for dep, path in self.deps_of(site):
-                target = self.by_id.get(dep)
-                if target is None:
-                    others = [i for i in self.by_id if i != site.step.id]
-                    self.add(path, f"step {site.step.id!r} depends on unknown step {dep!r}{_suggest(dep, others)}")
-                elif dep == site.step.id:
-                    self.add(path, f"step {site.step.id!r} depends on itself")
-                elif target.scope != site.scope:
-                    where = "inside " + target.scope.split(":", 1)[1] if target.scope != "plan" else "in the main plan"
-                    self.add(
-                        path,
-                        f"step {site.step.id!r} depends on {dep!r}, which runs {where}: a step can only wait for "
-                        "steps of the same list",
-                    )
+            step_id = site.step.id
+            waits = preds.setdefault(step_id, {})
+            extra = self.plan.dependencies.get(step_id)
+            for dep in (*site.step.depends_on, *extra) if extra else site.step.depends_on:
+                if self.waitable(site, dep):
+                    waits[dep] = None  # the usual case: checked without building a path for a message
+                    preds.setdefault(dep, {})
                 else:
-                    graph.add_edge(dep, site.step.id)
+                    self.dependency_problems(site)
+                    break
+        self._bit = {step_id: 1 << i for i, step_id in enumerate(preds)}
+        if _has_cycle(preds):
+            self.report_cycles()
+
+    def waitable(self, site: StepSite, dep: str) -> bool:
+        """Whether ``site`` can wait for step ``dep``: it exists, is another step, and runs in the same list."""
+        target = self.by_id.get(dep)
+        return target is not None and dep != site.step.id and target.scope == site.scope
+
+    def dependency_problems(self, site: StepSite) -> None:
+        """The messages for a step that depends on something it cannot wait for (the edges it can are kept)."""
+        for dep, path in self.deps_of(site):
+            target = self.by_id.get(dep)
+            if target is None:
+                others = [i for i in self.by_id if i != site.step.id]
+                self.add(path, f"step {site.step.id!r} depends on unknown step {dep!r}{suggest(dep, others)}")
+            elif dep == site.step.id:
+                self.add(path, f"step {site.step.id!r} depends on itself")
+            elif target.scope != site.scope:
+                where = "inside " + target.scope.split(":", 1)[1] if target.scope != "plan" else "in the main plan"
+                self.add(
+                    path,
+                    f"step {site.step.id!r} depends on {dep!r}, which runs {where}: a step can only wait for "
+                    "steps of the same list",
+                )
+            else:
+                self.preds[site.step.id][dep] = None
+                self.preds.setdefault(dep, {})
+
+    def report_cycles(self) -> None:
+        """Each dependency cycle (printed as the cycle) and the steps that wait for one. Only a mission that has
+        a cycle pays for networkx, which enumerates them."""
+        import networkx as nx
+
+        graph = nx.DiGraph()
+        for site in self.sites:  # nodes and edges in the order the checks met them, so cycles come in that order
+            graph.add_node(site.step.id)
+            graph.add_edges_from((dep, site.step.id) for dep, _ in self.deps_of(site) if self.waitable(site, dep))
         in_cycle: set[str] = set()
         for cycle in nx.simple_cycles(graph):
             if len(cycle) < 2 or set(cycle) <= in_cycle:
@@ -368,80 +252,104 @@ class _Checker:
         if isinstance(step, BranchStep):
             yield (*site.path, "if"), step.if_
 
-    def readable(self, site: StepSite, *, own_body: bool = False) -> set[str] | None:
+    def readable(self, site: StepSite, *, own_body: bool = False) -> _Readable | None:
         """The steps whose outputs ``site`` can count on having (its dependencies, earlier steps of its body and
         what its parent can read); None where that cannot be known (a trigger's steps run at any time)."""
         if site.scope.startswith("trigger:"):
             return None
         key = (site.step.id, own_body)
-        if key in self._readable:
-            return self._readable[key]
-        found = set(self.outer_ids)
+        found = self._readable.get(key)
+        if found is not None:
+            return found
         if site.scope == "plan":
-            found |= self.ancestors(site.step.id)
+            found = _Readable(self.ancestors(site.step.id), self._outer)
         else:
+            names = set(self.outer_ids)
+            mask = 0
             parent = self.by_id.get(site.scope.split(":", 1)[1])
             if parent is not None:
-                found |= {parent.step.id} | (self.readable(parent) or set())
+                names.add(parent.step.id)
+                above = self.readable(parent)
+                if above is not None:
+                    names |= above.names
+                    mask = above.mask
             body, index = site.path[:-1], int(site.path[-1])
-            found |= set(self.bodies[body][:index])
+            names.update(self.bodies[body][:index])
+            found = _Readable(mask, frozenset(names))
         if own_body:  # a repeat's until (and its body) may read the body's steps and the repeat itself
-            found |= set(self.bodies.get((*site.path, "steps"), [])) | {site.step.id}
+            found = _Readable(found.mask, found.names | {*self.bodies.get((*site.path, "steps"), []), site.step.id})
         self._readable[key] = found
         return found
 
-    def ancestors(self, step_id: str) -> set[str]:
-        """Every step ``step_id`` waits for, directly or not (memoised: shared across the plan's steps)."""
+    def ancestors(self, step_id: str) -> int:
+        """Every step ``step_id`` waits for, directly or not, as the bits of those steps (memoised: shared across
+        the plan's steps; an int OR merges hundreds of ancestors at once where sets would copy them)."""
         found = self._ancestors.get(step_id)
         if found is None:
-            if step_id not in self.graph:
-                return set()
-            self._ancestors[step_id] = set()  # a cycle ends here; cycles are reported on their own
-            found = set()
-            for dep in self.graph.predecessors(step_id):
-                found |= self.ancestors(dep) | {dep}
+            preds = self.preds.get(step_id)
+            if preds is None:
+                return 0
+            self._ancestors[step_id] = 0  # a cycle ends here; cycles are reported on their own
+            found = 0
+            for dep in preds:
+                found |= self.ancestors(dep) | self._bit[dep]
             self._ancestors[step_id] = found
         return found
 
     def check_expression(
-        self, path: Path, text: str, known: tuple[str, ...], reader: StepSite | None = None, *, own_body: bool = False
+        self,
+        path: Path,
+        text: str,
+        known: tuple[str, ...],
+        reader: StepSite | None = None,
+        *,
+        own_body: bool = False,
+        known_set: frozenset[str] | None = None,
     ) -> None:
+        """Check one expression: syntax, names (``known``; ``known_set`` is the same names as a set, when the
+        caller has it), the steps it reads (``reader`` must wait for them) and the parameters it reads."""
         try:
             expr = Expression.parse(text)
-            expr.check_names(known)
+            if known_set is None or not expr.root_names <= known_set:  # only an unknown name needs the message
+                expr.check_names(known)
         except ExpressionError as exc:
             self.add(path, str(exc))
             return
-        refs = (expr.root_names | expr.fields_of("steps")) & self.by_id.keys() if reader is not None else set()
-        allowed = self.readable(reader, own_body=own_body) if reader is not None and refs else None
-        if reader is not None and allowed is not None:
-            for ref in sorted(refs - allowed):
-                self.add(
-                    path,
-                    f"{text!r} reads step {ref!r}, which {reader.step.id!r} does not wait for: it may not have "
-                    f"run yet; add {ref!r} to depends_on",
-                )
+        if reader is not None:
+            refs = [ref for ref in (expr.root_names | expr.fields_of("steps")) if ref in self.by_id]
+            allowed = self.readable(reader, own_body=own_body) if refs else None
+            if allowed is not None:
+                unsure = [ref for ref in refs if ref not in allowed.names and not allowed.mask & self._bit[ref]]
+                for ref in sorted(unsure):
+                    self.add(
+                        path,
+                        f"{text!r} reads step {ref!r}, which {reader.step.id!r} does not wait for: it may not have "
+                        f"run yet; add {ref!r} to depends_on",
+                    )
         for name in sorted(expr.fields_of("params")):
             if name not in self.plan.params:
-                self.add(path, f"unknown parameter {name!r} in {text!r}{_suggest(name, list(self.plan.params))}")
+                self.add(path, f"unknown parameter {name!r} in {text!r}{suggest(name, list(self.plan.params))}")
 
     def check_expressions(self) -> None:
         known = (*SCOPE_ROOTS, *self.by_id, *self.outer_ids)
         outside = tuple(n for n in known if n != "event")  # only a trigger's steps have an event
+        known_set, outside_set = frozenset(known), frozenset(outside)
         for site in self.sites:
-            names = known if site.scope.startswith("trigger:") else outside
+            in_trigger = site.scope.startswith("trigger:")
+            names, name_set = (known, known_set) if in_trigger else (outside, outside_set)
             for path, text in self.expressions_of(site):
                 own_body = path[-1] == "until"
-                self.check_expression(path, text, names, site, own_body=own_body)
+                self.check_expression(path, text, names, site, own_body=own_body, known_set=name_set)
             try:
                 templates = find_templates(step_args(site.step))
             except ExpressionError as exc:
                 self.add((*site.path, "args"), str(exc))
                 continue
             for where, expr in templates:
-                self.check_expression((*site.path, "args", *_template_path(where)), expr.source, names, site)
+                path = (*site.path, "args", *_template_path(where))
+                self.check_expression(path, expr.source, names, site, known_set=name_set)
         for t, trigger in enumerate(self.plan.triggers):
-            self.check_expression(("triggers", t, "when"), trigger.when, known)
+            self.check_expression(("triggers", t, "when"), trigger.when, known, known_set=known_set)
 
     def check_nesting(self) -> None:
         for site in self.sites:
@@ -472,6 +380,7 @@ class _Checker:
     def check_tools(self) -> None:
         if self.tools is None:
             return
+        validators: Validators = {}  # one per tool, for all its steps
         for site in self.sites:
             tool = getattr(site.step, "tool", None)
             if tool is None:
@@ -479,43 +388,43 @@ class _Checker:
             if tool not in self.tools:
                 self.add((*site.path, "tool"), unknown_tool_message(tool, self.tools))
                 continue
-            for where, message in argument_problems(tool, step_args(site.step), self.tools):
+            for where, message in argument_problems(tool, step_args(site.step), self.tools, validators):
                 self.add((*site.path, "args", *where), message)
 
     def check_limits(self) -> None:
         limits = self.plan.limits
+        if limits.max_altitude_m is None and limits.geofence is None:
+            return
         for site in self.sites:
-            args = _fields(site.step).get("args")
+            args = _fields(_fields(site.step).get("args"))  # the fields of an args model; {} for a dict or None
             for field in ("altitude_m", "alt_m"):
-                value = _fields(args).get(field)
-                if (
-                    limits.max_altitude_m is not None
-                    and isinstance(value, int | float)
-                    and value > limits.max_altitude_m
-                ):
+                value = args.get(field)
+                if limits.max_altitude_m is not None and isinstance(value, _NUMBER) and value > limits.max_altitude_m:
                     self.add(
                         (*site.path, "args", field),
                         f"{site.step.action} to {value:g} m is above the mission's max_altitude_m "
                         f"({limits.max_altitude_m:g} m)",
                     )
-            for label, point, path in self.points_of(site):
+            if limits.geofence is None:
+                continue  # every point is inside
+            for label, point, path in self.points_of(site, args):
                 if not self.inside_geofence(point):
                     self.add(
                         path, f"{site.step.action} {label} ({point[0]:.6f}, {point[1]:.6f}) is outside the geofence"
                     )
 
-    def points_of(self, site: StepSite) -> Iterator[tuple[str, tuple[float, float], Path]]:
-        args = _fields(_fields(site.step).get("args"))
+    def points_of(self, site: StepSite, args: Mapping[str, Any]) -> Iterator[tuple[str, tuple[float, float], Path]]:
+        """The positions a step's arguments (``args``, the fields of its args model) name, with their paths."""
         lat, lon = args.get("lat"), args.get("lon")
-        if isinstance(lat, int | float) and isinstance(lon, int | float):
+        if isinstance(lat, _NUMBER) and isinstance(lon, _NUMBER):
             yield "destination", (float(lat), float(lon)), (*site.path, "args", "lat")
         polygon = args.get("polygon")
         if isinstance(polygon, list):
             for j, p in enumerate(polygon):
-                if isinstance(p.lat, int | float) and isinstance(p.lon, int | float):
+                if isinstance(p.lat, _NUMBER) and isinstance(p.lon, _NUMBER):
                     yield f"polygon point {j}", (float(p.lat), float(p.lon)), (*site.path, "args", "polygon", j)
         center = args.get("center")
-        if center is not None and isinstance(center.lat, int | float) and isinstance(center.lon, int | float):
+        if center is not None and isinstance(center.lat, _NUMBER) and isinstance(center.lon, _NUMBER):
             yield "center", (float(center.lat), float(center.lon)), (*site.path, "args", "center")
 
     def inside_geofence(self, point: tuple[float, float]) -> bool:
@@ -523,11 +432,11 @@ class _Checker:
         if fence is None:
             return True
         if isinstance(fence, Circle):
-            if not isinstance(fence.center.lat, int | float) or not isinstance(fence.center.lon, int | float):
+            if not isinstance(fence.center.lat, _NUMBER) or not isinstance(fence.center.lon, _NUMBER):
                 return True
             return haversine_m(point, (float(fence.center.lat), float(fence.center.lon))) <= fence.radius_m
         if self._fence is None:
-            if not all(isinstance(p.lat, int | float) and isinstance(p.lon, int | float) for p in fence):
+            if not all(isinstance(p.lat, _NUMBER) and isinstance(p.lon, _NUMBER) for p in fence):
                 return True  # a vertex given as ${...} is only known when the mission runs
             self._fence = Polygon([(float(p.lat), float(p.lon)) for p in fence])
         return self._fence.contains(point)
@@ -543,7 +452,7 @@ def validate_document(data: Any, smap: SourceMap, tools: ToolCatalog | None = No
     try:
         plan = PolicyGraph.model_validate(data)
     except ValidationError as exc:
-        raise MissionError([*smap.problems, *_schema_problems(data, smap, exc)]) from None
+        raise MissionError([*smap.problems, *schema_problems(data, smap, exc)]) from None
     problems = [*smap.problems, *_Checker(plan, smap, tools).run()]
     if problems:
         raise MissionError(problems)

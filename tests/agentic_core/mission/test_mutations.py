@@ -162,6 +162,8 @@ def duplicate_step(doc: Any, draw: Draw) -> bool:
     if draw(st.booleans()):
         clone["id"] = draw(st.sampled_from([*step_ids(doc), "copy_1", "bad id", ""]))
     target = get(doc, path[:-1]) if draw(st.booleans()) else get(doc, draw(st.sampled_from(steps))[:-1])
+    if not isinstance(target, list):  # an earlier mutation turned the step list into something else
+        return False
     target.insert(draw(st.integers(0, len(target))), clone)
     return True
 

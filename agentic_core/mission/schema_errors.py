@@ -1,0 +1,202 @@
+"""Schema errors as a person reads them: each pydantic error of a mission, mapped back to the document path of
+the offending value (and so to its line and column), grouped by value, and worded for the mission's author.
+
+A value that may be a number or a ``${...}`` template gets one message, not one per union member; an unknown
+action or field gets a did-you-mean; a missing field is reported at its parent.
+"""
+
+from __future__ import annotations
+
+import difflib
+import types
+import typing
+from collections.abc import Iterable
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from .model import ACTIONS, STEP_MODELS, PolicyGraph
+from .source import Path, Problem, SourceMap
+
+
+def suggest(word: str, choices: Iterable[str]) -> str:
+    """A did-you-mean hint for the closest of ``choices`` (``" (did you mean 'x'?)"``), or ``""``."""
+    match = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {match[0]!r}?)" if match else ""
+
+
+def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
+    """Turn a pydantic error location into a document path, skipping union tags and resolving aliases."""
+    path: list[str | int] = []
+    node = data
+    tag_seen: Any = None
+    for part in loc:
+        if isinstance(node, dict) and part == node.get("action") and part in ACTIONS and tag_seen is not node:
+            tag_seen = node  # the discriminator's tag (once: a step may also have a key of that name)
+            continue
+        if isinstance(node, list) and isinstance(part, int) and part < len(node):  # noqa: SIM114 - apart, so mypy narrows each
+            path.append(part)
+            node = node[part]
+        elif isinstance(node, dict) and part in node:
+            path.append(part)
+            node = node[part]
+        elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
+            path.append(part.rstrip("_"))  # if_ / else_ are written if / else
+            node = node[part.rstrip("_")]
+        elif isinstance(part, str) and isinstance(node, dict) and part not in ACTIONS and part != "[key]":
+            path.append(part)  # a missing field: its parent's position is used
+            break
+    return tuple(path)
+
+
+def _model_at(data: Any, path: Path) -> type[BaseModel] | None:
+    """The mission model that the mapping at ``path`` is validated as (for did-you-mean on unknown fields)."""
+    ann: Any = PolicyGraph
+    node: Any = data
+    for part in path:
+        ann = _narrow(ann, node)
+        if isinstance(part, int):
+            ann = _narrow(typing.get_args(ann)[0] if typing.get_args(ann) else Any, None)
+            node = node[part] if isinstance(node, list) and part < len(node) else None
+            continue
+        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
+            return None
+        fields = {f.alias or name: f for name, f in ann.model_fields.items()}
+        if part not in fields:
+            return None
+        ann = fields[part].annotation
+        node = node.get(part) if isinstance(node, dict) else None
+    ann = _narrow(ann, node)
+    return ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+
+
+def _narrow(ann: Any, node: Any) -> Any:
+    """Unwrap Annotated/Optional/unions to what ``node`` is: a step by its action, a model for a mapping."""
+    while typing.get_origin(ann) is typing.Annotated:
+        ann = typing.get_args(ann)[0]
+    members = typing.get_args(ann) if typing.get_origin(ann) in (typing.Union, types.UnionType) else (ann,)
+    action = node.get("action") if isinstance(node, dict) else None
+    if isinstance(action, str) and action in STEP_MODELS:
+        return STEP_MODELS[action]
+    for member in members:
+        while typing.get_origin(member) is typing.Annotated:
+            member = typing.get_args(member)[0]
+        if isinstance(node, dict) and isinstance(member, type) and issubclass(member, BaseModel):
+            return member
+        if isinstance(node, list) and typing.get_origin(member) is list:
+            return member
+    return members[0] if len(members) == 1 else ann
+
+
+def _describe(data: Any, path: Path) -> str:
+    """``steps.2.args`` as a person reads it: ``step 'go' args``."""
+    words: list[str] = []
+    node = data
+    for part in path:
+        if isinstance(node, dict):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+        else:
+            node = None
+        ident = node.get("id") if isinstance(part, int) and isinstance(node, dict) else None
+        if isinstance(ident, str) and words and words[-1] in ("steps", "then", "else", "triggers"):
+            words[-1] = f"{'trigger' if words[-1] == 'triggers' else 'step'} {ident!r}"
+        elif isinstance(part, int) and words:
+            words[-1] += f"[{part}]"
+        else:
+            words.append(str(part))
+    return " ".join(words) or "the mission"
+
+
+_KINDS = {
+    "float": "a number",
+    "int": "a whole number",
+    "list": "a list",
+    "dict": "a mapping",
+    "model": "a mapping",
+    "string": "text",
+    "bool": "true or false",
+}
+
+
+def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[Problem]:
+    """The problems of a document pydantic rejected, positioned through ``smap``."""
+    problems: list[Problem] = []
+    grouped: dict[Path, list[Any]] = {}
+    for err in error.errors():
+        grouped.setdefault(_data_path(data, tuple(err["loc"])), []).append(err)
+    for path, group in grouped.items():
+        errs = _relevant(group)
+        kinds = [str(e["type"]) for e in errs]
+        where = _describe(data, path)
+        if any("[key]" in e["loc"] for e in errs):
+            problems.append(
+                smap.problem(
+                    path, f"{where}: a name must be letters, digits and _ (not starting with a digit)", key=True
+                )
+            )
+            continue
+        if "union_tag_invalid" in kinds:
+            err = errs[kinds.index("union_tag_invalid")]
+            given = err["input"].get("action") if isinstance(err["input"], dict) else None
+            problems.append(smap.problem((*path, "action"), f"unknown action {given!r}{suggest(str(given), ACTIONS)}"))
+            continue
+        if "union_tag_not_found" in kinds:
+            problems.append(smap.problem(path, f"{where}: a step needs an 'action' (one of {', '.join(ACTIONS)})"))
+            continue
+        template = [
+            e
+            for e in errs
+            if (e["type"] == "string_pattern_mismatch" and "${" in str(e.get("ctx", {}).get("pattern", "")))
+            or (e["type"] == "string_pattern_mismatch" and "\\$" in str(e.get("ctx", {}).get("pattern", "")))
+        ]
+        if template and len(errs) > len(template):
+            wanted = sorted(
+                {_KINDS.get(k.split("_")[0], k.split("_")[0]) for k in kinds if k != "string_pattern_mismatch"}
+            )
+            others = [e for e in errs if e not in template]
+            detail = (
+                others[0]["msg"]
+                if len(others) == 1 and others[0]["type"] not in ("float_type", "float_parsing")
+                else ""
+            )
+            message = f"{where}: expected {' or '.join(wanted)} or a ${{...}} expression, got {errs[0]['input']!r}"
+            problems.append(smap.problem(path, message + (f" ({detail})" if detail else "")))
+            continue
+        for err in errs:
+            kind = err["type"]
+            if kind == "extra_forbidden":
+                field = str(path[-1]) if path else "?"
+                model = _model_at(data, path[:-1])
+                known = [f.alias or n for n, f in model.model_fields.items()] if model else []
+                hint = suggest(field, known) or (f" (known: {', '.join(known)})" if known else "")
+                problems.append(
+                    smap.problem(path, f"unknown field {field!r} in {_describe(data, path[:-1])}{hint}", key=True)
+                )
+            elif kind == "missing":
+                missing = str(err["loc"][-1]).rstrip("_")
+                parent = path[:-1] if path and path[-1] == missing else path
+                problems.append(smap.problem(parent, f"{_describe(data, parent)}: missing required field {missing!r}"))
+            else:
+                message = str(err["msg"]).removeprefix("Value error, ")
+                problems.append(smap.problem(path, f"{where}: {message}"))
+    return problems
+
+
+_MAPPING_ERRORS = frozenset({"dict_type", "model_type", "model_attributes_type"})
+
+
+def _relevant(errors: list[Any]) -> list[Any]:
+    """Of the errors a union gives for one value, those of the member the value's shape chose (a list is not
+    told it should have been a mapping)."""
+    value = errors[0].get("input")
+    if isinstance(value, int | float) and not isinstance(value, bool) and len(errors) > 1:
+        return [e for e in errors if e["type"] != "string_type"]  # a number is not told it should be a ${...}
+    if isinstance(value, list):
+        kept = [e for e in errors if e["type"] not in _MAPPING_ERRORS]
+    elif isinstance(value, dict):
+        kept = [e for e in errors if e["type"] != "list_type"]
+    else:
+        kept = errors
+    return kept or errors
