@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
@@ -84,12 +85,13 @@ def annotate_frame(
     else:
         ax.add_patch(Rectangle((0, 0), spec.width_px, spec.height_px, color="#6b6256"))
     font = max(6.0, 11.0 * scale * 2.0)
-    for d in detections:
-        _box(ax, d.box, _DETECTION, 0.8)
+    _boxes(ax, [d.box for d in detections], _DETECTION, 0.8)
     marked = set(casualties_of(world) if highlight is None else highlight)
     objects = [o for o in world.objects if o.state != "lost"]
+    known = boxes or {}
+    _boxes(ax, [known[o.id] for o in objects if o.id in known and o.id not in marked], _TRACK, 1.2)
     for o in sorted(objects, key=lambda o: o.id in marked):  # casualties drawn last, on top
-        _object(ax, frame, o, (boxes or {}).get(o.id), o.id in marked, world, font, len(objects) <= max_labels)
+        _object(ax, frame, o, known.get(o.id), o.id in marked, world, font, len(objects) <= max_labels)
     _scale_bar(ax, frame, scale, font)
     degraded = f" · degraded: {', '.join(world.health.degraded_sensors)}" if world.health.degraded_sensors else ""
     caption = f"t={world.timestamp:.2f} s · frame {world.frame} · {len(objects)} objects{degraded}"
@@ -104,7 +106,7 @@ def annotate_frame(
         bbox={"facecolor": "black", "alpha": 0.55, "pad": 2, "edgecolor": "none"},
     )
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100)
+    fig.savefig(buffer, format="png", dpi=100, pil_kwargs={"compress_level": 1})  # fast to write; still lossless
     png = buffer.getvalue()
     if path is not None:
         Path(path).write_bytes(png)
@@ -112,9 +114,18 @@ def annotate_frame(
 
 
 def _box(ax: object, box: BoundingBox, color: str, width: float) -> None:
-    ax.add_patch(  # type: ignore[attr-defined]
-        Rectangle((box.x_min, box.y_min), box.width, box.height, fill=False, edgecolor=color, linewidth=width)
-    )
+    _boxes(ax, [box], color, width)
+
+
+def _boxes(ax: object, boxes: Sequence[BoundingBox], color: str, width: float) -> None:
+    """Box outlines as one line collection: one artist for a crowd, not one per person."""
+    if not boxes:
+        return
+    outlines = [
+        [(b.x_min, b.y_min), (b.x_max, b.y_min), (b.x_max, b.y_max), (b.x_min, b.y_max), (b.x_min, b.y_min)]
+        for b in boxes
+    ]
+    ax.add_collection(LineCollection(outlines, colors=color, linewidths=width))  # type: ignore[attr-defined]
 
 
 def _object(
@@ -129,7 +140,8 @@ def _object(
 ) -> None:
     color = _CASUALTY if casualty else _TRACK
     if box is not None:
-        _box(ax, box, color, 3.0 if casualty else 1.2)
+        if casualty:  # the others' boxes are drawn together, before
+            _box(ax, box, color, 3.0)
         x, y = box.x_min, box.y_min
     else:
         pixels, visible = project_points(frame.spec, frame.pose, np.array([[o.pose.north, o.pose.east, o.pose.down]]))

@@ -85,12 +85,13 @@ class PerceptionLoop:
             {"timestamp": 0.0, "ego_pose": {"north": 0, "east": 0, "down": 0, "lat": lat, "lon": lon, "alt": alt}}
         )
 
-    def snapshot(self, path: Path) -> Path | None:
-        """The last frame annotated, as a PNG at ``path``; ``None`` before the first frame."""
+    def snapshot(self, path: Path, width_px: int = 640) -> Path | None:
+        """The last frame annotated, as a PNG at ``path`` (640 px wide: enough for an alert, and quick to draw);
+        ``None`` before the first frame."""
         with self._lock:
             if self._world is None:
                 return None
-            self.perception.snapshot(path)
+            self.perception.snapshot(path, width_px=width_px)
         return path
 
 
