@@ -107,16 +107,16 @@ def test_emergency_trigger_fires_while_the_casualty_stays_in_view() -> None:
 
 @pytest.mark.slow
 def test_normal_patrol_raises_no_alarm() -> None:
-    """The mission's whole northbound leg over the normal scene with thin crowds (2 minutes, 3,600 frames: people
-    walking and standing far apart — many chances to look alone — and four people sitting and lying together in
-    the shade), then back south over the shade group (people come into view from the other side). No one is
-    isolated and stationary, ever; the trigger never fires. (The full-density scene is the same but for the crowd,
-    and ten times slower to simulate.)"""
+    """The northbound leg over the normal scene with thin crowds, from south of home to past the shade (50 s, 1,500
+    frames: people walking and standing far apart — many chances to look alone — and four people sitting and
+    lying together in the shade), then back south over the shade group (people come into view from the other
+    side). No one is isolated and stationary, ever; the trigger never fires. (The full-density scene is the same
+    but for the crowd, and ten times slower to simulate.)"""
     scene = load_scene("tests/agentic_core/run/scenes/small_normal.yaml")
     trigger = Expression.parse(TRIGGER)
     raised: dict[str, tuple[float, float, float]] = {}
     frames = objects = 0
-    legs = [Leg((-299.0, 0.0), (299.0, 0.0)), Leg((120.0, 0.0), (20.0, 0.0))]
+    legs = [Leg((-50.0, 0.0), (200.0, 0.0)), Leg((120.0, 0.0), (20.0, 0.0))]
     for step in fly(scene, legs, seed=1, with_truth=False):
         frames += 1
         objects += len(step.world.objects)
