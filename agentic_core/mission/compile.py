@@ -25,6 +25,7 @@ from pydantic import TypeAdapter, ValidationError
 from ..graph import END, START, Command, CompiledStateGraph, Send, StateGraph
 from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
+from .functions import MISSING, get_field
 from .model import PolicyGraph, RepeatStep, Step, Trigger
 from .steps import Environment, StepFailed, evaluate, run_iteration, run_with_retries, scope
 from .tool_check import ToolCatalog
@@ -448,9 +449,8 @@ def compile_mission(
 
 def _identity(event: Any) -> Any:
     """What makes two events the same: a world-model object's id (its pose and timers change every frame)."""
-    if isinstance(event, Mapping):
-        return event.get("id", event)
-    return getattr(event, "id", event)
+    found = get_field(event, "id")
+    return event if found is MISSING else found
 
 
 def _step_node(rt: MissionRuntime, step_id: str) -> Callable[[MissionState], dict[str, Any]]:

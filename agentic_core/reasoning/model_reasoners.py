@@ -20,6 +20,8 @@ import math
 import time
 from typing import Any, Protocol
 
+from pydantic import BaseModel
+
 import prompts
 
 from ..perception.world_model import WorldModel, WorldObject
@@ -29,12 +31,13 @@ from .rules import RuleReasoner
 
 
 class StructuredChat(Protocol):
-    """What these reasoners need of an LLM client (every client in :mod:`agentic_core.reasoning.llm` has it)."""
+    """What the model reasoners and the reflector need of an LLM client (every client in
+    :mod:`agentic_core.reasoning.llm` has it): structured output into a pydantic model."""
 
     @property
     def model(self) -> str: ...
 
-    def chat_structured_sync(self, request: ChatRequest, output: type[Assessment]) -> LLMResult: ...
+    def chat_structured_sync(self, request: ChatRequest, output: type[BaseModel]) -> LLMResult: ...
 
 
 def world_model_prompt(world: WorldModel, focus: str | None = None, max_objects: int = 40) -> str:

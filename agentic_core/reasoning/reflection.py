@@ -11,23 +11,15 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Mapping
-from typing import Any, Protocol
+from typing import Any
 
 import prompts
 
 from ..mission.compile import Failure
 from ..mission.model import PolicyGraph
-from .llm import ChatRequest, LLMResult, Message
+from .llm import ChatRequest, Message
+from .model_reasoners import StructuredChat
 from .proposal import Proposal
-
-
-class ProposalChat(Protocol):
-    """What the reflector needs of an LLM client (every client in :mod:`agentic_core.reasoning.llm` has it)."""
-
-    @property
-    def model(self) -> str: ...
-
-    def chat_structured_sync(self, request: ChatRequest, output: type[Proposal]) -> LLMResult: ...
 
 
 class LLMReflector:
@@ -35,7 +27,7 @@ class LLMReflector:
 
     def __init__(
         self,
-        client: ProposalChat,
+        client: StructuredChat,
         plan: PolicyGraph,
         *,
         max_attempts: int = 3,
@@ -89,4 +81,4 @@ class LLMReflector:
         return steps
 
 
-__all__ = ["LLMReflector", "ProposalChat"]
+__all__ = ["LLMReflector"]

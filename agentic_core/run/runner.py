@@ -14,7 +14,6 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -40,7 +39,9 @@ from tools.function import spec_from_function
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
 from ..mission.compile import Reflector, abort_reflector, parse_param
+from ..mission.functions import MISSING, get_field
 from ..mission.model import PolicyGraph, Trigger
+from ..mission.steps import scope
 from ..mission.validate import load_mission
 from ..reasoning.assessment import Decision
 from ..reasoning.reasoners import Reasoner, make_reasoner
@@ -167,6 +168,13 @@ class MissionRun:
         self.executor = ToolExecutor(
             self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=AGENT
         )
+        self.env = Environment(
+            dispatch=self._dispatch,
+            vehicle=self._vehicle_view,
+            world=lambda: self.loop.world if self.loop else {"objects": [], "relations": []},
+            approve=self._approve,
+            gate=self._gate,
+        )
 
     # ---- set-up ----
 
@@ -250,7 +258,7 @@ class MissionRun:
     def _gate(self, trigger: Trigger, event: Any) -> bool:
         """Tier 2: the reasoner assesses the event a trigger's rule found (once per object); only high or critical
         acts."""
-        focus = getattr(event, "id", None) or (event.get("id") if isinstance(event, Mapping) else None)
+        focus = _object_id(event)
         key = (trigger.id, focus)
         if key in self._verdicts:
             if self._pending == key:
@@ -325,14 +333,7 @@ class MissionRun:
         """The first trigger whose condition holds now for an object not yet put to the reasoner, and the object."""
         from ..mission.expressions import Expression
 
-        where = {
-            "params": self._param_values,
-            "world": self.loop.world if self.loop else None,
-            "vehicle": self._vehicle_view(),
-            "steps": {},
-            "event": None,
-            "mission": {},
-        }
+        where = scope({"params": self._param_values}, self.env)  # what a trigger reads, before any step's output
         for trigger in self.plan.triggers:
             try:
                 value = Expression.parse(trigger.when).evaluate(where)
@@ -340,7 +341,7 @@ class MissionRun:
                 continue
             events = value if isinstance(value, list) else [value] if value else []
             for event in events:
-                if (trigger.id, getattr(event, "id", None)) not in self._verdicts:
+                if (trigger.id, _object_id(event)) not in self._verdicts:
                     return trigger, event
         return None
 
@@ -382,20 +383,13 @@ class MissionRun:
         self.vehicle.start(speed=self.settings.speed)
         self.trace.write("run", event="start", mission=str(self.settings.mission), reasoner=self.reasoner.name,
                          summary=f"start {self.plan.plan_id} with {self.reasoner.name}")  # fmt: skip
-        env = Environment(
-            dispatch=self._dispatch,
-            vehicle=self._vehicle_view,
-            world=lambda: self.loop.world if self.loop else {"objects": [], "relations": []},
-            approve=self._approve,
-            gate=self._gate,
-        )
         final: dict[str, Any] = {}
         outcome = "failed"
         over = False
         try:
             with SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
-                    self.plan, env, checkpointer=saver, reflector=self._reflector(), tools=self.registry
+                    self.plan, self.env, checkpointer=saver, reflector=self._reflector(), tools=self.registry
                 )
                 config = {"configurable": {"thread_id": self.run_id}, "recursion_limit": 10_000}
                 for update in graph.stream(initial_state(self.plan, self.params), config, stream_mode="updates"):
@@ -457,6 +451,12 @@ class MissionRun:
                               if self.scene and k in self.scene.ground_truth.casualties},
             alert_sent_s=self._alert_sent_s,
         )  # fmt: skip
+
+
+def _object_id(event: Any) -> str | None:
+    """The world-model object a trigger found (None for an event that is not an object)."""
+    found = get_field(event, "id")
+    return None if found is MISSING else str(found)
 
 
 def run_mission(settings: RunSettings, progress: TextIO | None = sys.stderr) -> RunResult:
