@@ -223,21 +223,35 @@ def test_a_silent_vehicle_makes_transfers_time_out(vehicle):
 def test_a_finished_mission_starts_over_and_can_start_from_an_item(vehicle):
     items = [MissionItem.takeoff(6.0), MissionItem.waypoint(*at(8, 0), 6.0), MissionItem.waypoint(*at(8, 8), 6.0)]
 
+    runner = vehicle.navigator.mission
+    set_current, chosen = runner.set_current, []
+
+    def recording(seq: int, reset_jumps: bool = False) -> bool:
+        chosen.append(seq)
+        return bool(set_current(seq, reset_jumps))
+
+    runner.set_current = recording
+    seqs: list[int] = []  # the vehicle's current item tick by tick (item 1 takes many ticks: it is 8 m away)
+    vehicle.on_tick.append(lambda _state: seqs.append(runner.store.current_seq))
+
     async def go():
         async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
             assert (await client.upload_mission(items)).ok
             assert (await client.start_mission()).ok
             first: Any = await client.wait_mission(timeout_s=60.0)
             assert first.ok and first.state.mission_reached == 2
+        finished_at = len(seqs)
         async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as fresh:  # knows nothing yet
             again: Any = await fresh.start_mission()
             assert again.ok, again.reason
-            assert again.state.mission_state in ("active", "complete") and again.state.mission_seq in (0, 1)
+            assert again.state.mission_state in ("active", "complete")
+            assert chosen == [0]  # the client saw the mission complete and set item 0 first
             second: Any = await fresh.wait_mission(timeout_s=60.0)
             assert second.ok and vehicle.mode.name == "HOLD"
+            assert 1 in seqs[finished_at:], "the finished mission did not fly its items again"
             assert (await fresh.start_mission(from_item=2)).ok
             third: Any = await fresh.wait_mission(timeout_s=60.0)
-            assert third.ok
+            assert third.ok and chosen == [0, 2]
             bad: Any = await fresh.start_mission(from_item=7)
             assert bad.status == "failed" and bad.ack == 4  # MAV_RESULT_FAILED: no item 7
 
