@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Annotated, Any, TypedDict
 
@@ -222,11 +222,9 @@ class MissionRuntime:
                 continue
             count = (state.get("fired") or []).count(trigger.id)
             try:
-                new = self.splice(
-                    trigger.steps, origin=f"trigger:{trigger.id}", existing=spliced, event=event, firing=count + 1
-                )
+                new = self.response(trigger, event, spliced, count + 1, update.setdefault("log", []))
             except StepFailed as exc:
-                update.setdefault("log", []).append({"step": trigger.id, "status": "not fired", "error": exc.reason})
+                update["log"].append({"step": trigger.id, "status": "not fired", "error": exc.reason})
                 continue
             spliced.update(new)
             update.setdefault("spliced", {}).update(new)
@@ -312,6 +310,47 @@ class MissionRuntime:
     def landed(self, owned: list[str], spliced: Mapping[str, Any], status: Mapping[str, str]) -> bool:
         return any(status.get(sid) == "ok" and spliced[sid]["step"].get("action") in ("land", "rtl") for sid in owned)
 
+    def response(
+        self, trigger: Trigger, event: Any, spliced: Mapping[str, Any], firing: int, log: list[dict[str, Any]]
+    ) -> dict[str, dict[str, Any]]:
+        """The steps a firing trigger splices in: the reasoner's plan when the trigger asks for one (``plan:
+        reasoner``) and it passes the checks, else the trigger's own steps. A plan refused is logged with why."""
+        origin = f"trigger:{trigger.id}"
+        if trigger.plan == "reasoner" and self.env.planner is not None:
+            try:
+                proposed = self.env.planner(trigger, event)
+                if proposed:
+                    steps = self.checked(proposed, self.document_ids, event=True)
+                    new = self.splice(steps, origin=origin, existing=spliced, event=event, firing=firing)
+                    log.append({"step": trigger.id, "status": "planned", "by": [s.id for s in steps]})
+                    return new
+                log.append({"step": trigger.id, "status": "plan empty", "error": "the trigger's own steps run"})
+            except StepFailed as exc:
+                log.append({"step": trigger.id, "status": "plan rejected", "error": exc.reason})
+            except Exception as exc:  # a failing planner is a result the mission handles: the playbook runs
+                log.append({"step": trigger.id, "status": "plan failed", "error": f"{type(exc).__name__}: {exc}"})
+        return self.splice(trigger.steps, origin=origin, existing=spliced, event=event, firing=firing)
+
+    def checked(
+        self, proposed: list[Step] | list[dict[str, Any]], taken: Iterable[str], *, event: bool = False
+    ) -> list[Step]:
+        """Steps a model proposed, checked like a mission's own (expressions, tools, limits) and by the
+        environment's ``review`` (the runner's: scopes, approvals); :class:`StepFailed` lists every problem."""
+        try:
+            steps = STEPS_ADAPTER.validate_python(proposed)
+        except ValidationError as exc:
+            found = [f"{'.'.join(str(part) for part in e['loc'])}: {e['msg']}" for e in exc.errors()[:5]]
+            raise StepFailed(f"the steps do not fit the mission language: {'; '.join(found)}") from None
+        try:
+            problems = check_revision(self.plan, steps, list(taken), self.tools, event=event)
+        except ExpressionError as exc:
+            problems = [str(exc)]
+        if self.env.review is not None:
+            problems += self.env.review(steps)
+        if problems:
+            raise StepFailed("; ".join(problems))
+        return steps
+
     def splice(
         self,
         steps: list[Step],
@@ -323,7 +362,7 @@ class MissionRuntime:
     ) -> dict[str, dict[str, Any]]:
         """Steps to run as tasks of ``__dynamic__``: a trigger's sub-plan (its ids get ``_<n>`` from its second
         firing on) or a reflection's revision (whose ids may not be any id of the mission)."""
-        own = {s.id for s in steps} if origin.startswith("trigger:") else set()
+        own = {s.id for t in self.plan.triggers if origin == f"trigger:{t.id}" for s in t.steps}  # its own ids
         taken = (self.document_ids - own) | set(existing)
         rename = {s.id: s.id if firing == 1 else f"{s.id}_{firing}" for s in steps}
         clash = sorted(new for new in rename.values() if new in taken)
@@ -360,12 +399,9 @@ class MissionRuntime:
                 update["log"].append({"step": step_id, "status": "reflection gave up", "error": error})
                 return Command(update={**update, "reflections": count}, goto=ABORT)
             try:
-                steps = STEPS_ADAPTER.validate_python(revised)
-                problems = check_revision(self.plan, steps, [*self.document_ids, *spliced], self.tools)
-                if problems:
-                    raise StepFailed("; ".join(problems))
+                steps = self.checked(revised, [*self.document_ids, *spliced])
                 new = self.splice(steps, origin=f"reflection:{step_id}", existing=spliced)
-            except (ValidationError, StepFailed, ExpressionError) as exc:
+            except StepFailed as exc:
                 update["log"].append({"step": step_id, "status": "revision rejected", "error": str(exc)})
                 return Command(update={**update, "reflections": count}, goto=ABORT)
             spliced.update(new)

@@ -357,6 +357,11 @@ class Trigger(Contract):
     steps: list[Step] = Field(min_length=1)
     once: bool = Field(default=True, description="fire at most once per mission")
     preempt: bool = Field(default=True, description="stop the rest of the plan (a patrol) while the sub-plan runs")
+    plan: Literal["steps", "reasoner"] = Field(
+        default="steps",
+        description="who writes the response: 'steps' runs the steps above; 'reasoner' asks the reasoner for a "
+        "plan (checked like the mission itself), the steps above running when it proposes none or is refused",
+    )
 
 
 class PolicyGraph(Contract):

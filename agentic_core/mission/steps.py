@@ -43,6 +43,8 @@ class Environment:
     world: Provider = field(default=lambda: {"objects": [], "relations": []})  # an empty world model
     approve: Callable[[dict[str, Any]], Any] | None = None  # headless approval policy; None: ask via interrupt()
     gate: Callable[[Any, Any], bool] | None = None  # (trigger, event) -> act? The reasoner's say; None: always act
+    planner: Callable[[Any, Any], list[dict[str, Any]] | None] | None = None  # (trigger, event) -> proposed steps
+    review: Callable[[list[Any]], list[str]] | None = None  # problems of proposed steps beyond the validator's
     clock: Callable[[], float] = time.monotonic
     sleep: Callable[[float], None] = time.sleep
 

@@ -22,7 +22,7 @@ from pydantic import BaseModel, ValidationError
 
 from .expressions import Expression, ExpressionError, find_templates
 from .geometry import Polygon, haversine_m
-from .model import BranchStep, Circle, PolicyGraph, RepeatStep, Step, WaitUntilStep, step_args
+from .model import BranchStep, Circle, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
 from .schema_errors import schema_problems, suggest
 from .source import MissionError, Path, Problem, SourceMap, load_document
 from .steps import SCOPE_ROOTS
@@ -38,22 +38,23 @@ class StepSite:
     scope: str  # "plan", "nested:<parent id>" or "trigger:<trigger id>"
 
 
+def walk_steps(steps: list[Step], base: Path = ("steps",), scope: str = "plan") -> Iterator[StepSite]:
+    """``steps`` and every step nested in them (repeat bodies, branches), with their document paths."""
+    for i, step in enumerate(steps):
+        path = (*base, i)
+        yield StepSite(step, path, scope)
+        if isinstance(step, RepeatStep):
+            yield from walk_steps(step.steps, (*path, "steps"), f"nested:{step.id}")
+        elif isinstance(step, BranchStep):
+            yield from walk_steps(step.then, (*path, "then"), f"nested:{step.id}")
+            yield from walk_steps(step.else_, (*path, "else"), f"nested:{step.id}")
+
+
 def iter_steps(plan: PolicyGraph) -> Iterator[StepSite]:
     """Every step of a mission, nested ones and trigger sub-plans included, with its document path."""
-
-    def walk(steps: list[Step], base: Path, scope: str) -> Iterator[StepSite]:
-        for i, step in enumerate(steps):
-            path = (*base, i)
-            yield StepSite(step, path, scope)
-            if isinstance(step, RepeatStep):
-                yield from walk(step.steps, (*path, "steps"), f"nested:{step.id}")
-            elif isinstance(step, BranchStep):
-                yield from walk(step.then, (*path, "then"), f"nested:{step.id}")
-                yield from walk(step.else_, (*path, "else"), f"nested:{step.id}")
-
-    yield from walk(plan.steps, ("steps",), "plan")
+    yield from walk_steps(plan.steps)
     for t, trigger in enumerate(plan.triggers):
-        yield from walk(trigger.steps, ("triggers", t, "steps"), f"trigger:{trigger.id}")
+        yield from walk_steps(trigger.steps, ("triggers", t, "steps"), f"trigger:{trigger.id}")
 
 
 def _fields(model: Any) -> dict[str, Any]:
@@ -460,13 +461,27 @@ def validate_document(data: Any, smap: SourceMap, tools: ToolCatalog | None = No
 
 
 def check_revision(
-    plan: PolicyGraph, steps: list[Step], mission_ids: Iterable[str], tools: ToolCatalog | None = None
+    plan: PolicyGraph,
+    steps: list[Step],
+    mission_ids: Iterable[str],
+    tools: ToolCatalog | None = None,
+    *,
+    event: bool = False,
 ) -> list[str]:
-    """The problems of steps a reflector proposes, checked like a mission's own (expressions, nesting, tools,
-    limits), against the running mission's parameters and limits. Empty when they may be spliced in."""
-    revision = plan.model_copy(update={"steps": steps, "triggers": [], "dependencies": {}})
-    checker = _Checker(revision, SourceMap("<revision>"), tools, tuple(mission_ids))
-    return [p.message for p in checker.run()]
+    """The problems of steps a reflector or planner proposes, checked like a mission's own (expressions, nesting,
+    tools, limits) against the running mission's parameters and limits; ``event``: they answer a trigger, so they
+    may read ``event``. Their ids must be new. Empty when they may be spliced in."""
+    ids = tuple(mission_ids)
+    if event:
+        answer = Trigger.model_construct(id="__planned__", when="true", steps=steps, once=True, preempt=True)
+        revision = plan.model_copy(update={"steps": [], "triggers": [answer], "dependencies": {}})
+    else:
+        revision = plan.model_copy(update={"steps": steps, "triggers": [], "dependencies": {}})
+    taken = set(ids)
+    reused = [f"step id {site.step.id!r} is already in the mission: use a new id" for site in iter_steps(revision)
+              if site.step.id in taken]  # fmt: skip
+    checker = _Checker(revision, SourceMap("<revision>"), tools, ids)
+    return reused + [p.message for p in checker.run()]
 
 
 def _line_col(raw: bytes, index: int) -> tuple[int, int]:

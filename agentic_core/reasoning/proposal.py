@@ -13,11 +13,16 @@ person's.
 from __future__ import annotations
 
 import json
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..mission.model import Step
+from .llm import ChatRequest
+
+if TYPE_CHECKING:
+    from .model_reasoners import StructuredChat
 
 
 class Proposal(BaseModel):
@@ -27,6 +32,36 @@ class Proposal(BaseModel):
 
     steps: list[Step] = Field(default_factory=list, description="mission steps, in the mission file's format")
     rationale: str = Field(default="", description="why these steps")
+
+
+def ask(
+    client: StructuredChat,
+    request: ChatRequest,
+    entry: dict[str, Any],
+    record: Callable[[dict[str, Any]], None] | None = None,
+) -> list[dict[str, Any]] | None:
+    """Ask ``client`` for a :class:`Proposal`; report the exchange (``entry`` plus model, status, latency,
+    tokens, outcome, rationale, steps) to ``record``; the proposed steps as mission-file data, or None when the
+    model failed, refused or proposed nothing."""
+    result = client.chat_structured_sync(request, Proposal)
+    entry = {
+        **entry,
+        "model": client.model,
+        "status": result.status,
+        "latency_s": result.latency_s,
+        "tokens": result.usage.prompt_tokens + result.usage.completion_tokens,
+    }
+    proposal = result.parsed if result.ok and isinstance(result.parsed, Proposal) else None
+    steps: list[dict[str, Any]] = []
+    if proposal is None:
+        entry["outcome"] = f"no proposal: {result.error or result.status}"
+    else:
+        steps = [s.model_dump(mode="json", by_alias=True, exclude_none=True) for s in proposal.steps]
+        entry.update(outcome=f"{len(steps)} step(s) proposed" if steps else "nothing proposed", steps=steps,
+                     rationale=proposal.rationale)  # fmt: skip
+    if record is not None:
+        record(entry)
+    return steps or None
 
 
 def proposal_json_schema() -> dict[str, Any]:
@@ -39,4 +74,4 @@ def schema_text() -> str:
     return json.dumps(proposal_json_schema(), indent=2) + "\n"
 
 
-__all__ = ["Proposal", "proposal_json_schema", "schema_text"]
+__all__ = ["Proposal", "ask", "proposal_json_schema", "schema_text"]

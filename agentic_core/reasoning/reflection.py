@@ -4,7 +4,8 @@ prompt; the steps it proposes come back as a :class:`Proposal` for the mission r
 The runtime checks a revision exactly like a mission file (actions, tools against the catalogue, expressions,
 geofence, altitude) and refuses it otherwise — logged as ``revision rejected`` with the reasons, after which the
 mission aborts safely (the aircraft holds). A model that fails, refuses, or proposes nothing gives up the same
-way. Every exchange is reported to ``record`` (the run's trace), refusals included.
+way. Every exchange is reported to ``record`` (the run's trace), refusals included. The error text comes from a
+tool, so it reaches the prompt fenced by the injection guard (``tools.security.wrap_untrusted``).
 """
 
 from __future__ import annotations
@@ -14,12 +15,13 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import prompts
+from tools.security import wrap_untrusted
 
 from ..mission.compile import Failure
 from ..mission.model import PolicyGraph
 from .llm import ChatRequest, Message
 from .model_reasoners import StructuredChat
-from .proposal import Proposal
+from .proposal import ask
 
 
 class LLMReflector:
@@ -48,7 +50,7 @@ class LLMReflector:
             goal=self.plan.goal,
             limits=json.dumps(limits, ensure_ascii=False),
             step=failure.step.model_dump_json(by_alias=True, exclude_none=True),
-            error=failure.error,
+            error=wrap_untrusted(failure.error, source=f"the error of step {failure.step.id}"),
             done=", ".join(sorted(k for k, v in status.items() if v == "ok")) or "none",
             attempt=self.attempts,
             max_attempts=self.max_attempts,
@@ -57,28 +59,7 @@ class LLMReflector:
 
     def __call__(self, failure: Failure) -> list[dict[str, Any]] | None:
         self.attempts += 1
-        result = self.client.chat_structured_sync(self.request(failure), Proposal)
-        entry: dict[str, Any] = {
-            "step": failure.step.id,
-            "error": failure.error,
-            "model": self.client.model,
-            "status": result.status,
-            "latency_s": result.latency_s,
-            "tokens": result.usage.prompt_tokens + result.usage.completion_tokens,
-        }
-        proposal = result.parsed if result.ok and isinstance(result.parsed, Proposal) else None
-        if proposal is None:
-            entry["outcome"] = f"no revision: {result.error or result.status}"
-        else:
-            entry["outcome"] = f"{len(proposal.steps)} step(s) proposed" if proposal.steps else "gave up"
-            entry["rationale"] = proposal.rationale
-            entry["steps"] = [s.model_dump(mode="json", by_alias=True, exclude_none=True) for s in proposal.steps]
-        if self.record is not None:
-            self.record(entry)
-        if proposal is None or not proposal.steps:
-            return None
-        steps: list[dict[str, Any]] = entry["steps"]
-        return steps
+        return ask(self.client, self.request(failure), {"step": failure.step.id, "error": failure.error}, self.record)
 
 
 __all__ = ["LLMReflector"]

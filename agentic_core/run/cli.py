@@ -33,7 +33,17 @@ def build_parser() -> argparse.ArgumentParser:
         "--llm", metavar="SPEC", help="the model for llm/hybrid, e.g. openai:gpt-4o (or AGENTIC_UAV_LLM)"
     )
     parser.add_argument("--speed", type=parse_speed, default=None, help="times real time, or max (default max)")
-    parser.add_argument("--decline", action="store_true", help="answer operator approvals with no (default yes)")
+    parser.add_argument(
+        "--approval",
+        choices=("approve", "decline", "ask"),
+        default=None,
+        help="steps that need an operator's yes: approve or decline them all (headless), or ask at the terminal, "
+        "the mission paused until the answer (default approve)",
+    )
+    parser.add_argument("--decline", action="store_true", help="the same as --approval decline")
+    parser.add_argument(
+        "--approval-timeout-s", type=float, default=120.0, help="with --approval ask: no answer in this long declines"
+    )
     parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where run folders go (default runs)")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="set a mission parameter")
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulation and the detector (default 0)")
@@ -56,6 +66,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{PROG}: error: --param takes NAME=VALUE, got {item!r}", file=sys.stderr)
             return 2
         params[name.strip()] = value.strip()
+    if args.decline and args.approval not in (None, "decline"):
+        print(f"{PROG}: error: --decline contradicts --approval {args.approval}", file=sys.stderr)
+        return 2
     if args.scene is not None and not args.scene.is_file():
         print(f"{PROG}: error: {args.scene}: no such scene file", file=sys.stderr)
         return 2
@@ -66,7 +79,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             reasoner=args.reasoner,
             llm=args.llm,
             speed=args.speed,
-            approve=not args.decline,
+            approval=args.approval or ("decline" if args.decline else "approve"),
+            approval_timeout_s=args.approval_timeout_s,
             runs_dir=args.runs_dir,
             params=params,
             seed=args.seed,

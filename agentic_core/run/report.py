@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from flight.sim.scene_model import Scene
 
-TIMELINE_KINDS = ("run", "step", "trigger", "decision", "approval", "alert", "reflection", "abort")
+TIMELINE_KINDS = ("run", "step", "trigger", "decision", "plan", "approval", "alert", "reflection", "refusal", "abort")
 
 
 class TrackPoint(BaseModel):

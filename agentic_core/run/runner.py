@@ -5,7 +5,11 @@ simulated camera over the mission's scene, the detector, the tracker and the Wor
 onto the graph runtime with a SQLite checkpointer; every action goes through the tools executor — ``flight.*``
 over the agent's MAVLink client, ``alerts.notify`` to SMTP or the run's outbox, ``perception.analyze_scene`` to the
 reasoner. A trigger's condition is the tier-1 rule; before its sub-plan runs, the reasoner assesses the event
-(tier 2) and only a ``high`` or ``critical`` assessment lets it act. Everything lands in ``runs/<run-id>/``:
+(tier 2) and only a ``high`` or ``critical`` assessment lets it act. With a model (``llm``, ``hybrid``) a trigger
+marked ``plan: reasoner`` gets the model's response plan, checked like a mission file and by
+:func:`~agentic_core.run.plan_review.review` (scopes, approvals), and the model reflects on failed steps. Steps
+marked ``approval`` are answered by the headless policy, or (``approval="ask"``) the mission graph pauses on an
+``interrupt``, the operator answers, and the graph resumes from its SQLite checkpoint. Everything lands in ``runs/<run-id>/``:
 ``trace.jsonl``, ``world_models.jsonl``, ``audit.jsonl``, ``alerts/`` and ``report.md`` with ``trajectory.png``.
 """
 
@@ -14,11 +18,10 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
-
-from pydantic import BaseModel, ConfigDict, Field
 
 from flight.camera import CameraSpec
 from flight.mavlink import MavlinkVehicle
@@ -30,12 +33,13 @@ from flight.sim.scene_model import Scene
 from flight.sim.simulator import VehicleState
 from flight.tools import register_flight_tools
 from flight.vehicle import VehicleClient
-from tools import Caller, ToolError, ToolExecutor, ToolRegistry, ToolResult
+from tools import ToolError, ToolExecutor, ToolRegistry, ToolResult
 from tools.audit import JsonlAuditLog
 from tools.builtin import register_builtins
 from tools.builtin.config import BuiltinConfig
 from tools.function import spec_from_function
 
+from ..graph import Command
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
 from ..mission.compile import Reflector, abort_reflector, parse_param
@@ -43,25 +47,27 @@ from ..mission.functions import MISSING, get_field
 from ..mission.model import PolicyGraph, Trigger
 from ..mission.steps import scope
 from ..mission.validate import load_mission
-from ..reasoning.assessment import Decision
+from ..reasoning.assessment import Assessment, Decision
+from ..reasoning.model_reasoners import StructuredChat
+from ..reasoning.planning import LLMPlanner
 from ..reasoning.reasoners import Reasoner, make_reasoner
 from ..reasoning.reflection import LLMReflector
 from .attachments import materialize
+from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
+from .plan_review import review
 from .report import RunSummary, TrackPoint, write_report
+from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .trace import TraceWriter
-
-AGENT = Caller(
-    id="agent",
-    scopes=frozenset(
-        {"flight:command", "flight:payload", "flight:read", "alerts:send", "weather:read", "incidents:read"}
-        | {"incidents:write", "perception:read"}
-    ),
-)
-"""The mission's caller: every scope the built-in, flight and perception tools ask for."""
 
 ACT_AT = ("high", "critical")
 """Assessments that let a trigger's sub-plan run."""
+
+REFUSALS = frozenset({"plan rejected", "revision rejected", "plan failed", "not fired"})
+"""Mission log entries that refuse a model's plan (or a firing): traced as ``refusal`` with every reason."""
+
+MISSION_EVENTS = frozenset({"fired", "declined", "planned", "plan empty", "replaced", "reflection gave up"})
+"""Other mission log entries worth a trace line."""
 
 WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
 """Long flight actions during which the triggers are watched: a leg is stopped when one holds for someone new."""
@@ -76,53 +82,21 @@ class Interrupted:
     error: str | None = None
 
 
-class RunSettings(BaseModel):
-    """Everything a run is told; the defaults are the embedded ones (rules reasoner, simulated vehicle)."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    mission: Path
-    scene: Path | None = Field(default=None, description="default: scenes/<mission name>.yaml when it exists")
-    reasoner: str = "rules"
-    llm: str | None = None
-    speed: float | None = Field(default=None, description="times real time; None: as fast as it goes")
-    approve: bool = Field(default=True, description="headless answer to operator approvals")
-    runs_dir: Path = Path("runs")
-    params: dict[str, str] = Field(default_factory=dict)
-    seed: int = 0
-    camera_hz: float = Field(default=30.0, gt=0, le=120, description="frames per second of the simulated camera")
-    max_wall_s: float = Field(default=900.0, gt=0, description="give up (and land) after this much wall time")
-
-
-class RunError(Exception):
-    """A run that cannot start: a bad mission, scene or option. The message names the file and field."""
-
-
-@dataclass
-class RunResult:
-    run_id: str
-    run_dir: Path
-    report: Path
-    summary: RunSummary
-    final_state: dict[str, Any] = field(default_factory=dict)
-    track: list[TrackPoint] = field(default_factory=list)
-
-
-def default_scene(mission: Path) -> Path | None:
-    """``scenes/<mission stem>.yaml`` beside the mission's folder or in the working directory, if it exists."""
-    for root in (mission.resolve().parent.parent, Path.cwd()):
-        candidate = root / "scenes" / f"{mission.stem}.yaml"
-        if candidate.is_file():
-            return candidate
-    return None
-
-
 class MissionRun:
     """One run: builds the vehicle, perception, tools and mission; :meth:`execute` flies it."""
 
-    def __init__(self, settings: RunSettings, *, progress: TextIO | None = None) -> None:
+    def __init__(
+        self,
+        settings: RunSettings,
+        *,
+        progress: TextIO | None = None,
+        operator: Callable[[dict[str, Any]], OperatorAnswer] | None = None,
+    ) -> None:
         self.settings = settings
         self.progress = progress
+        if settings.approval == "ask" and operator is None:
+            operator = TerminalOperator(sys.stdin, progress or sys.stderr, timeout_s=settings.approval_timeout_s)
+        self.operator = operator
         stamp = time.strftime("%Y%m%d-%H%M%S")
         self.run_id = f"{stamp}-{settings.mission.stem}-{settings.reasoner}"
         self.run_dir = settings.runs_dir / self.run_id
@@ -145,6 +119,7 @@ class MissionRun:
         self._alert_sent_s: float | None = None
         self._lock = threading.Lock()
         self._verdicts: dict[tuple[str, str | None], bool] = {}  # (trigger, object) -> act? (the reasoner asked once)
+        self._assessments: dict[tuple[str, str | None], Assessment | None] = {}  # what the verdicts rest on
         self._pending: tuple[str, str | None] | None = None  # approved while flying, not yet taken up by the mission
         self._subplan = False  # a trigger's sub-plan is running: its own flight actions are not interrupted
         self.decisions = 0
@@ -168,12 +143,20 @@ class MissionRun:
         self.executor = ToolExecutor(
             self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=AGENT
         )
+        client = self._model_client()
+        self.planner = (
+            LLMPlanner(client, self.plan, self._tools_for_plans(), record=self._exchange("plan"))
+            if client is not None
+            else None
+        )
         self.env = Environment(
             dispatch=self._dispatch,
             vehicle=self._vehicle_view,
             world=lambda: self.loop.world if self.loop else {"objects": [], "relations": []},
-            approve=self._approve,
+            approve=None if settings.approval == "ask" else self._approve,
             gate=self._gate,
+            planner=self._plan if self.planner is not None else None,
+            review=lambda steps: review(steps, self.registry, AGENT),
         )
 
     # ---- set-up ----
@@ -267,6 +250,7 @@ class MissionRun:
         decision = self._decide(focus, f"trigger {trigger.id}")
         act = decision.assessment is not None and decision.assessment.severity in ACT_AT
         self._verdicts[key] = act
+        self._assessments[key] = decision.assessment
         self.trace.write("trigger", trigger=trigger.id, event=focus, act=act,
                          summary=f"{trigger.id} on {focus}: {'act' if act else 'no action'}")  # fmt: skip
         return act
@@ -345,14 +329,41 @@ class MissionRun:
                     return trigger, event
         return None
 
-    def _reflector(self) -> Reflector:
-        """A model's reflection when the reasoner has a model (llm, hybrid); else the default, which aborts."""
-        client = getattr(self.reasoner, "client", None) or getattr(
+    def _model_client(self) -> StructuredChat | None:
+        """The reasoner's model client (llm, hybrid), which also plans and reflects; None for yolo and rules."""
+        client: StructuredChat | None = getattr(self.reasoner, "client", None) or getattr(
             getattr(self.reasoner, "model", None), "client", None
         )
+        return client
+
+    def _reflector(self) -> Reflector:
+        """A model's reflection when the reasoner has a model (llm, hybrid); else the default, which aborts."""
+        client = self._model_client()
         if client is None:
             return abort_reflector
-        return LLMReflector(client, self.plan, record=lambda entry: self.trace.write("reflection", **entry))
+        return LLMReflector(client, self.plan, record=self._exchange("reflection"))
+
+    def _exchange(self, kind: str) -> Callable[[dict[str, Any]], None]:
+        """Traces one plan or reflection asked of the model, with a one-line summary for the timeline."""
+
+        def record(entry: dict[str, Any]) -> None:
+            self.trace.write(kind, **entry, summary=f"{entry.get('model')}: {entry.get('outcome')}")
+            self._say(f"{kind} by {entry.get('model')}: {entry.get('outcome')}")
+
+        return record
+
+    def _tools_for_plans(self) -> list[Any]:
+        """The tools a model's plan may name: those the agent holds every scope of."""
+        return [
+            self.registry.describe(n) for n in self.registry.names() if not AGENT.missing(self.registry.get(n).scopes)
+        ]
+
+    def _plan(self, trigger: Trigger, event: Any) -> list[dict[str, Any]] | None:
+        """The model's response plan for an event a trigger fired on (``plan: reasoner``); the mission checks it."""
+        assert self.planner is not None
+        assessment = self._assessments.get((trigger.id, _object_id(event)))
+        self._say(f"planning the response to {trigger.id} on {_object_id(event)}")
+        return self.planner(assessment, event)
 
     def _position(self) -> dict[str, Any] | None:
         view = self._vehicle_view()
@@ -366,10 +377,31 @@ class MissionRun:
         }
 
     def _approve(self, request: dict[str, Any]) -> bool:
-        self.trace.write("approval", request=request, answer=self.settings.approve,
-                         summary=f"{request.get('step')}: {'approved' if self.settings.approve else 'declined'} "
-                         "(headless policy)")  # fmt: skip
-        return self.settings.approve
+        approved = self.settings.approval == "approve"
+        verdict = "approved" if approved else "declined"
+        self.trace.write("approval", request=request, answer=approved, via="policy",
+                         summary=f"{request.get('step')}: {verdict} (headless policy)")  # fmt: skip
+        return approved
+
+    def _ask_operator(self, request: dict[str, Any]) -> bool:
+        """An approval the mission paused for: the operator answers while the simulation runs at real time at
+        most, so the aircraft hovers (and its battery drains) for as long as the real wait."""
+        assert self.operator is not None
+        self._say(f"waiting for the operator: {request.get('question')}")
+        fast = self.settings.speed is None or self.settings.speed > 1.0
+        if fast:
+            self.vehicle.stop()
+            self.vehicle.start(speed=1.0)
+        try:
+            answer = self.operator(request)
+        finally:
+            if fast:
+                self.vehicle.stop()
+                self.vehicle.start(speed=self.settings.speed)
+        self.trace.write("approval", request=request, answer=answer.approved, via="operator", said=answer.said,
+                         summary=f"{request.get('step')}: {answer.why}")  # fmt: skip
+        self._say(f"{request.get('step')}: {answer.why}")
+        return answer.approved
 
     def _say(self, text: str) -> None:
         if self.progress is not None:
@@ -392,16 +424,20 @@ class MissionRun:
                     self.plan, self.env, checkpointer=saver, reflector=self._reflector(), tools=self.registry
                 )
                 config = {"configurable": {"thread_id": self.run_id}, "recursion_limit": 10_000}
-                for update in graph.stream(initial_state(self.plan, self.params), config, stream_mode="updates"):
-                    if time.monotonic() - wall0 > self.settings.max_wall_s:
-                        over = True
+                inputs: Any = initial_state(self.plan, self.params)
+                while not over:
+                    for update in graph.stream(inputs, config, stream_mode="updates"):
+                        if time.monotonic() - wall0 > self.settings.max_wall_s:
+                            over = True
+                            break
+                        for node, change in update.items():
+                            if isinstance(change, dict):
+                                self._follow(node, change)
+                    pending = graph.get_state(config).interrupts
+                    if over or not pending:
                         break
-                    for node, change in update.items():
-                        if isinstance(change, dict) and "preempted_by" in change:
-                            self._subplan = bool(change["preempted_by"])
-                        for step, status in ((change or {}).get("status") or {}).items():
-                            self.trace.write("step", node=node, step=step, status=status,
-                                             summary=f"{step} {status}")  # fmt: skip
+                    # a step waits for the operator: ask, then resume the graph from its checkpoint
+                    inputs = Command(resume={i.id: self._ask_operator(dict(i.value)) for i in pending})
                 final = dict(graph.get_state(config).values)
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
@@ -421,6 +457,20 @@ class MissionRun:
         self.trace.close()
         return RunResult(self.run_id, self.run_dir, report, summary, final, list(self.track))
 
+    def _follow(self, node: str, change: dict[str, Any]) -> None:
+        """Trace what one node changed: step statuses, and the mission's log of triggers, plans and refusals."""
+        if "preempted_by" in change:
+            self._subplan = bool(change["preempted_by"])
+        for step, status in (change.get("status") or {}).items():
+            self.trace.write("step", node=node, step=step, status=status, summary=f"{step} {status}")
+        for entry in change.get("log") or []:
+            status = str(entry.get("status"))
+            if status in REFUSALS:
+                self.trace.write("refusal", **entry, summary=f"{entry.get('step')}: {status}: {entry.get('error')}")
+                self._say(f"{entry.get('step')}: {status}: {entry.get('error')}")
+            elif status in MISSION_EVENTS:
+                self.trace.write("mission", **entry, summary=f"{entry.get('step')}: {status}")
+
     def _finish(self) -> None:
         self.trace.write("run", event="end", summary="end")
         self.executor.close()
@@ -429,6 +479,7 @@ class MissionRun:
 
     def _summary(self, outcome: str, wall_s: float) -> RunSummary:
         decisions = self.trace.of_kind("decision")
+        exchanges = self.trace.of_kind("plan") + self.trace.of_kind("reflection")  # one model call each
         alerts = sorted(str(p) for p in self.alerts_dir.glob("*") if p.is_file()) if self.alerts_dir.exists() else []
         return RunSummary(
             run_id=self.run_id,
@@ -440,8 +491,9 @@ class MissionRun:
             wall_duration_s=wall_s,
             alerts=alerts,
             decisions=len(decisions),
-            llm_calls=sum(int(d.get("llm_calls", 0)) for d in decisions),
-            tokens=sum(int(d.get("prompt_tokens", 0)) + int(d.get("completion_tokens", 0)) for d in decisions),
+            llm_calls=sum(int(d.get("llm_calls", 0)) for d in decisions) + len(exchanges),
+            tokens=sum(int(d.get("prompt_tokens", 0)) + int(d.get("completion_tokens", 0)) for d in decisions)
+            + sum(int(e.get("tokens", 0)) for e in exchanges),
             frames=self.loop.frames if self.loop else 0,
             perception_ms_per_frame=1000 * self.loop.busy_s / self.loop.frames
             if self.loop and self.loop.frames
@@ -459,9 +511,14 @@ def _object_id(event: Any) -> str | None:
     return None if found is MISSING else str(found)
 
 
-def run_mission(settings: RunSettings, progress: TextIO | None = sys.stderr) -> RunResult:
-    """Build and fly one run (see the module docstring); raises :class:`RunError` for bad input."""
-    return MissionRun(settings, progress=progress).execute()
+def run_mission(
+    settings: RunSettings,
+    progress: TextIO | None = sys.stderr,
+    operator: Callable[[dict[str, Any]], OperatorAnswer] | None = None,
+) -> RunResult:
+    """Build and fly one run (see the module docstring); raises :class:`RunError` for bad input. ``operator``
+    answers approvals when ``settings.approval`` is ``ask`` (default: the terminal)."""
+    return MissionRun(settings, progress=progress, operator=operator).execute()
 
 
 __all__ = ["AGENT", "MissionRun", "RunError", "RunResult", "RunSettings", "default_scene", "run_mission"]

@@ -33,7 +33,8 @@ def test_every_template_renders_with_its_own_placeholders(name: str) -> None:
     text = prompts.template(name)
     names = set(re.findall(r"\$\{(\w+)\}", text))
     rendered = prompts.render(name, **{n: f"<{n}>" for n in names})
-    assert "${" not in rendered and all(f"<{n}>" in rendered for n in names)
+    literal = text.count("$${")  # a mission template written out for the model, ${event.id} say
+    assert rendered.count("${") == literal and all(f"<{n}>" in rendered for n in names)
 
 
 def test_a_missing_value_or_an_unknown_name_is_a_clear_error() -> None:

@@ -190,7 +190,7 @@ triggers:
         reflector=lambda failure: [{"id": "help", "action": "hover", "args": {"duration_s": 2}}],
     )
     assert out["halt"] == "abort"
-    assert any("reuse ids already in the mission: help" in str(e.get("error")) for e in out["log"])
+    assert any("step id 'help' is already in the mission" in str(e.get("error")) for e in out["log"])
 
 
 def test_dependencies_given_for_trigger_steps_are_kept() -> None:

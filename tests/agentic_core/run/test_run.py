@@ -14,12 +14,15 @@ from typing import Any
 import pytest
 
 from agentic_core.cli import main
-from agentic_core.run.runner import RunResult, RunSettings, run_mission
+from agentic_core.run.operator import OperatorAnswer
+from agentic_core.run.runner import MissionRun, RunResult, RunSettings, run_mission
 from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
 from tests.tools.builtin.conftest import Inbox, _start
+from tools import ToolSpec
 
-from ..reasoning.llm.standin import StandIn, openai_completion
+from ..reasoning.llm.standin import StandIn
+from .scripted_model import EMERGENCY_PLAN, ScriptedModel
 
 REPO = Path(__file__).resolve().parents[3]
 SCENES = Path(__file__).parent / "scenes"
@@ -97,9 +100,17 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     assert "Casualty P-12 (ground truth): first detected at" in report and "alert sent at" in report
 
 
-def test_the_normal_scene_brings_no_intervention(tmp_path: Path) -> None:
-    """The emergency mission over normal activity: people resting in the shade are not casualties."""
-    result = fly(tmp_path, EMERGENCY, "small_normal", camera_hz=15.0)
+def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) -> None:
+    """The emergency mission over normal activity with the llm reasoner: the model reads each scan's World Model
+    and sees no one in distress (people resting in the shade are not casualties), so nothing is planned."""
+    model = ScriptedModel()
+    with StandIn(responder=model) as server:
+        result = fly(
+            tmp_path, EMERGENCY, "small_normal", reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1",
+            camera_hz=15.0,
+        )  # fmt: skip
+    assert model.asked["Assessment"] >= 2 and model.asked["Proposal"] == 0
+    assert all(d["reasoner"] == "llm:m" for d in records(result, "decision"))
     tools = tools_called(result)
     assert "alerts.notify" not in tools and "flight.land" not in tools and "flight.deploy_payload" not in tools
     assert tools[-1] == "flight.rtl" and result.summary.outcome == "completed"
@@ -113,36 +124,89 @@ def test_the_patrol_mission_runs_and_logs_crowd_density(tmp_path: Path) -> None:
     assert result.summary.outcome == "completed" and "flight.land" not in tools
 
 
-def test_a_declined_landing_sends_the_aircraft_home_without_dropping_the_kit(tmp_path: Path) -> None:
-    result = fly(tmp_path, EMERGENCY, "small_emergency", approve=False, camera_hz=15.0)
+def test_the_operator_is_asked_and_a_no_sends_the_aircraft_home_without_dropping_the_kit(tmp_path: Path) -> None:
+    """--approval ask: the mission graph pauses at the landing (interrupt), the operator says no, the graph resumes
+    from its checkpoint and the sub-plan skips what depended on the landing."""
+    asked: list[dict[str, Any]] = []
+
+    def operator(request: dict[str, Any]) -> OperatorAnswer:
+        asked.append(request)
+        return OperatorAnswer(False, "n", "the operator declined")
+
+    settings = RunSettings(
+        mission=EMERGENCY, scene=SCENES / "small_emergency.yaml", runs_dir=tmp_path / "runs", params={"rounds": "1"},
+        approval="ask", camera_hz=15.0,
+    )  # fmt: skip
+    result = run_mission(settings, progress=None, operator=operator)
     tools = tools_called(result)
+    assert [r["step"] for r in asked] == ["land_near"] and asked[0]["args"]["target_id"].startswith("P-")
     assert "alerts.notify" in tools and "flight.land" not in tools and "flight.deploy_payload" not in tools
-    assert [r for r in records(result, "approval") if r["answer"] is False]
-    assert tools[-1] == "flight.rtl"
+    (approval,) = records(result, "approval")
+    assert approval["via"] == "operator" and approval["answer"] is False and approval["said"] == "n"
+    assert tools[-1] == "flight.rtl" and result.summary.outcome == "completed"
 
 
-def test_the_hybrid_reasoner_consults_the_model_only_on_the_critical_event(tmp_path: Path) -> None:
-    answer = {
-        "persons_detected": 1, "confidence": 0.9, "severity": "critical",
-        "surrounding_features": "A pilgrim lying motionless on open ground, far from the flow of the crowd.",
-        "recommended_actions": ["deploy_rescue_kit", "alert_medical_team"], "rationale": "collapsed",
-    }  # fmt: skip
-    with StandIn() as server:
-        server.script(*[openai_completion(json.dumps(answer)) for _ in range(6)])
+def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Path, smtp: Any) -> None:
+    """--reasoner llm: every assessment is the model's, and on the event the model writes the response plan,
+    which passes the checks and is flown: approach, watch, confirm, alert, land beside, drop the kit, home."""
+    model = ScriptedModel()
+    with StandIn(responder=model) as server:
         result = fly(
-            tmp_path,
-            EMERGENCY,
-            "small_emergency",
-            reasoner="hybrid",
-            llm=f"openai-compatible:m@{server.url}/v1",
+            tmp_path, EMERGENCY, "small_emergency", reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1",
             camera_hz=15.0,
+        )  # fmt: skip
+        requests = len(server.bodies())
+    decisions = records(result, "decision")
+    assert decisions and all(d["reasoner"] == "llm:m" and d["llm_calls"] == 1 for d in decisions)
+    (plan,) = records(result, "plan")
+    assert plan["status"] == "ok" and [s["id"] for s in plan["steps"]] == [s["id"] for s in EMERGENCY_PLAN]
+    assert '"severity":"high"' in model.plan_prompts[0].replace(" ", "") and "incidents.log(" in model.plan_prompts[0]
+    (planned,) = [r for r in records(result, "mission") if r["status"] == "planned"]
+    assert planned["by"] == [s["id"] for s in EMERGENCY_PLAN] and not records(result, "refusal")
+    steps = {r["step"]: r["status"] for r in records(result, "step")}
+    assert all(steps.get(s["id"]) == "ok" for s in EMERGENCY_PLAN), steps
+    assert "approach" not in steps  # the mission's own steps were not needed
+    tools = tools_called(result)
+    for earlier, later in [("alerts.notify", "flight.deploy_payload"), ("flight.land", "flight.deploy_payload")]:
+        assert tools.index(earlier) < tools.index(later), tools
+    assert [r["request"]["step"] for r in records(result, "approval")] == ["land_beside", "drop_kit"]
+    (envelope,) = smtp.inbox.envelopes
+    assert email.message_from_bytes(envelope.content)["Subject"].startswith("Casualty at 21.41")
+    assert result.summary.llm_calls == requests == sum(model.asked.values()) and model.asked["Proposal"] == 1
+
+
+def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan_beyond_its_scopes(
+    tmp_path: Path,
+) -> None:
+    """Hybrid: the rules read every frame and the model is consulted on the critical event only. Its plan calls a
+    tool the agent holds no scope for (and lands unasked): refused before any of it flies, with every reason in
+    the trace, and the mission's own steps answer the event instead."""
+    greedy = [
+        {"id": "unlock", "action": "call_tool", "tool": "payload.override_interlock", "args": {}},
+        {"id": "drop_now", "action": "land", "depends_on": ["unlock"], "args": {"target_id": "${event.id}"}},
+    ]
+    model = ScriptedModel(greedy)
+    with StandIn(responder=model) as server:
+        settings = RunSettings(
+            mission=EMERGENCY, scene=SCENES / "small_emergency.yaml", runs_dir=tmp_path / "runs",
+            params={"rounds": "1"}, reasoner="hybrid", llm=f"openai-compatible:m@{server.url}/v1", camera_hz=15.0,
+        )  # fmt: skip
+        run = MissionRun(settings)
+        forbidden = ToolSpec.from_schema(
+            "payload.override_interlock", lambda args: "unlocked", {"type": "object"}, scopes=["payload:override"]
         )
+        run.registry.register(forbidden)
+        result = run.execute()
         calls = len(server.bodies())
     decisions = records(result, "decision")
-    assert 1 <= calls <= 3 and sum(d["llm_calls"] for d in decisions) == calls
     assert any(d["cached"] or not d["escalated"] for d in decisions)  # most assessments never reached the model
-    assert "flight.deploy_payload" in tools_called(result)
-    assert result.summary.llm_calls == calls
+    assert model.asked["Proposal"] == 1 and 2 <= calls <= 4
+    assert sum(d["llm_calls"] for d in decisions) + 1 == calls == result.summary.llm_calls
+    (refusal,) = records(result, "refusal")
+    assert refusal["status"] == "plan rejected" and "payload:override" in refusal["error"]
+    assert "'drop_now': land must ask the operator first" in refusal["error"]
+    tools = tools_called(result)
+    assert "payload.override_interlock" not in tools and "flight.deploy_payload" in tools  # the playbook's kit drop
 
 
 @pytest.mark.parametrize(

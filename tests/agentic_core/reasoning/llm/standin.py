@@ -16,6 +16,7 @@ import json
 import re
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
@@ -330,8 +331,10 @@ class StandIn:
     401, which (unlike OpenAI, to test redaction) quotes the whole header value it got.
     """
 
-    def __init__(self, *, key: str | None = None) -> None:
+    def __init__(self, *, key: str | None = None, responder: Callable[[str, Any], Reply] | None = None) -> None:
         self.key = key
+        self.responder = responder
+        """Answers (path, body) once the scripted replies run out: a stand-in model that reads the request."""
         self.received: list[Received] = []
         self.released = threading.Event()
         self._replies: list[Reply] = []
@@ -372,9 +375,11 @@ class StandIn:
         else:
             return Reply(status=404, text="404 page not found")
         with self._lock:
-            if not self._replies:
-                return Reply(status=500, body={"error": "the stand-in has no scripted reply left"})
-            return self._replies.pop(0)
+            if self._replies:
+                return self._replies.pop(0)
+        if self.responder is not None:
+            return self.responder(path, body)
+        return Reply(status=500, body={"error": "the stand-in has no scripted reply left"})
 
     def start(self) -> StandIn:
         server = _Server(("127.0.0.1", 0), _Handler)

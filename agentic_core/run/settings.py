@@ -1,0 +1,72 @@
+"""What a run is told and what it gives back: :class:`RunSettings` (every option of ``agentic-uav run``, the
+embedded defaults), the agent's identity (:data:`AGENT`), :class:`RunResult` and :class:`RunError`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from tools import Caller
+
+from .report import RunSummary, TrackPoint
+
+AGENT = Caller(
+    id="agent",
+    scopes=frozenset(
+        {"flight:command", "flight:payload", "flight:read", "alerts:send", "weather:read", "incidents:read"}
+        | {"incidents:write", "perception:read"}
+    ),
+)
+"""The mission's caller: every scope the built-in, flight and perception tools ask for."""
+
+
+class RunSettings(BaseModel):
+    """Everything a run is told; the defaults are the embedded ones (rules reasoner, simulated vehicle)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    mission: Path
+    scene: Path | None = Field(default=None, description="default: scenes/<mission name>.yaml when it exists")
+    reasoner: str = "rules"
+    llm: str | None = None
+    speed: float | None = Field(default=None, description="times real time; None: as fast as it goes")
+    approval: Literal["approve", "decline", "ask"] = Field(
+        default="approve",
+        description="steps marked approval: answered by this policy (headless), or 'ask' the operator, pausing the "
+        "mission graph until they answer",
+    )
+    approval_timeout_s: float = Field(default=120.0, gt=0, description="'ask': no answer in this long declines")
+    runs_dir: Path = Path("runs")
+    params: dict[str, str] = Field(default_factory=dict)
+    seed: int = 0
+    camera_hz: float = Field(default=30.0, gt=0, le=120, description="frames per second of the simulated camera")
+    max_wall_s: float = Field(default=900.0, gt=0, description="give up (and land) after this much wall time")
+
+
+class RunError(Exception):
+    """A run that cannot start: a bad mission, scene or option. The message names the file and field."""
+
+
+@dataclass
+class RunResult:
+    run_id: str
+    run_dir: Path
+    report: Path
+    summary: RunSummary
+    final_state: dict[str, Any] = field(default_factory=dict)
+    track: list[TrackPoint] = field(default_factory=list)
+
+
+def default_scene(mission: Path) -> Path | None:
+    """``scenes/<mission stem>.yaml`` beside the mission's folder or in the working directory, if it exists."""
+    for root in (mission.resolve().parent.parent, Path.cwd()):
+        candidate = root / "scenes" / f"{mission.stem}.yaml"
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+__all__ = ["AGENT", "RunError", "RunResult", "RunSettings", "default_scene"]
