@@ -47,6 +47,9 @@ class RunSummary(BaseModel):
     decisions: int = 0
     llm_calls: int = 0
     tokens: int = 0
+    llm_calls_saved: int | None = Field(
+        default=None, description="hybrid: assessments answered without the model, each a call in the llm design"
+    )
     frames: int = 0
     perception_ms_per_frame: float | None = None
     casualties: list[str] = Field(default_factory=list, description="the scene's ground truth")
@@ -125,7 +128,8 @@ def write_report(
         f"- Reasoner: `{summary.reasoner}`",
         f"- Outcome: **{summary.outcome}**",
         f"- Duration: {summary.sim_duration_s:.1f} s simulated in {summary.wall_duration_s:.1f} s",
-        f"- Decisions: {summary.decisions}; model calls: {summary.llm_calls} ({summary.tokens} tokens)",
+        f"- Decisions: {summary.decisions}; model calls: {summary.llm_calls} ({summary.tokens} tokens)"
+        + (f"; {summary.llm_calls_saved} saved by the hybrid design" if summary.llm_calls_saved is not None else ""),
     ]
     if summary.frames:
         per_frame = f", {summary.perception_ms_per_frame:.2f} ms each" if summary.perception_ms_per_frame else ""

@@ -9,8 +9,9 @@ reasoner. A trigger's condition is the tier-1 rule; before its sub-plan runs, th
 marked ``plan: reasoner`` gets the model's response plan, checked like a mission file and by
 :func:`~agentic_core.run.plan_review.review` (scopes, approvals), and the model reflects on failed steps. Steps
 marked ``approval`` are answered by the headless policy, or (``approval="ask"``) the mission graph pauses on an
-``interrupt``, the operator answers, and the graph resumes from its SQLite checkpoint. Everything lands in ``runs/<run-id>/``:
-``trace.jsonl``, ``world_models.jsonl``, ``audit.jsonl``, ``alerts/`` and ``report.md`` with ``trajectory.png``.
+``interrupt``, the operator answers, and the graph resumes from its SQLite checkpoint. Everything lands in
+``runs/<run-id>/``: ``trace.jsonl``, ``world_models.jsonl``, ``audit.jsonl``, ``alerts/`` and ``report.md`` with
+``trajectory.png``.
 """
 
 from __future__ import annotations
@@ -494,6 +495,7 @@ class MissionRun:
             llm_calls=sum(int(d.get("llm_calls", 0)) for d in decisions) + len(exchanges),
             tokens=sum(int(d.get("prompt_tokens", 0)) + int(d.get("completion_tokens", 0)) for d in decisions)
             + sum(int(e.get("tokens", 0)) for e in exchanges),
+            llm_calls_saved=getattr(self.reasoner, "saved", None),
             frames=self.loop.frames if self.loop else 0,
             perception_ms_per_frame=1000 * self.loop.busy_s / self.loop.frames
             if self.loop and self.loop.frames

@@ -65,6 +65,9 @@ DEFINITIONS: dict[str, str] = {
     "false_alarm_rate": "records of scenes without a casualty assessed high or critical / those records",
     "missed_casualty_rate": "records of scenes with a casualty not assessed high or critical / those records",
     "intervention_rate": "records with a time to intervention / records in which a casualty came into view",
+    "model_calls": "model calls over every episode (assessments, repairs included) beside the assessments made; "
+    "saved (hybrid): assessments answered by the rules alone or from an identical earlier situation, each a model "
+    "call in the llm design",
     "time_to_intervention": "simulation time from a casualty's first frame in view to the first critical decision "
     "naming it (its subject's track within the match gate): mean, median, max over the records that have one",
 }
@@ -99,6 +102,9 @@ class SystemMetrics(BaseModel):
     time_to_intervention_mean_s: float | None
     time_to_intervention_median_s: float | None
     time_to_intervention_max_s: float | None
+    assessments: int = 0
+    model_calls: int = 0
+    model_calls_saved: int | None = None
 
 
 class CampaignMetrics(BaseModel):
@@ -142,6 +148,8 @@ def system_metrics(name: str, records: Sequence[DecisionRecord]) -> SystemMetric
     seen = [r for r in records if r.casualty_in_view]
     tti = [r.time_to_intervention_s for r in records if r.time_to_intervention_s is not None]
     persons = sum(r.person_detected for r in records)
+    assessments = sum(r.assessments for r in records)
+    calls = sum(r.episode_llm_calls for r in records)
     return SystemMetrics(
         system=name,
         n=n,
@@ -169,6 +177,9 @@ def system_metrics(name: str, records: Sequence[DecisionRecord]) -> SystemMetric
         time_to_intervention_mean_s=statistics.fmean(tti) if tti else None,
         time_to_intervention_median_s=statistics.median(tti) if tti else None,
         time_to_intervention_max_s=max(tti) if tti else None,
+        assessments=assessments,
+        model_calls=calls,
+        model_calls_saved=assessments - calls if any(r.reasoner.startswith("hybrid") for r in records) else None,
     )
 
 
@@ -198,12 +209,18 @@ def render_markdown(metrics: CampaignMetrics) -> str:
         ("Missed casualties", [f"{_pct(s.missed_casualty_rate)} of {s.casualty_records}" for s in systems]),
         ("Interventions", [f"{_pct(s.intervention_rate)} of {s.casualty_in_view_records}" for s in systems]),
         ("Time to intervention (mean / median / max)", [_tti(s) for s in systems]),
+        ("Model calls / assessments (saved)", [_calls(s) for s in systems]),
     ]
     lines = ["# Campaign metrics", "", header, rule]
     lines += [f"| {label} | " + " | ".join(cells) + " |" for label, cells in rows]
     lines += ["", "Rates count every record of a system, failed ones included. Definitions:", ""]
     lines += [f"* **{name.replace('_', ' ')}**: {text}" for name, text in metrics.definitions.items()]
     return "\n".join(lines) + "\n"
+
+
+def _calls(s: SystemMetrics) -> str:
+    saved = f" ({s.model_calls_saved} saved)" if s.model_calls_saved is not None else ""
+    return f"{s.model_calls} / {s.assessments}{saved}"
 
 
 def _pct(value: float | None) -> str:

@@ -12,6 +12,7 @@ import pytest
 from agentic_core.cli import main as agentic_main
 from evaluation.campaign import read_records
 from evaluation.campaign.cli import main
+from evaluation.campaign.metrics import compute_metrics
 from flight.sim.scene_file import dump_scene
 from flight.sim.scene_gen import generate_scene
 from tests.agentic_core.reasoning.llm.standin import StandIn, openai_completion, openai_error
@@ -218,6 +219,15 @@ def test_hybrid_asks_the_model_only_about_the_casualty(
     assert casualty.escalated and casualty.llm_calls == 1 and casualty.severity == "critical"
     assert casualty.assessment is not None and casualty.assessment.rationale == CRITICAL["rationale"]
     assert len(standin.received) == 1
+    metrics = compute_metrics(records.values())
+    hybrid, rules = metrics.system("hybrid"), metrics.system("rules")
+    assert hybrid.model_calls == 1 and hybrid.model_calls_saved == hybrid.assessments - 1 > 0
+    assert rules.model_calls == 0 and rules.model_calls_saved is None
+    row = next(line for line in (out / "metrics.md").read_text().splitlines() if line.startswith("| Model calls"))
+    assert (
+        row == f"| Model calls / assessments (saved) | 0 / {rules.assessments} | 1 / {hybrid.assessments} "
+        f"({hybrid.assessments - 1} saved) |"
+    )
 
 
 def test_generated_scenes_by_count_and_seed(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -109,8 +109,13 @@ def test_no_plan_or_a_failing_planner_runs_the_triggers_steps(answer: Any) -> No
 def test_a_trigger_that_does_not_ask_for_a_plan_never_calls_the_planner() -> None:
     rec = Recorder()
     asked: list[Any] = []
+
+    def planner(trigger: Any, event: Any) -> list[dict[str, Any]]:
+        asked.append(trigger)
+        return []
+
     text = PLANNED.replace("    plan: reasoner\n", "")
-    out = run(text, rec, env={"world": lambda: WORLD, "planner": lambda t, e: asked.append(t) or []})
+    out = run(text, rec, env={"world": lambda: WORLD, "planner": planner})
     assert asked == [] and out["status"]["playbook_alert"] == "ok"
 
 

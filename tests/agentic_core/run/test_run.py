@@ -207,6 +207,9 @@ def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan
     assert "'drop_now': land must ask the operator first" in refusal["error"]
     tools = tools_called(result)
     assert "payload.override_interlock" not in tools and "flight.deploy_payload" in tools  # the playbook's kit drop
+    saved = sum(1 for d in decisions if not d["llm_calls"])
+    assert result.summary.llm_calls_saved == saved > 0
+    assert f"; {saved} saved by the hybrid design" in (result.run_dir / "report.md").read_text(encoding="utf-8")
 
 
 @pytest.mark.parametrize(
