@@ -106,10 +106,11 @@ class Failsafes:
         s = sim.truth()  # not sim.state(): building that snapshot every tick costs more than all these checks
         battery_pct = sim.battery.percent
         flying = sim.armed and not s.on_ground
-        self._check_link(flying, sim.time_s if now_s is None else now_s, last_rx_s)
+        if last_rx_s is not None:
+            self._check_link(flying, sim.time_s if now_s is None else now_s, last_rx_s)
         if not flying:
             self.fence_breached = False
-            if battery_pct / 100.0 > nav.params["BAT_LOW_THR"]:
+            if battery_pct / 100.0 > nav.params.values["BAT_LOW_THR"]:
                 self.battery_level = 0
             return
         self._check_fence(s.north_m, s.east_m, s.alt_agl_m)
@@ -118,7 +119,7 @@ class Failsafes:
     # -- checks -----------------------------------------------------------------------------------------------
 
     def _check_fence(self, north_m: float, east_m: float, alt_m: float) -> None:
-        params = self.navigator.params
+        params = self.navigator.params.values
         max_h, max_v = params["GF_MAX_HOR_DIST"], params["GF_MAX_VER_DIST"]
         dist = math.hypot(north_m, east_m)
         outside_h = max_h > 0 and dist > max_h
@@ -142,7 +143,7 @@ class Failsafes:
         self._act("geofence", action, f"Geofence breached ({where}): {_ACTION_WORDS[action]}")
 
     def _check_battery(self, fraction: float) -> None:
-        params = self.navigator.params
+        params = self.navigator.params.values
         if fraction <= params["BAT_CRIT_THR"] and self.battery_level < 2:
             self.battery_level = 2
             self._act("battery_critical", Action.LAND, f"Battery critical ({fraction:.0%}): landing")
@@ -153,7 +154,7 @@ class Failsafes:
     def _check_link(self, flying: bool, now_s: float, last_rx_s: float | None) -> None:
         if last_rx_s is None:
             return
-        timeout = self.navigator.params["COM_DL_LOSS_T"]
+        timeout = self.navigator.params.values["COM_DL_LOSS_T"]
         silent = now_s - last_rx_s > timeout
         if not silent:
             if self.link_lost:

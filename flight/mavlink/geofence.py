@@ -122,6 +122,8 @@ class Geofence:
 
     def area_violation(self, north: float, east: float) -> str | None:
         """Why the point is outside the uploaded fence areas, or None (also None when there are none)."""
+        if not self.areas:  # the usual case, checked every tick
+            return None
         inclusions = [a for a in self.areas if a.inclusion]
         if inclusions and not any(a.contains(north, east) for a in inclusions):
             return "outside the uploaded inclusion fence"

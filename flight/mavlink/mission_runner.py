@@ -43,8 +43,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from enum import Enum
+from typing import NamedTuple
 
 from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
     MAV_CMD_CONDITION_DELAY,
@@ -111,9 +111,8 @@ class Phase(Enum):
     LAND = "land"
 
 
-@dataclass(frozen=True, slots=True)
-class MissionStatus:
-    """What MISSION_CURRENT reports."""
+class MissionStatus(NamedTuple):
+    """What MISSION_CURRENT reports. A named tuple: one is built and compared every vehicle tick."""
 
     seq: int
     total: int

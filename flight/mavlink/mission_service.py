@@ -109,11 +109,15 @@ class MissionService:
 
     # -- out --------------------------------------------------------------------------------------------------
 
-    def current_message(self) -> Any:
-        """MISSION_CURRENT as it stands (the 1 Hz stream's builder)."""
+    def current_fields(self) -> tuple[int, int, int, int]:
+        """MISSION_CURRENT's fields as they stand (the 1 Hz stream's builder); they count as announced."""
         status = self.runner.status()
         self._announced = status
-        return self._mav.mission_current_encode(status.seq, status.total, status.state, status.mode)
+        return (status.seq, status.total, status.state, status.mode)
+
+    def current_message(self) -> Any:
+        """MISSION_CURRENT as it stands; it counts as announced."""
+        return self._mav.mission_current_encode(*self.current_fields())
 
     def tick(self, now_s: float) -> None:
         """Once per vehicle tick, after the navigator: protocol resends and timeouts, then what changed goes out.

@@ -330,17 +330,18 @@ class Navigator:
                 self.hold()
                 self.notify("Offboard setpoints lost: holding", MAV_SEVERITY_CRITICAL)
         elif self.mode is FlightMode.TAKEOFF:
-            if abs(sim.state().alt_agl_m - self._takeoff_alt_m) < TAKEOFF_ACCEPT_M:
+            # sim.truth(), not sim.state(): the same values, without building a snapshot every tick
+            if abs(sim.truth().alt_agl_m - self._takeoff_alt_m) < TAKEOFF_ACCEPT_M:
                 self.mode = FlightMode.HOLD
         elif self.mode is FlightMode.RTL and self.rtl_phase is not None:
-            s = sim.state()
+            s = sim.truth()
             if self.rtl_phase is RtlPhase.CLIMB and abs(s.alt_agl_m - self._rtl_alt_m) < RTL_CLIMB_ACCEPT_M:
                 self.rtl_phase = RtlPhase.RETURN
                 self._fly(0.0, 0.0, -self._rtl_alt_m, None)
             elif (
                 self.rtl_phase is RtlPhase.RETURN
                 and math.hypot(s.north_m, s.east_m) < RTL_HOME_ACCEPT_M
-                and s.groundspeed_mps < 0.5
+                and math.hypot(s.vn_mps, s.ve_mps) < 0.5
             ):
                 self.rtl_phase = RtlPhase.LAND
                 self._goto = None
@@ -348,8 +349,7 @@ class Navigator:
 
     def landed_state(self) -> int:
         """MAV_LANDED_STATE for EXTENDED_SYS_STATE."""
-        s = self.sim.state()
-        if not s.armed:
+        if not self.sim.armed:
             return int(MAV_LANDED_STATE_ON_GROUND)
         in_mission = self.mode is FlightMode.MISSION
         landing = (
@@ -359,7 +359,7 @@ class Navigator:
             return int(MAV_LANDED_STATE_LANDING)
         if self.mode is FlightMode.TAKEOFF or (in_mission and self.mission.taking_off):
             return int(MAV_LANDED_STATE_TAKEOFF)
-        return int(MAV_LANDED_STATE_ON_GROUND if s.landed else MAV_LANDED_STATE_IN_AIR)
+        return int(MAV_LANDED_STATE_ON_GROUND if self.sim.truth().on_ground else MAV_LANDED_STATE_IN_AIR)
 
     # -- helpers ----------------------------------------------------------------------------------------------
 

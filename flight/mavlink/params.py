@@ -28,7 +28,9 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
     MAV_PARAM_TYPE_INT32,
@@ -84,6 +86,9 @@ class ParamStore:
         self.specs = {p.name: p for p in PARAMS}
         self.names = [p.name for p in PARAMS]
         self._values = {p.name: float(p.default) for p in PARAMS}
+        self.values: Mapping[str, float] = MappingProxyType(self._values)
+        """The current values by name, read-only (``store.values[name]`` is ``store[name]`` without a method
+        call, for the checks made every tick)."""
         for name, value in (overrides or {}).items():
             if not self.set(name, value):
                 raise ValueError(f"bad parameter override {name}={value}")

@@ -1,9 +1,11 @@
 """Telemetry: the streamed and requested messages the vehicle builds from the simulator's state.
 
 Why: keeps :mod:`flight.mavlink.vehicle` to the link (socket, dispatch, pacing). :class:`TelemetryBuilders` is a mixin
-of :class:`~flight.mavlink.vehicle.MavlinkVehicle`; each builder returns a message ready to pack. Builders read the
-simulator's raw state (``sim.truth()``) and battery rather than the :class:`~flight.sim.VehicleState` snapshot: the
-same values, without validating a 23-field snapshot several times a second on every stream.
+of :class:`~flight.mavlink.vehicle.MavlinkVehicle`; each ``*_fields`` builder returns a message's fields in the order
+pymavlink's ``*_encode`` takes them, and a :class:`WireCodec` turns them into the message object (requests) or
+straight into the bytes on the wire (streams). Builders read the simulator's raw state (``sim.truth()``) and battery
+rather than the :class:`~flight.sim.VehicleState` snapshot: the same values, without validating a 23-field snapshot
+several times a second on every stream.
 
 Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20/common.py``):
 
@@ -16,11 +18,19 @@ Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20
   reads exactly this bit, so without it a MAVSDK client sees a vehicle that can never be armed.
 * AUTOPILOT_VERSION ``flight_sw_version`` is ``major << 24 | minor << 16 | patch << 8 | type`` (type 255:
   release); we report PX4 1.14.0, the release whose behaviour is mimicked.
+* A MAVLink 2 frame (pymavlink ``MAVLink_message._pack``, unsigned): ``0xFD``, payload length, incompat flags 0,
+  compat flags 0, sequence, system id, component id, message id (24 bits, little-endian), the payload packed in the
+  wire order of the fields (``ordered_fieldnames``) with its trailing zero bytes dropped (at least one byte is
+  kept), then the X.25 CRC of everything after ``0xFD`` followed by the message's ``crc_extra`` byte.
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
+import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,14 +88,95 @@ class LinkStats:
     tx_errors: int = 0
 
 
+Fields = tuple[Any, ...]
+"""A message's field values, in the order of its ``fieldnames`` (the arguments of pymavlink's ``*_encode``)."""
+
+_HEADER = struct.Struct("<BBBBBBBHB")
+_CRC = struct.Struct("<H")
+_MAGIC_V2 = 0xFD
+
+
+def _x25_slow(data: bytes) -> int:
+    return int(mavlink2.x25crc(data).crc)
+
+
+_mcrf4xx: Callable[..., int] | None = getattr(mavlink2, "mcrf4xx", None)
+_x25: Callable[[bytes], int] = _x25_slow if _mcrf4xx is None else functools.partial(_mcrf4xx, initial=0xFFFF)
+"""The X.25 CRC (CRC-16/MCRF4XX) of a frame, straight from ``fastcrc`` where pymavlink uses it."""
+
+
+class WireCodec:
+    """One MAVLink 2 message type: its fields as a pymavlink message object (:meth:`message`) or packed straight
+    into the bytes ``message(fields).pack(mav)`` would give (:meth:`pack`).
+
+    Why: the streams send thousands of messages per simulated minute, and building each as an object and packing it
+    through pymavlink's generic path costs more than several physics steps. Fields left out take the message's
+    defaults (its MAVLink 2 extensions); messages with array fields, and signed links, take pymavlink's own path.
+    """
+
+    def __init__(self, cls: type[mavlink2.MAVLink_message]) -> None:
+        self.cls = cls
+        names: list[str] = list(cls.fieldnames)
+        params = list(inspect.signature(cls.__init__).parameters.values())[1:]
+        if [p.name for p in params] != names:  # pragma: no cover - pymavlink's generated constructors take them so
+            raise ValueError(f"{cls.__name__}: constructor arguments are not its fields")
+        self._required = sum(p.default is inspect.Parameter.empty for p in params)
+        self._defaults: Fields = tuple(p.default for p in params)
+        order = [names.index(name) for name in cls.ordered_fieldnames]
+        self._order: tuple[int, ...] | None = None if order == list(range(len(names))) else tuple(order)
+        self._direct = not any(cls.array_lengths)
+        self._payload = cls.unpacker
+        self._id_low, self._id_high = cls.id & 0xFFFF, cls.id >> 16
+        self._crc_extra = bytes((cls.crc_extra,))
+
+    def message(self, fields: Fields) -> Any:
+        """The pymavlink message object (what ``mav.<name>_encode(*fields)`` returns)."""
+        return self.cls(*fields)
+
+    def pack(self, mav: mavlink2.MAVLink, fields: Fields) -> bytes:
+        """The frame ``mav`` would send for these fields now (with its current sequence number)."""
+        if not self._direct or mav.signing.sign_outgoing:
+            return bytes(self.message(fields).pack(mav))
+        if len(fields) < len(self._defaults):
+            if len(fields) < self._required:
+                raise TypeError(f"{self.cls.__name__} needs {self._required} fields, got {len(fields)}")
+            fields = fields + self._defaults[len(fields) :]
+        if self._order is not None:
+            fields = tuple([fields[i] for i in self._order])
+        payload = self._payload.pack(*fields).rstrip(b"\0") or b"\0"
+        header = _HEADER.pack(
+            _MAGIC_V2, len(payload), 0, 0, mav.seq, mav.srcSystem, mav.srcComponent, self._id_low, self._id_high
+        )
+        frame = header + payload
+        return frame + _CRC.pack(_x25(frame[1:] + self._crc_extra))
+
+
+HEARTBEAT = WireCodec(mavlink2.MAVLink_heartbeat_message)
+SYS_STATUS = WireCodec(mavlink2.MAVLink_sys_status_message)
+BATTERY_STATUS = WireCodec(mavlink2.MAVLink_battery_status_message)
+ATTITUDE = WireCodec(mavlink2.MAVLink_attitude_message)
+GLOBAL_POSITION_INT = WireCodec(mavlink2.MAVLink_global_position_int_message)
+LOCAL_POSITION_NED = WireCodec(mavlink2.MAVLink_local_position_ned_message)
+GPS_RAW_INT = WireCodec(mavlink2.MAVLink_gps_raw_int_message)
+EXTENDED_SYS_STATE = WireCodec(mavlink2.MAVLink_extended_sys_state_message)
+HOME_POSITION = WireCodec(mavlink2.MAVLink_home_position_message)
+AUTOPILOT_VERSION = WireCodec(mavlink2.MAVLink_autopilot_version_message)
+MISSION_CURRENT = WireCodec(mavlink2.MAVLink_mission_current_message)
+
+
 def _clamp_int(x: float, lo: int, hi: int) -> int:
-    if not math.isfinite(x):
+    if not _isfinite(x):
         return lo
-    return max(lo, min(hi, round(x)))
+    r = round(x)
+    return lo if r < lo else hi if r > hi else r
+
+
+_isfinite = math.isfinite
 
 
 class TelemetryBuilders:
-    """Message builders; mixed into the vehicle, which provides the attributes below."""
+    """Message builders; mixed into the vehicle, which provides the attributes below. Each ``*_fields`` method
+    returns the fields for its message's :class:`WireCodec`."""
 
     sim: Simulator
     navigator: Navigator
@@ -103,16 +194,14 @@ class TelemetryBuilders:
     def _battery_fraction(self) -> float:
         return float(self.sim.battery.percent) / 100.0
 
-    def _heartbeat(self) -> Any:
+    def _heartbeat_fields(self) -> Fields:
         armed = self.sim.armed
         if self._battery_fraction() <= self.params["BAT_CRIT_THR"]:
             status = MAV_STATE_CRITICAL
         else:
             status = MAV_STATE_ACTIVE if armed else MAV_STATE_STANDBY
         mode = self.navigator.mode
-        return self._mav.heartbeat_encode(
-            MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4, base_mode(mode, armed), mode.custom_mode, status, 3
-        )
+        return (MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4, base_mode(mode, armed), mode.custom_mode, status, 3)
 
     def _prearm_ok(self) -> bool:
         """Whether arming would pass the navigator's checks (3D fix with enough satellites, battery above
@@ -130,11 +219,11 @@ class TelemetryBuilders:
             and truth.on_ground
         )
 
-    def _sys_status(self) -> Any:
+    def _sys_status_fields(self) -> Fields:
         b = self.sim.battery
         enabled = SENSORS if self.sim.armed else SENSORS & ~mavlink2.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
         health = SENSORS if self._prearm_ok() else SENSORS & ~mavlink2.MAV_SYS_STATUS_PREARM_CHECK
-        return self._mav.sys_status_encode(
+        return (
             SENSORS,
             enabled,
             health,
@@ -150,7 +239,7 @@ class TelemetryBuilders:
             0,
         )
 
-    def _battery_status(self) -> Any:
+    def _battery_status_fields(self) -> Fields:
         b = self.sim.battery
         frac = self._battery_fraction()
         if frac <= self.params["BAT_CRIT_THR"]:
@@ -160,7 +249,7 @@ class TelemetryBuilders:
         else:
             charge = mavlink2.MAV_BATTERY_CHARGE_STATE_OK
         voltages = [_clamp_int(b.voltage_v * 1000.0, 0, UINT16_MAX - 1)] + [UINT16_MAX] * 9
-        return self._mav.battery_status_encode(
+        return (
             0,
             mavlink2.MAV_BATTERY_FUNCTION_ALL,
             mavlink2.MAV_BATTERY_TYPE_LIPO,
@@ -174,16 +263,14 @@ class TelemetryBuilders:
             charge,
         )
 
-    def _attitude(self) -> Any:
+    def _attitude_fields(self) -> Fields:
         t = self.sim.truth()
-        return self._mav.attitude_encode(
-            self._time_boot_ms(), t.roll_rad, t.pitch_rad, t.yaw_rad, t.p_rps, t.q_rps, t.r_rps
-        )
+        return (self._time_boot_ms(), t.roll_rad, t.pitch_rad, t.yaw_rad, t.p_rps, t.q_rps, t.r_rps)
 
-    def _global_position_int(self) -> Any:
+    def _global_position_int_fields(self) -> Fields:
         s = self.sim.truth()
         hdg = round(math.degrees(s.yaw_rad) % 360.0 * 100.0) % 36000
-        return self._mav.global_position_int_encode(
+        return (
             self._time_boot_ms(),
             round(s.lat_deg * 1e7),
             round(s.lon_deg * 1e7),
@@ -195,18 +282,16 @@ class TelemetryBuilders:
             hdg,
         )
 
-    def _local_position_ned(self) -> Any:
+    def _local_position_ned_fields(self) -> Fields:
         s = self.sim.truth()
-        return self._mav.local_position_ned_encode(
-            self._time_boot_ms(), s.north_m, s.east_m, s.down_m, s.vn_mps, s.ve_mps, s.vd_mps
-        )
+        return (self._time_boot_ms(), s.north_m, s.east_m, s.down_m, s.vn_mps, s.ve_mps, s.vd_mps)
 
-    def _gps_raw_int(self) -> Any:
+    def _gps_raw_int_fields(self) -> Fields:
         f = self.sim.gps_fix()
         vel = math.hypot(f.vn_mps, f.ve_mps)
         cog = round(math.degrees(math.atan2(f.ve_mps, f.vn_mps)) % 360.0 * 100.0) % 36000 if vel > 0.1 else UINT16_MAX
         alt_mm = round(f.alt_msl_m * 1000.0)
-        return self._mav.gps_raw_int_encode(
+        return (
             self._time_usec(),
             f.fix_type,
             round(f.lat_deg * 1e7),
@@ -222,12 +307,12 @@ class TelemetryBuilders:
             _clamp_int(f.epv_m * 1000.0, 0, 2**32 - 1),
         )
 
-    def _extended_sys_state(self) -> Any:
-        return self._mav.extended_sys_state_encode(mavlink2.MAV_VTOL_STATE_UNDEFINED, self.navigator.landed_state())
+    def _extended_sys_state_fields(self) -> Fields:
+        return (mavlink2.MAV_VTOL_STATE_UNDEFINED, self.navigator.landed_state())
 
-    def _home_position(self) -> Any:
+    def _home_position_fields(self) -> Fields:
         home = self.sim.environment.home
-        return self._mav.home_position_encode(
+        return (
             round(home.lat_deg * 1e7),
             round(home.lon_deg * 1e7),
             round(home.alt_msl_m * 1000.0),
@@ -241,9 +326,7 @@ class TelemetryBuilders:
             self._time_usec(),
         )
 
-    def _autopilot_version(self) -> Any:
+    def _autopilot_version_fields(self) -> Fields:
         major, minor, patch = PX4_VERSION
         version = major << 24 | minor << 16 | patch << 8 | FIRMWARE_VERSION_TYPE_OFFICIAL
-        return self._mav.autopilot_version_encode(
-            CAPABILITIES, version, version, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.system_id
-        )
+        return (CAPABILITIES, version, version, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.system_id)

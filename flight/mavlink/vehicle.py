@@ -74,8 +74,21 @@ from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
 from flight.mavlink.params import ParamStore, decode_value, encode_value
 from flight.mavlink.telemetry import (
+    ATTITUDE,
+    AUTOPILOT_VERSION,
+    BATTERY_STATUS,
+    EXTENDED_SYS_STATE,
+    GLOBAL_POSITION_INT,
+    GPS_RAW_INT,
+    HEARTBEAT,
+    HOME_POSITION,
+    LOCAL_POSITION_NED,
+    MISSION_CURRENT,
+    SYS_STATUS,
+    Fields,
     LinkStats,
     TelemetryBuilders,
+    WireCodec,
 )
 from flight.px4 import FlightMode, mavlink_text
 from flight.sim import Simulator, VehicleState
@@ -135,6 +148,19 @@ __all__ = [
 ]
 
 
+def _readiness(sock: socket.socket) -> Callable[[int], object]:
+    """``check(0)``, true when ``sock`` has a datagram (or an error) to read, without waiting.
+
+    Why: the vehicle looks for datagrams every tick and almost never finds one; asking ``poll`` is several times
+    cheaper than a ``recvfrom`` that raises. Where ``select.poll`` is missing, the check says yes and ``recvfrom``
+    finds out."""
+    if not hasattr(select, "poll"):  # pragma: no cover - Windows
+        return lambda timeout: True
+    poller = select.poll()
+    poller.register(sock, select.POLLIN)
+    return poller.poll
+
+
 class MavlinkVehicle(TelemetryBuilders):
     """The simulator on the network as a PX4 quadrotor. Close it (or use ``with``) to free the socket."""
 
@@ -192,19 +218,23 @@ class MavlinkVehicle(TelemetryBuilders):
             notify=self.statustext,
             clock=lambda: self._link_clock(),
         )
-        self._builders: dict[int, Callable[[], Any]] = {
-            MSG_HEARTBEAT: self._heartbeat,
-            MSG_SYS_STATUS: self._sys_status,
-            MSG_BATTERY_STATUS: self._battery_status,
-            MSG_ATTITUDE: self._attitude,
-            MSG_GLOBAL_POSITION_INT: self._global_position_int,
-            MSG_LOCAL_POSITION_NED: self._local_position_ned,
-            MSG_GPS_RAW_INT: self._gps_raw_int,
-            MSG_EXTENDED_SYS_STATE: self._extended_sys_state,
-            MSG_HOME_POSITION: self._home_position,
-            MSG_AUTOPILOT_VERSION: self._autopilot_version,
-            MSG_MISSION_CURRENT: self.missions.current_message,
+        self._builders: dict[int, tuple[WireCodec, Callable[[], Fields]]] = {
+            MSG_HEARTBEAT: (HEARTBEAT, self._heartbeat_fields),
+            MSG_SYS_STATUS: (SYS_STATUS, self._sys_status_fields),
+            MSG_BATTERY_STATUS: (BATTERY_STATUS, self._battery_status_fields),
+            MSG_ATTITUDE: (ATTITUDE, self._attitude_fields),
+            MSG_GLOBAL_POSITION_INT: (GLOBAL_POSITION_INT, self._global_position_int_fields),
+            MSG_LOCAL_POSITION_NED: (LOCAL_POSITION_NED, self._local_position_ned_fields),
+            MSG_GPS_RAW_INT: (GPS_RAW_INT, self._gps_raw_int_fields),
+            MSG_EXTENDED_SYS_STATE: (EXTENDED_SYS_STATE, self._extended_sys_state_fields),
+            MSG_HOME_POSITION: (HOME_POSITION, self._home_position_fields),
+            MSG_AUTOPILOT_VERSION: (AUTOPILOT_VERSION, self._autopilot_version_fields),
+            MSG_MISSION_CURRENT: (MISSION_CURRENT, self.missions.current_fields),
         }
+        """Every message the vehicle can build: streams and REQUEST_MESSAGE."""
+        self._streams_due_s = 0.0
+        """The earliest time any enabled stream falls due (inf: none enabled)."""
+        self._destinations_cache: tuple[Address, ...] | None = None
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._sock.bind(bind)
@@ -212,6 +242,7 @@ class MavlinkVehicle(TelemetryBuilders):
         except OSError:
             self._sock.close()
             raise
+        self._readable = _readiness(self._sock)
         self._closed = False
 
     # -- lifecycle --------------------------------------------------------------------------------------------
@@ -320,6 +351,8 @@ class MavlinkVehicle(TelemetryBuilders):
     # -- receiving --------------------------------------------------------------------------------------------
 
     def _poll(self) -> None:
+        if not self._readable(0):
+            return
         for _ in range(MAX_DATAGRAMS_PER_POLL):
             try:
                 data, addr = self._sock.recvfrom(65535)
@@ -355,11 +388,14 @@ class MavlinkVehicle(TelemetryBuilders):
                 self.stats.rx_dropped += 1
 
     def _learn_peer(self, addr: Address) -> None:
-        self._peers.pop(addr, None)
+        if next(reversed(self._peers), None) != addr:  # else the order of peers (and of destinations) is unchanged
+            self._peers.pop(addr, None)
+            self._destinations_cache = None
         self._peers[addr] = self.sim.time_s
         self.last_rx_s = self._link_clock()
         while len(self._peers) > MAX_PEERS:
             del self._peers[next(iter(self._peers))]
+            self._destinations_cache = None
 
     def _for_us(self, msg: Any) -> bool:
         return msg.target_system in (0, self.system_id) and msg.target_component in (0, self.component_id)
@@ -444,21 +480,29 @@ class MavlinkVehicle(TelemetryBuilders):
 
     # -- sending ----------------------------------------------------------------------------------------------
 
-    def _destinations(self) -> list[Address]:
-        out = list(self._targets)
-        out.extend(a for a in self._peers if a not in out)
+    def _destinations(self) -> tuple[Address, ...]:
+        """The configured targets, then every peer not among them (kept until the peers change)."""
+        out = self._destinations_cache
+        if out is None:
+            targets = list(self._targets)
+            targets.extend(a for a in self._peers if a not in targets)
+            out = self._destinations_cache = tuple(targets)
         return out
 
     def _send(self, msg: Any, to: Address | None = None) -> None:
         """Send ``msg`` to ``to``, or to the configured targets and every peer."""
-        buf = msg.pack(self._mav)
+        self._transmit(msg.pack(self._mav), to)
+
+    def _transmit(self, buf: bytes, to: Address | None = None) -> None:
+        """Send a frame packed with the current sequence number, and count it as sent."""
         self._mav.seq = (self._mav.seq + 1) % 256
-        for addr in self._destinations() if to is None else [to]:
+        sock, stats = self._sock, self.stats
+        for addr in self._destinations() if to is None else (to,):
             try:
-                self._sock.sendto(buf, addr)
-                self.stats.tx_messages += 1
+                sock.sendto(buf, addr)
+                stats.tx_messages += 1
             except OSError:
-                self.stats.tx_errors += 1
+                stats.tx_errors += 1
 
     def statustext(self, text: str, severity: int = MAV_SEVERITY_WARNING) -> None:
         """Send a STATUSTEXT to everyone (chunked when longer than 50 characters)."""
@@ -476,14 +520,25 @@ class MavlinkVehicle(TelemetryBuilders):
                 self._send(self._mav.statustext_encode(severity, chunk, self._text_id, seq))
 
     def _send_streams(self) -> None:
+        """Send every stream that has fallen due (in simulated time); most ticks, none has."""
         now = self.sim.time_s
         eps = 1e-9
+        if now + eps < self._streams_due_s:
+            return
+        next_due, builders, mav = self._next_due, self._builders, self._mav
+        soonest = math.inf
         for msg_id, interval in self._intervals_s.items():
-            if interval <= 0 or now + eps < self._next_due[msg_id]:
+            if interval <= 0:
                 continue
-            self._send(self._builders[msg_id]())
-            due = self._next_due[msg_id] + interval
-            self._next_due[msg_id] = due if due > now + eps else now + interval
+            due = next_due[msg_id]
+            if now + eps >= due:
+                codec, fields = builders[msg_id]
+                self._transmit(codec.pack(mav, fields()))
+                due += interval
+                due = next_due[msg_id] = due if due > now + eps else now + interval
+            if due < soonest:
+                soonest = due
+        self._streams_due_s = soonest
 
     # -- message intervals (used by command handling) ---------------------------------------------------------
 
@@ -499,7 +554,7 @@ class MavlinkVehicle(TelemetryBuilders):
             self._intervals_s[message_id] = interval_us / 1e6
         else:
             return False
-        self._next_due[message_id] = self.sim.time_s
+        self._next_due[message_id] = self._streams_due_s = self.sim.time_s
         return True
 
     def message_interval_us(self, message_id: int) -> int | None:
@@ -517,7 +572,10 @@ class MavlinkVehicle(TelemetryBuilders):
     def build_message(self, message_id: int, param2: float = math.nan) -> Any | None:
         """The message ``message_id`` as it would be sent now (for REQUEST_MESSAGE), or None if not available."""
         builder = self._builders.get(message_id)
-        return builder() if builder is not None else None
+        if builder is None:
+            return None
+        codec, fields = builder
+        return codec.message(fields())
 
     def build_message_interval(self, message_id: int, interval_us: int) -> Any:
         return self._mav.message_interval_encode(message_id, interval_us)

@@ -113,15 +113,19 @@ class Battery:
     def estimate_current(self, motor_throttles: Sequence[float]) -> float:
         """Pack current (A) for the given ESC commands at the present terminal voltage."""
         c = self.config
+        p_max, exponent = c.motor_power_max_w, c.power_exponent
         shaft_w = 0.0
         for u in motor_throttles:
             if u > 0.0:
-                shaft_w += c.motor_power_max_w * min(u, 1.0) ** c.power_exponent
-        volts = max(self.voltage_v, 0.5 * c.cells * _OCV[0])
-        return c.avionics_current_a + shaft_w / c.efficiency / volts
+                shaft_w += p_max * (u if u < 1.0 else 1.0) ** exponent
+        volts, floor = self.voltage_v, 0.5 * c.cells * _OCV[0]
+        return c.avionics_current_a + shaft_w / c.efficiency / (floor if floor > volts else volts)
 
     def update(self, motor_throttles: Sequence[float], dt: float) -> None:
         """Draw the current for ``dt`` seconds of the given ESC commands and update the voltage."""
-        self.current_a = self.estimate_current(motor_throttles)
-        self.used_mah = min(self.config.capacity_mah, self.used_mah + self.current_a * dt / 3.6)
-        self.voltage_v = self.open_circuit_voltage() - self.current_a * self.config.internal_resistance_ohm
+        c = self.config
+        current = self.current_a = self.estimate_current(motor_throttles)
+        used = self.used_mah + current * dt / 3.6
+        used = self.used_mah = used if used < c.capacity_mah else c.capacity_mah
+        soc = 1.0 - used / c.capacity_mah  # :attr:`soc` and :meth:`open_circuit_voltage`, without two calls per tick
+        self.voltage_v = c.cells * cell_ocv(soc if soc > 0.0 else 0.0) - current * c.internal_resistance_ohm

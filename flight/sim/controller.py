@@ -32,6 +32,7 @@ G = 9.80665
 """Standard gravity (m/s²)."""
 THRUST_EXPONENT = 1.5
 """Static thrust of the F450's DJI 9450 propellers grows about as throttle^1.5 between 0.3 and 0.7 (measured)."""
+_INV_THRUST_EXPONENT = 1.0 / THRUST_EXPONENT
 
 
 class Kinematics(Protocol):
@@ -152,6 +153,9 @@ class ControlOutput(NamedTuple):
 
 
 IDLE = ControlOutput(0.0, 0.0, 0.0, 0.0)
+_new_output = tuple.__new__
+"""Builds a :class:`ControlOutput` from a tuple of its four fields without the named tuple's Python-level
+``__new__`` (one is built every control tick)."""
 
 
 def _clip(x: float, lo: float, hi: float) -> float:
@@ -175,6 +179,39 @@ class _Target:
     position_mode: bool = True
 
 
+@dataclass(frozen=True, slots=True)
+class _Derived:
+    """Values computed from the gains and limits alone, once per pair rather than on every update."""
+
+    gains: Gains
+    limits: Limits
+    int_xy: float
+    """Clamp on each horizontal velocity integrator (the integrator itself, not its contribution)."""
+    int_z: float
+    amax: float
+    """The horizontal acceleration the tilt limit allows (m/s²)."""
+    climb_lo: float
+    tilt_lo: float
+    yaw_rate_lo: float
+    rate_lo: float
+    ground_idle: ControlOutput
+
+    @classmethod
+    def of(cls, g: Gains, lim: Limits) -> _Derived:
+        return cls(
+            g,
+            lim,
+            int_xy=lim.int_xy_mps2 / g.vel_xy_i if g.vel_xy_i > 0 else 0.0,
+            int_z=lim.int_z_mps2 / g.vel_z_i if g.vel_z_i > 0 else 0.0,
+            amax=G * math.tan(lim.max_tilt_rad),
+            climb_lo=-lim.max_climb_mps,
+            tilt_lo=-lim.max_tilt_rad,
+            yaw_rate_lo=-lim.max_yaw_rate_rps,
+            rate_lo=-lim.max_rate_rps,
+            ground_idle=ControlOutput(lim.idle_throttle, 0.0, 0.0, 0.0),
+        )
+
+
 @dataclass(slots=True)
 class _LoopState:
     int_n: float = 0.0
@@ -193,10 +230,12 @@ class FlightController:
         self.limits = limits or Limits()
         self.hover_throttle = hover_throttle
         self._setpoint: Setpoint = HoldPosition()
+        self._landing = False
+        """The setpoint is a :class:`Land` (checked on every update)."""
         self._target = _Target()
         self._loop = _LoopState()
         self._landed = False
-        self._active = False
+        self._derived: _Derived | None = None
 
     @property
     def setpoint(self) -> Setpoint:
@@ -238,16 +277,21 @@ class FlightController:
             self._landed = False
             self._loop.ground_time = 0.0
         self._setpoint = setpoint
+        self._landing = isinstance(setpoint, Land)
         self._target = t
 
     def update(self, s: Kinematics, dt: float) -> ControlOutput:
         """One controller step of ``dt`` seconds: the throttle and body-rate targets to hold until the next."""
         g, lim, t, loop = self.gains, self.limits, self._target, self._loop
-        landing = isinstance(self._setpoint, Land)
+        k = self._derived
+        if k is None or k.gains is not g or k.limits is not lim:
+            k = self._derived = _Derived.of(g, lim)
+        landing = self._landing
+        on_ground = s.on_ground
         if landing:
             if self._landed:
                 return IDLE
-            if s.on_ground:
+            if on_ground:
                 loop.ground_time += dt
                 if loop.ground_time >= lim.touchdown_s:
                     self._landed = True
@@ -268,63 +312,77 @@ class FlightController:
             if landing:
                 vd_sp = lim.land_speed_fast_mps if s.alt_agl_m > lim.land_slow_below_m else lim.land_speed_slow_mps
             else:
-                vd_sp = _clip(g.pos_z * (t.down - s.down_m), -lim.max_climb_mps, lim.max_descent_mps)
+                vd_sp = _clip(g.pos_z * (t.down - s.down_m), k.climb_lo, lim.max_descent_mps)
         else:
             vn_sp, ve_sp = t.vn, t.ve
             sp = math.hypot(vn_sp, ve_sp)
             if sp > lim.max_speed_xy_mps:
                 vn_sp, ve_sp = vn_sp * lim.max_speed_xy_mps / sp, ve_sp * lim.max_speed_xy_mps / sp
-            vd_sp = _clip(t.vd, -lim.max_climb_mps, lim.max_descent_mps)
+            vd_sp = _clip(t.vd, k.climb_lo, lim.max_descent_mps)
 
-        airborne = not s.on_ground
+        airborne = not on_ground
         if not airborne and vd_sp >= 0.0:
             # Armed on the ground with nowhere higher to go: spin at idle, keep the integrators empty.
             loop.int_n = loop.int_e = loop.int_d = 0.0
-            return ControlOutput(lim.idle_throttle, 0.0, 0.0, 0.0)
+            return k.ground_idle
 
         # Velocity → acceleration setpoint (NED).
-        en, ee, ed = vn_sp - s.vn_mps, ve_sp - s.ve_mps, vd_sp - s.vd_mps
+        vn, ve = s.vn_mps, s.ve_mps
+        en, ee, ed = vn_sp - vn, ve_sp - ve, vd_sp - s.vd_mps
         if airborne:
-            ix = lim.int_xy_mps2 / g.vel_xy_i if g.vel_xy_i > 0 else 0.0
-            loop.int_n = _clip(loop.int_n + en * dt, -ix, ix)
-            loop.int_e = _clip(loop.int_e + ee * dt, -ix, ix)
-        iz = lim.int_z_mps2 / g.vel_z_i if g.vel_z_i > 0 else 0.0
-        loop.int_d = _clip(loop.int_d + ed * dt, -iz, iz)
-        dvn = 0.0 if loop.prev_vn is None else (s.vn_mps - loop.prev_vn) / dt
-        dve = 0.0 if loop.prev_ve is None else (s.ve_mps - loop.prev_ve) / dt
-        loop.prev_vn, loop.prev_ve = s.vn_mps, s.ve_mps
+            ix = k.int_xy
+            x = loop.int_n + en * dt
+            loop.int_n = -ix if x < -ix else ix if x > ix else x
+            x = loop.int_e + ee * dt
+            loop.int_e = -ix if x < -ix else ix if x > ix else x
+        iz = k.int_z
+        x = loop.int_d + ed * dt
+        loop.int_d = -iz if x < -iz else iz if x > iz else x
+        prev_vn, prev_ve = loop.prev_vn, loop.prev_ve
+        dvn = 0.0 if prev_vn is None else (vn - prev_vn) / dt
+        dve = 0.0 if prev_ve is None else (ve - prev_ve) / dt
+        loop.prev_vn, loop.prev_ve = vn, ve
         an = g.vel_xy_p * en + g.vel_xy_i * loop.int_n - g.vel_xy_d * dvn
         ae = g.vel_xy_p * ee + g.vel_xy_i * loop.int_e - g.vel_xy_d * dve
         ad = g.vel_z_p * ed + g.vel_z_i * loop.int_d
-        amax = G * math.tan(lim.max_tilt_rad)
+        amax = k.amax
         ah = math.hypot(an, ae)
         if ah > amax:
             an, ae = an * amax / ah, ae * amax / ah
 
         # Acceleration → attitude and collective (with tilt compensation).
-        cy, sy = math.cos(s.yaw_rad), math.sin(s.yaw_rad)
+        roll, pitch, yaw = s.roll_rad, s.pitch_rad, s.yaw_rad
+        cy, sy = math.cos(yaw), math.sin(yaw)
         a_fwd = cy * an + sy * ae
         a_right = -sy * an + cy * ae
         if not airborne:
             a_fwd = a_right = 0.0  # lifting off: keep level until the gear is clear
         pitch_sp = math.atan2(-a_fwd, G)
         roll_sp = math.atan2(a_right * math.cos(pitch_sp), G)
-        tilt_lim = lim.max_tilt_rad
-        pitch_sp = _clip(pitch_sp, -tilt_lim, tilt_lim)
-        roll_sp = _clip(roll_sp, -tilt_lim, tilt_lim)
+        tilt_lim, tilt_lo = lim.max_tilt_rad, k.tilt_lo
+        pitch_sp = tilt_lo if pitch_sp < tilt_lo else tilt_lim if pitch_sp > tilt_lim else pitch_sp
+        roll_sp = tilt_lo if roll_sp < tilt_lo else tilt_lim if roll_sp > tilt_lim else roll_sp
         lift = max(0.0, 1.0 - ad / G)
-        tilt_cos = max(0.5, math.cos(s.roll_rad) * math.cos(s.pitch_rad))
-        throttle = self.hover_throttle * (lift / tilt_cos) ** (1.0 / THRUST_EXPONENT)
+        sphi, cphi = math.sin(roll), math.cos(roll)
+        sth, cth = math.sin(pitch), math.cos(pitch)
+        tilt_cos = max(0.5, cphi * cth)
+        throttle = self.hover_throttle * (lift / tilt_cos) ** _INV_THRUST_EXPONENT
         throttle = _clip(throttle, lim.min_throttle_air if airborne else 0.0, 1.0)
 
         # Attitude and heading → body rates.
-        phi_dot = g.att * (roll_sp - s.roll_rad)
-        theta_dot = g.att * (pitch_sp - s.pitch_rad)
-        psi_dot = _clip(g.yaw * _wrap_pi(t.yaw - s.yaw_rad), -lim.max_yaw_rate_rps, lim.max_yaw_rate_rps)
-        sphi, cphi = math.sin(s.roll_rad), math.cos(s.roll_rad)
-        sth, cth = math.sin(s.pitch_rad), math.cos(s.pitch_rad)
+        phi_dot = g.att * (roll_sp - roll)
+        theta_dot = g.att * (pitch_sp - pitch)
+        psi_dot = _clip(g.yaw * _wrap_pi(t.yaw - yaw), k.yaw_rate_lo, lim.max_yaw_rate_rps)
         p = phi_dot - sth * psi_dot
         q = cphi * theta_dot + sphi * cth * psi_dot
         r = -sphi * theta_dot + cphi * cth * psi_dot
-        mr = lim.max_rate_rps
-        return ControlOutput(throttle, _clip(p, -mr, mr), _clip(q, -mr, mr), _clip(r, -mr, mr))
+        mr, lo = lim.max_rate_rps, k.rate_lo
+        return _new_output(
+            ControlOutput,
+            (
+                throttle,
+                lo if p < lo else mr if p > mr else p,
+                lo if q < lo else mr if q > mr else q,
+                lo if r < lo else mr if r > mr else r,
+            ),
+        )

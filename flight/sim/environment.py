@@ -15,7 +15,9 @@
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -106,6 +108,9 @@ class GaussMarkov3:
         self.std = std
         self.tau_s = tau_s
         self._rng = rng
+        self._draw3: Callable[[], list[float]] = (
+            functools.partial(rng.take, 3) if isinstance(rng, NormalStream) else functools.partial(_take, rng, 3)
+        )
         if isinstance(rng, NormalStream):
             z = rng.take(3)
             self.value = [s * z[i] for i, s in enumerate(std)]
@@ -119,7 +124,7 @@ class GaussMarkov3:
             a = math.exp(-dt / self.tau_s)
             self._dt, self._a, self._b = dt, a, math.sqrt(1.0 - a * a)
         a, b = self._a, self._b
-        z0, z1, z2 = _take(self._rng, 3)
+        z0, z1, z2 = self._draw3()
         v0, v1, v2 = self.value
         s0, s1, s2 = self.std
         self.value = [a * v0 + b * s0 * z0, a * v1 + b * s1 * z1, a * v2 + b * s2 * z2]

@@ -113,8 +113,10 @@ def _quiet_stdio() -> Iterator[None]:
         os.close(devnull)
 
 
-def _wrap_pi(angle: float) -> float:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+def _clip(x: float, lo: float) -> float:
+    """``min(1.0, max(lo, x))`` (NaN gives ``lo``), without the two builtin calls."""
+    x = x if x > lo else lo
+    return x if x < 1.0 else 1.0
 
 
 class F450Model:
@@ -195,10 +197,10 @@ class F450Model:
     def set_controls(self, throttle: float, p_rps: float, q_rps: float, r_rps: float) -> None:
         """Collective throttle ``[0, 1]`` and body-rate targets (rad/s); held until the next call."""
         set_throttle, set_roll, set_pitch, set_yaw = self._write_controls
-        set_throttle(min(1.0, max(0.0, throttle)))
-        set_roll(min(1.0, max(-1.0, p_rps / RATE_PER_STICK)))
-        set_pitch(min(1.0, max(-1.0, q_rps / RATE_PER_STICK)))
-        set_yaw(min(1.0, max(-1.0, r_rps / RATE_PER_STICK)))
+        set_throttle(_clip(throttle, 0.0))
+        set_roll(_clip(p_rps / RATE_PER_STICK, -1.0))
+        set_pitch(_clip(q_rps / RATE_PER_STICK, -1.0))
+        set_yaw(_clip(r_rps / RATE_PER_STICK, -1.0))
 
     def set_wind(self, north_mps: float, east_mps: float, down_mps: float) -> None:
         """Steady wind: the velocity (m/s, NED) the air moves towards."""
@@ -227,31 +229,60 @@ class F450Model:
 
     def state(self) -> ModelState:
         """The true state in SI units."""
-        lat, lon, h_sl_m, h_agl_ft, vn, ve, vd, phi, theta, psi, p, q, r, wow, m0, m1, m2, m3, t = [
-            read() for read in self._read
-        ]
-        alt = h_sl_m - GEAR_HEIGHT_M
-        return ModelState(
-            t - self._time_offset,
-            lat,
-            lon,
-            alt,
-            max(0.0, h_agl_ft * FT - GEAR_HEIGHT_M),
-            (lat - self.home_lat_deg) * self._k_north,
-            (lon - self.home_lon_deg) * self._k_east,
-            self.home_alt_msl_m - alt,
-            vn * FT,
-            ve * FT,
-            vd * FT,
-            phi,
-            theta,
-            _wrap_pi(psi),
-            p,
-            q,
-            r,
-            wow > 0.5,
-            (m0, m1, m2, m3),
+        (
+            get_lat,
+            get_lon,
+            get_h_sl_m,
+            get_h_agl_ft,
+            get_vn,
+            get_ve,
+            get_vd,
+            get_phi,
+            get_theta,
+            get_psi,
+            get_p,
+            get_q,
+            get_r,
+            get_wow,
+            get_m0,
+            get_m1,
+            get_m2,
+            get_m3,
+            get_t,
+        ) = self._read
+        lat, lon = get_lat(), get_lon()
+        alt = get_h_sl_m() - GEAR_HEIGHT_M
+        agl = get_h_agl_ft() * FT - GEAR_HEIGHT_M
+        return _new_state(
+            ModelState,
+            (
+                get_t() - self._time_offset,
+                lat,
+                lon,
+                alt,
+                agl if agl > 0.0 else 0.0,
+                (lat - self.home_lat_deg) * self._k_north,
+                (lon - self.home_lon_deg) * self._k_east,
+                self.home_alt_msl_m - alt,
+                get_vn() * FT,
+                get_ve() * FT,
+                get_vd() * FT,
+                get_phi(),
+                get_theta(),
+                (get_psi() + math.pi) % _TWO_PI - math.pi,
+                get_p(),
+                get_q(),
+                get_r(),
+                get_wow() > 0.5,
+                (get_m0(), get_m1(), get_m2(), get_m3()),
+            ),
         )
+
+
+_new_state = tuple.__new__
+"""Builds a :class:`ModelState` from a tuple of all its fields without the Python-level ``__new__`` of a named
+tuple (the same object, built once per control tick)."""
+_TWO_PI = 2.0 * math.pi
 
 
 _STATE_PROPERTIES = (
