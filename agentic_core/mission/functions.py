@@ -46,10 +46,43 @@ def record_fields(obj: Any) -> list[str]:
     return [name for name in names if not name.startswith("_")]
 
 
+_DYNAMIC: Any = object()
+_RESOLVED: dict[tuple[type, str], Any] = {}
+"""(type, name) -> the attribute holding that field for every instance of a type whose fields are fixed (pydantic
+models without extras, dataclasses), None when it has no such field, or ``_DYNAMIC`` to look each time: expressions
+read the same fields of thousands of world-model objects per evaluation."""
+
+
+def _static_attribute(cls: type, name: str) -> Any:
+    if name.startswith("_"):
+        return None
+    fields = getattr(cls, "model_fields", None)
+    if isinstance(fields, Mapping):
+        if getattr(cls, "model_config", {}).get("extra") == "allow":
+            return _DYNAMIC  # extra fields live on the instance
+        if name in fields or hasattr(cls, name):
+            return name
+        real = [field for field, info in fields.items() if getattr(info, "alias", None) == name]
+        if real:
+            return real[0]
+        spelt = name + "_"
+        return spelt if keyword.iskeyword(name) and (spelt in fields or hasattr(cls, spelt)) else None
+    return _DYNAMIC  # dataclasses, namespaces and the like may carry attributes of their own
+
+
 def get_field(obj: Any, name: str) -> Any:
     """``obj[name]`` for a mapping, the public non-method attribute (or pydantic alias) for a record, else MISSING."""
     if isinstance(obj, Mapping):
         return obj.get(name, MISSING)
+    key = (type(obj), name)
+    attribute = _RESOLVED.get(key)
+    if attribute is None and key not in _RESOLVED:
+        attribute = _RESOLVED[key] = _static_attribute(type(obj), name)
+    if attribute is None:
+        return MISSING
+    if attribute is not _DYNAMIC:
+        value = getattr(obj, attribute, MISSING)
+        return MISSING if callable(value) else value
     if name.startswith("_") or not is_record(obj):
         return MISSING
     value = getattr(obj, name, MISSING)
@@ -127,11 +160,14 @@ def _lookup(name: str) -> tuple[tuple[str, ...], Callable[[Any, Any], bool]]:
 
 
 def _matches(item: Any, keys: tuple[str, ...], test: Callable[[Any, Any], bool], wanted: Any) -> bool:
-    values = [value for value in (get_field(item, key) for key in keys) if value is not MISSING]
-    try:
-        return bool(values) and bool(test(values[0], wanted))
-    except TypeError:  # None >= 10 and the like: not a match
-        return False
+    for key in keys:
+        value = get_field(item, key)
+        if value is not MISSING:
+            try:
+                return bool(test(value, wanted))
+            except TypeError:  # None >= 10 and the like: not a match
+                return False
+    return False
 
 
 def _select(items: Iterable[Any], filters: Mapping[str, Any]) -> list[Any]:
@@ -152,16 +188,16 @@ def find(world: Any, relation: str | None = None, **filters: Any) -> list[Any]:
     relation='isolated_from')``. An empty list is false, so it reads as a condition; a trigger's event is the
     first object found."""
     objects = get_field(world, "objects")
-    found = _select([] if objects is MISSING or objects is None else objects, filters)
-    if relation is None:
-        return found
-    relations = get_field(world, "relations")
-    subjects = {
-        get_field(r, "subj")
-        for r in ([] if relations is MISSING or relations is None else relations)
-        if get_field(r, "pred") == relation
-    }
-    return [o for o in found if get_field(o, "id") in subjects]
+    candidates = [] if objects is MISSING or objects is None else objects
+    if relation is not None:  # the relation first: it leaves few objects for the filters
+        relations = get_field(world, "relations")
+        subjects = {
+            get_field(r, "subj")
+            for r in ([] if relations is MISSING or relations is None else relations)
+            if get_field(r, "pred") == relation
+        }
+        candidates = [o for o in candidates if get_field(o, "id") in subjects]
+    return _select(candidates, filters)
 
 
 def _round(number: Any, ndigits: int | None = None) -> Any:

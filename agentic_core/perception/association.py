@@ -24,8 +24,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .kalman import mahalanobis_sq
@@ -33,7 +31,6 @@ from .kalman import mahalanobis_sq
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-_SMALLEST_RADIUS_M = 0.5  # gate radii are grouped by doublings from this
 _UNMATCHABLE = 1e9
 
 
@@ -53,36 +50,65 @@ def _largest_eigenvalue(M: FloatArray) -> FloatArray:
     return out
 
 
-def _rank_within(label: IntArray) -> IntArray:
-    """Each item's index among the items with the same label (0, 1, … per label, in the items' order)."""
-    rank = np.empty(len(label), np.intp)
-    order = np.argsort(label, kind="stable")
-    sorted_label = label[order]
-    starts = np.r_[0, np.flatnonzero(np.diff(sorted_label)) + 1]
-    run_start = np.repeat(starts, np.diff(np.r_[starts, len(order)]))
-    rank[order] = np.arange(len(order)) - run_start
-    return rank
+_NEIGHBOURS = 4  # detections asked of the KD-tree per track at first; a track with this many in its gate asks again
 
 
 def candidate_pairs(track_pos: FloatArray, radius: FloatArray, det_tree: cKDTree) -> tuple[IntArray, IntArray]:
-    """(track, detection) index pairs closer than the track's radius. Tracks are queried in groups of similar
-    radius (doubling from 0.5 m), so one uncertain track does not widen every other track's search."""
-    tier = np.ceil(np.log2(np.maximum(radius, 1e-9) / _SMALLEST_RADIUS_M)).clip(0, None).astype(np.intp)
-    ti: list[IntArray] = []
-    dj: list[IntArray] = []
-    for level in np.unique(tier):
-        rows = np.flatnonzero(tier == level)
-        pairs = cKDTree(track_pos[rows]).sparse_distance_matrix(
-            det_tree, float(radius[rows].max()), output_type="ndarray"
-        )
-        if len(pairs):
-            i = rows[pairs["i"]]
-            within = pairs["v"] <= radius[i]
-            ti.append(i[within])
-            dj.append(pairs["j"][within].astype(np.intp))
-    if not ti:
+    """(track, detection) index pairs closer than the track's radius (within it: ``<=``).
+
+    One vectorised query asks the detections' KD-tree for each track's few nearest detections (within the widest
+    radius), which is all of a track's candidates unless the last of them is inside its radius too: those few
+    tracks ask again with a ball query of their own radius. So one uncertain track does not widen every other
+    track's search, and a crowd costs one query rather than a tree per group of similar radii."""
+    n_t, n_d = len(track_pos), det_tree.n
+    if n_t == 0 or n_d == 0:
         return np.empty(0, np.intp), np.empty(0, np.intp)
-    return np.concatenate(ti), np.concatenate(dj)
+    k = min(_NEIGHBOURS, n_d)
+    bound = float(radius.max()) * (1.0 + 1e-9) + 1e-12  # the query's bound is strict; the radius is not
+    dist, idx = det_tree.query(track_pos, k=k, distance_upper_bound=bound)
+    dist, idx = dist.reshape(n_t, k), idx.reshape(n_t, k)
+    within = dist <= radius[:, None]
+    again = np.flatnonzero(within[:, -1]) if k < n_d else np.empty(0, np.intp)
+    within[again] = False
+    ti, slot = np.nonzero(within)
+    dj = idx[ti, slot]
+    if len(again):
+        found = det_tree.query_ball_point(track_pos[again], r=radius[again])
+        counts = [len(f) for f in found]
+        ti = np.concatenate([ti, np.repeat(again, counts)])
+        dj = np.concatenate([dj, np.concatenate(found).astype(np.intp)])
+    return ti.astype(np.intp), dj.astype(np.intp)
+
+
+def _components(a: list[int], b: list[int]) -> IntArray:
+    """The connected component of each edge ``a[k]–b[k]`` of a graph (numbered 0, 1, … in order of first edge).
+
+    Union–find with path halving in plain Python: the edges it is given are the tangled rest of an assignment,
+    a handful at 200 people and about a hundred at a thousand, for which scipy's sparse-graph machinery costs more
+    in building its matrices than the search itself."""
+    parent: dict[int, int] = {}
+
+    def root(x: int) -> int:
+        while (up := parent.setdefault(x, x)) != x:
+            parent[x] = x = parent[up]
+        return x
+
+    for u, v in zip(a, b, strict=True):
+        ru, rv = root(u), root(v)
+        if ru != rv:
+            parent[ru] = rv
+    numbers: dict[int, int] = {}
+    return np.array([numbers.setdefault(root(u), len(numbers)) for u in a], dtype=np.intp)
+
+
+def _rank_in_component(comp: IntArray, node: IntArray, n_nodes: int) -> tuple[IntArray, IntArray]:
+    """For each edge, its node's index among its component's distinct nodes (in node order), and each
+    component's number of distinct nodes."""
+    key = comp * n_nodes + node
+    unique, inverse = np.unique(key, return_inverse=True)
+    comp_of = unique // n_nodes
+    first = np.searchsorted(comp_of, comp_of, side="left")
+    return (inverse - first[inverse]).astype(np.intp), np.bincount(comp_of)
 
 
 def associate(
@@ -135,34 +161,29 @@ def associate(
     rest = np.flatnonzero(~track_star[ti] & ~det_star[dj])
     if len(rest):
         r_t, r_d, r_cost = ti[rest], dj[rest], cost[rest]
-        graph = coo_matrix((np.ones(len(rest)), (r_t, r_d + n_t)), shape=(n_t + n_d, n_t + n_d))
-        n_comp, label = connected_components(graph, directed=False)
-        n_tracks_in = np.bincount(label[:n_t][np.unique(r_t)], minlength=n_comp)
-        n_dets_in = np.bincount(label[n_t:][np.unique(r_d)], minlength=n_comp)
-        in_rest_t = np.zeros(n_t, bool)
-        in_rest_t[r_t] = True
-        in_rest_d = np.zeros(n_d, bool)
-        in_rest_d[r_d] = True
-        rank_t = _rank_within(np.where(in_rest_t, label[:n_t], -1))
-        rank_d = _rank_within(np.where(in_rest_d, label[n_t:], -1))
-        edge_label = label[r_t]
-        order = np.argsort(edge_label, kind="stable")
-        bounds = np.flatnonzero(np.diff(edge_label[order])) + 1
+        comp = _components(r_t.tolist(), (r_d + n_t).tolist())
+        rank_t, size_t = _rank_in_component(comp, r_t, n_t)
+        rank_d, size_d = _rank_in_component(comp, r_d, n_d)
+        order = np.argsort(comp, kind="stable")
+        bounds = np.flatnonzero(np.diff(comp[order])) + 1
         for edges in np.split(order, bounds):
-            comp = edge_label[edges[0]]
-            block = np.full((n_tracks_in[comp], n_dets_in[comp]), _UNMATCHABLE)
-            rows, cols = rank_t[r_t[edges]], rank_d[r_d[edges]]
+            c = comp[edges[0]]
+            block = np.full((size_t[c], size_d[c]), _UNMATCHABLE)
+            rows, cols = rank_t[edges], rank_d[edges]
             block[rows, cols] = r_cost[edges]
-            r, c = linear_sum_assignment(block)
-            ok = block[r, c] < _UNMATCHABLE
+            r, k = linear_sum_assignment(block)
+            ok = block[r, k] < _UNMATCHABLE
             pick = np.full(block.shape, -1, np.intp)
             pick[rows, cols] = edges
-            chosen = pick[r[ok], c[ok]]
+            chosen = pick[r[ok], k[ok]]
             match_t.append(r_t[chosen])
             match_d.append(r_d[chosen])
 
     tracks = np.concatenate(match_t).astype(np.intp)
     detections = np.concatenate(match_d).astype(np.intp)
-    missed = np.setdiff1d(np.arange(n_t), tracks, assume_unique=True)
-    new = np.setdiff1d(np.arange(n_d), detections, assume_unique=True)
+    taken_t = np.zeros(n_t, bool)
+    taken_t[tracks] = True
+    taken_d = np.zeros(n_d, bool)
+    taken_d[detections] = True
+    missed, new = np.flatnonzero(~taken_t), np.flatnonzero(~taken_d)
     return Assignment(tracks, detections, missed, new)

@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from operator import attrgetter
 
 import numpy as np
 from numpy.typing import NDArray
@@ -110,17 +111,21 @@ def clipped_sigma(spec: CameraSpec, boxes: FloatArray, sigma: FloatArray) -> tup
     return su, sv
 
 
+_corners = attrgetter("x_min", "y_min", "x_max", "y_max")
+"""A box's corners as a tuple, in one call."""
+
+
 def ground_measurements(frame: Frame, detections: Sequence[Detection], noise: NoiseModel) -> Measurements:
     """The detections of one frame as ground points with their per-detection covariance ``R``."""
     n = len(detections)
-    boxes = np.array([[d.box.x_min, d.box.y_min, d.box.x_max, d.box.y_max] for d in detections], dtype=float)
-    boxes = boxes.reshape(n, 4)
+    boxes = np.array([_corners(d.box) for d in detections], dtype=float).reshape(n, 4)
     classes = [d.class_name for d in detections]
     conf = np.array([d.confidence for d in detections], dtype=float)
     centre = np.column_stack([(boxes[:, 0] + boxes[:, 2]) / 2.0, (boxes[:, 1] + boxes[:, 3]) / 2.0])
     plane = np.full(n, noise.ground_down_m)
     if noise.centre_height_m:
-        plane -= np.array([noise.centre_height_m.get(c, 0.0) for c in classes])
+        lift = {c: noise.centre_height_m.get(c, 0.0) for c in dict.fromkeys(classes)}  # the frame's few classes
+        plane -= next(iter(lift.values())) if len(lift) == 1 else np.array([lift[c] for c in classes])
     z, J, hit = _cast(frame.spec, frame.pose, centre, plane)
     sigma = pixel_sigma(noise, frame.spec, frame.health, boxes)
     su, sv = clipped_sigma(frame.spec, boxes, sigma)

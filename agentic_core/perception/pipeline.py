@@ -38,7 +38,7 @@ from flight.geodesy import earth_radii, ned_to_geodetic
 from .measurement import NoiseModel, common_covariance, ego_covariance, ground_measurements
 from .scene_graph import Rel, RelationConfig, SceneGraph, as_landmark
 from .tracker import STATE_NAMES, TENTATIVE, Tracker, TrackerConfig, TrackTable
-from .world_model import Landmark, WorldModel
+from .world_model import Landmark, Relation, WorldModel, WorldObject, trusted_objects, trusted_relations
 
 STAGES = ("measure", "track", "relations", "contract")
 """The stages :attr:`Perception.timings` reports, in order."""
@@ -103,7 +103,7 @@ class Perception:
         ego = {"north": frame.pose.north_m, "east": frame.pose.east_m, "down": frame.pose.down_m, "time": frame.time_s}
         relations = self.scene_graph.update(tracks, landmarks=self.landmarks, footprint=corners, ego=ego)
         t3 = time.perf_counter()
-        world = self._contract(frame, tracks, relations)
+        world = self.contract(frame, tracks, relations)
         self._last = (frame, list(detections), tracks, world)  # one assignment: readers see one frame's state
         t4 = time.perf_counter()
         self.timings = dict(zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3), strict=True))
@@ -150,47 +150,86 @@ class Perception:
         boxes = self.track_boxes(tracks)
         return annotate_frame(frame, world, detections=detections, boxes=boxes, path=path, width_px=width_px)
 
-    def _contract(self, frame: Frame, tracks: TrackTable, relations: list[Rel]) -> WorldModel:
-        """The contract, validated: built as plain data and checked by pydantic in one call (as fast as building
-        the records unchecked, and it refuses a NaN that slipped through)."""
+    def contract(
+        self, frame: Frame, tracks: TrackTable, relations: Sequence[Rel], *, validate: bool = False
+    ) -> WorldModel:
+        """The World Model of these tracks and relations at this frame (what :meth:`update` publishes).
+
+        The records of the objects and relations, hundreds each a frame, are not validated one by one: one check
+        on the arrays first proves every bound the contract puts on them (every float finite, latitude and
+        longitude in range, ``conf`` in 0–1, ``stationary_s`` and the track age not negative, ids and names
+        strings), and they are then built from values of exactly the types validation gives
+        (:func:`.world_model.trusted_objects`, :func:`.world_model.trusted_relations`). Should anything fail
+        that check (a NaN that slipped through), those records are validated instead, which refuses it with
+        pydantic's ``ValidationError`` as before. The rest (time, ego pose, health, landmarks, and the model
+        around the records) is validated as always. ``validate=True`` validates every record: the reference the
+        tests hold the published model equal to.
+        """
         cfg = self.config
         lat0, lon0, alt0 = self.home
         shown = tracks.state != TENTATIVE if not cfg.publish_tentative else np.ones(len(tracks), dtype=bool)
         rows = np.flatnonzero(shown)
-        x = tracks.x[rows]
+        picked = rows.tolist()
+        x = tracks.x[rows].astype(float, copy=False)
         lat, lon = _geodetic(lat0, lon0, x[:, 0], x[:, 1])
         cov = tracks.P[rows, :2, :2] + common_covariance(cfg.noise, frame.health, frame.pose, x[:, :2])
-        down = cfg.noise.ground_down_m
+        speed = np.hypot(x[:, 2], x[:, 3])
+        conf = tracks.conf[rows].astype(float, copy=False)
+        still = tracks.stationary_s[rows].astype(float, copy=False)
+        seen = tracks.last_seen[rows].astype(float, copy=False)
+        age = tracks.age_frames[rows]
+        ids = [tracks.ids[r] for r in picked]
+        classes = [tracks.classes[r] for r in picked]
+        down = float(cfg.noise.ground_down_m)
+        alt = float(alt0 - down)
         columns = zip(
-            [tracks.ids[r] for r in rows],
-            [tracks.classes[r] for r in rows],
+            ids,
+            classes,
             x.tolist(),
             lat.tolist(),
             lon.tolist(),
-            np.hypot(x[:, 2], x[:, 3]).tolist(),
-            tracks.conf[rows].tolist(),
-            cov.tolist(),
-            tracks.age_frames[rows].tolist(),
-            tracks.stationary_s[rows].tolist(),
-            [STATE_NAMES[s] for s in tracks.state[rows]],
-            tracks.last_seen[rows].tolist(),
+            speed.tolist(),
+            conf.tolist(),
+            cov.reshape(-1, 4).astype(float, copy=False).tolist(),
+            age.tolist(),
+            still.tolist(),
+            [STATE_NAMES[s] for s in tracks.state[rows].tolist()],
+            seen.tolist(),
             strict=True,
         )
-        objects = [
-            {
-                "id": ident,
-                "class": cls,
-                "pose": {"north": n, "east": e, "down": down, "lat": la, "lon": lo, "alt": alt0 - down},
-                "vel": {"north": vn, "east": ve, "down": 0.0, "speed": sp},
-                "conf": conf,
-                "cov": c,
-                "track_age_frames": age,
-                "stationary_s": still,
-                "state": state,
-                "last_seen": seen,
-            }
-            for ident, cls, (n, e, vn, ve), la, lo, sp, conf, c, age, still, state, seen in columns
-        ]
+        within = (
+            bool(np.isfinite(np.concatenate([x.ravel(), cov.ravel(), lat, lon, conf, still, seen, [down, alt]])).all())
+            and bool((np.abs(lat) <= 90.0).all() and (np.abs(lon) <= 180.0).all())
+            and bool(((conf >= 0.0) & (conf <= 1.0)).all() and (still >= 0.0).all())
+            and age.dtype.kind in "iu"
+            and bool((age >= 0).all())
+            and all(type(v) is str for v in ids)
+            and all(type(v) is str for v in classes)
+        )
+        objects: list[WorldObject] | list[dict[str, Any]]
+        if within and not validate:
+            objects = trusted_objects(columns, down=down, alt=alt)
+        else:
+            objects = [
+                {
+                    "id": ident,
+                    "class": cls,
+                    "pose": {"north": n, "east": e, "down": down, "lat": la, "lon": lo, "alt": alt},
+                    "vel": {"north": vn, "east": ve, "down": 0.0, "speed": sp},
+                    "conf": cf,
+                    "cov": [[c00, c01], [c10, c11]],
+                    "track_age_frames": ag,
+                    "stationary_s": st,
+                    "state": state,
+                    "last_seen": sn,
+                }
+                for ident, cls, (n, e, vn, ve), la, lo, sp, cf, (c00, c01, c10, c11), ag, st, state, sn in columns
+            ]
+        records: list[Relation] | list[dict[str, Any]]
+        if not validate and all(_trusted_relation(r) for r in relations):
+            records = trusted_relations(relations)
+        else:
+            records = [r._asdict() for r in relations]
         pose = frame.pose
         e_lat, e_lon, e_alt = ned_to_geodetic(pose.north_m, pose.east_m, pose.down_m, lat0, lon0, alt0)
         ego = {
@@ -212,11 +251,22 @@ class Perception:
                 "frame": frame.index,
                 "ego_pose": ego,
                 "objects": objects,
-                "relations": [r._asdict() for r in relations],
+                "relations": records,
                 "health": {"degraded_sensors": sorted(degraded), "factors": dict(sorted(degraded.items()))},
                 "landmarks": self.landmarks,
             }
         )
+
+
+def _trusted_relation(r: Rel) -> bool:
+    """Whether a relation's values are what validating them would give: strings, and a finite ``float`` or none."""
+    subj, pred, obj, value = r
+    return (
+        type(subj) is str
+        and type(pred) is str
+        and (obj is None or type(obj) is str)
+        and (value is None or (type(value) is float and math.isfinite(value)))
+    )
 
 
 def _geodetic(lat0: float, lon0: float, north: np.ndarray, east: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

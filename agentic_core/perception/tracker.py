@@ -147,7 +147,9 @@ class Tracker:
         self._age += 1
         self._det_index = np.full(len(self._ids), -1, np.intp)
 
-        det_cls = np.array([self._class_of(c) for c in m.classes], dtype=np.intp)
+        for name in dict.fromkeys(m.classes):  # the frame's few class names; a new one is numbered on first sight
+            self._class_of(name)
+        det_cls = np.array([self._class_index[c] for c in m.classes], dtype=np.intp)
         a = associate(
             self._x[:, :2], self._P[:, :2, :2], self._cls, m.z, m.R, det_cls, gate=cfg.gate, max_radius_m=cfg.max_gate_m
         )

@@ -29,9 +29,10 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from collections.abc import Set as AbstractSet
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Self, cast
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -197,6 +198,165 @@ class WorldModel(Contract):
     def to_json(self, indent: int | None = None) -> str:
         """The contract as JSON text (what alerts attach and runs store)."""
         return self.model_dump_json(by_alias=True, indent=indent)
+
+
+# ---- records built without validating them again ----
+#
+# Perception builds hundreds of objects and relations a frame from its own arrays, after one vectorised check of
+# every bound (finite, latitude in range, ...). Validating each of them again cost more than the rest of the
+# update together, so they are made as pydantic's ``model_construct`` makes records, without its per-field alias
+# and default lookups: ``__dict__`` set to values that are exactly what validation would give (``float`` for every
+# float field, not an ``int`` or numpy scalar; tuples for covariances; records for nested records), every field
+# given. Tests hold them equal, field by field, in ``model_fields_set`` and in JSON, to validated records on real
+# frames, and keep these records free of validators, private attributes and ``model_post_init``, which this skips.
+
+
+def _slot_setter(name: str) -> Callable[[Any, Any], None]:
+    """The setter of one of pydantic's instance slots (``__dict__``, ``__pydantic_fields_set__``, ...), called
+    directly: a third faster than ``object.__setattr__``, which looks the slot up through the class every time."""
+    slot = vars(BaseModel).get(name)
+    setter = getattr(slot, "__set__", None)
+    if setter is None:  # not a slot in some pydantic version: set it as model_construct does
+        return lambda obj, value: object.__setattr__(obj, name, value)
+    return cast("Callable[[Any, Any], None]", setter)
+
+
+_set_dict = _slot_setter("__dict__")
+_set_fields_set = _slot_setter("__pydantic_fields_set__")
+_set_extra = _slot_setter("__pydantic_extra__")
+_set_private = _slot_setter("__pydantic_private__")
+_SHARED = "the fields-set of a record perception built is shared by its class's records: copy it to change it"
+
+
+class AllFields(set[str]):
+    """Every field name of one record class: the ``model_fields_set`` that perception's records share.
+
+    Every record sets every field, so they can share one set instead of allocating one each, which was a third of
+    the cost of a record (a set of more than four names allocates a table of its own). It is a ``set``, equal to
+    the one validation makes, but it refuses to change, since it is shared: pydantic only ever adds a name already
+    in it (on assigning a field: no change), and a copy (``copy()``, ``model_copy``, ``copy.copy``, pickling) is an
+    ordinary set.
+    """
+
+    def add(self, element: str) -> None:
+        if element not in self:
+            raise TypeError(_SHARED)
+
+    def update(self, *s: Iterable[str]) -> None:
+        if any(element not in self for other in s for element in other):
+            raise TypeError(_SHARED)
+
+    def __ior__(self, value: AbstractSet[str]) -> Self:  # type: ignore[override,misc]
+        self.update(value)
+        return self
+
+    def discard(self, element: object) -> None:
+        raise TypeError(_SHARED)
+
+    def remove(self, element: str) -> None:
+        raise TypeError(_SHARED)
+
+    def pop(self) -> str:
+        raise TypeError(_SHARED)
+
+    def clear(self) -> None:
+        raise TypeError(_SHARED)
+
+    def difference_update(self, *s: Iterable[Any]) -> None:
+        raise TypeError(_SHARED)
+
+    def intersection_update(self, *s: Iterable[Any]) -> None:
+        raise TypeError(_SHARED)
+
+    def symmetric_difference_update(self, s: Iterable[str], /) -> None:
+        raise TypeError(_SHARED)
+
+    def __iand__(self, value: AbstractSet[object]) -> Self:
+        raise TypeError(_SHARED)
+
+    def __isub__(self, value: AbstractSet[object]) -> Self:
+        raise TypeError(_SHARED)
+
+    def __ixor__(self, value: AbstractSet[str]) -> Self:  # type: ignore[override,misc]
+        raise TypeError(_SHARED)
+
+    def copy(self) -> set[str]:
+        return set(self)
+
+    def __copy__(self) -> set[str]:
+        return set(self)
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> set[str]:
+        return set(self)
+
+    def __reduce__(self) -> tuple[type[set[str]], tuple[list[str]]]:
+        return set, (list(self),)
+
+
+_OBJECT_FIELDS = AllFields(WorldObject.model_fields)
+_POSE_FIELDS = AllFields(GeoPose.model_fields)
+_VELOCITY_FIELDS = AllFields(Velocity.model_fields)
+_RELATION_FIELDS = AllFields(Relation.model_fields)
+
+ObjectRow = tuple[str, str, list[float], float, float, float, float, list[float], int, float, TrackState, float]
+"""One object's values, as :func:`trusted_objects` takes them: id, class, [north, east, v_north, v_east], lat, lon,
+speed, conf, covariance [nn, ne, en, ee], track age (frames), stationary_s, state, last_seen."""
+
+
+def trusted_objects(rows: Iterable[ObjectRow], *, down: float, alt: float) -> list[WorldObject]:
+    """:class:`WorldObject` records, with their pose and velocity, from rows of values that already are what
+    validating them would give (see the notes above; ``down`` and ``alt`` are every pose's: the ground plane's)."""
+    new_object, new_pose, new_velocity = WorldObject.__new__, GeoPose.__new__, Velocity.__new__
+    set_dict, set_fields_set, set_extra, set_private = _set_dict, _set_fields_set, _set_extra, _set_private
+    out = []
+    for ident, cls, (n, e, vn, ve), lat, lon, speed, conf, (c00, c01, c10, c11), age, still, state, seen in rows:
+        pose = new_pose(GeoPose)
+        set_dict(pose, {"north": n, "east": e, "down": down, "lat": lat, "lon": lon, "alt": alt})
+        set_fields_set(pose, _POSE_FIELDS)
+        set_extra(pose, None)
+        set_private(pose, None)
+        vel = new_velocity(Velocity)
+        set_dict(vel, {"north": vn, "east": ve, "down": 0.0, "speed": speed})
+        set_fields_set(vel, _VELOCITY_FIELDS)
+        set_extra(vel, None)
+        set_private(vel, None)
+        record = new_object(WorldObject)
+        set_dict(
+            record,
+            {
+                "id": ident,
+                "class_name": cls,
+                "pose": pose,
+                "vel": vel,
+                "conf": conf,
+                "cov": ((c00, c01), (c10, c11)),
+                "track_age_frames": age,
+                "stationary_s": still,
+                "state": state,
+                "last_seen": seen,
+            },
+        )
+        set_fields_set(record, _OBJECT_FIELDS)
+        set_extra(record, None)
+        set_private(record, None)
+        out.append(record)
+    return out
+
+
+def trusted_relations(rows: Iterable[tuple[str, str, str | None, float | None]]) -> list[Relation]:
+    """:class:`Relation` records from ``(subj, pred, obj, value)`` rows that already are what validating them would
+    give (see the notes above; a frame has about as many relations as objects)."""
+    new_relation = Relation.__new__
+    set_dict, set_fields_set, set_extra, set_private = _set_dict, _set_fields_set, _set_extra, _set_private
+    out = []
+    for subj, pred, obj, value in rows:
+        record = new_relation(Relation)
+        set_dict(record, {"subj": subj, "pred": pred, "obj": obj, "value": value})
+        set_fields_set(record, _RELATION_FIELDS)
+        set_extra(record, None)
+        set_private(record, None)
+        out.append(record)
+    return out
 
 
 def world_model_schema() -> dict[str, Any]:

@@ -123,8 +123,10 @@ class RuleReasoner:
                 recommended_actions=["continue_patrol"],
                 rationale="Nobody in view.",
             )
+        isolated = {r.subj for r in world.relations if r.pred == "isolated_from"}  # once, not per person
         graded = sorted(
-            ((self._grade(world, p), p) for p in people), key=lambda g: (-_rank(g[0][0]), -g[1].stationary_s)
+            ((self._grade(world, p, p.id in isolated), p) for p in people),
+            key=lambda g: (-_rank(g[0][0]), -g[1].stationary_s),
         )
         (severity, actions, why), subject = graded[0]
         if focus is not None:
@@ -147,11 +149,10 @@ class RuleReasoner:
 
     # ---- the table ----
 
-    def _grade(self, world: WorldModel, person: WorldObject) -> tuple[Severity, list[str], str]:
+    def _grade(self, world: WorldModel, person: WorldObject, isolated: bool) -> tuple[Severity, list[str], str]:
         s = self.settings
-        isolated = world.has(person.id, "isolated_from")
-        shelter = self._shelter(world, person)
         if isolated and person.stationary_s >= min(s.suspect_s, s.still_s):
+            shelter = self._shelter(world, person)
             if shelter is not None:
                 return "low", ["log_observation"], f"{person.id} is resting at {shelter.kind} {shelter.id}"
             if person.stationary_s >= s.still_s:

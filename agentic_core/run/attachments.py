@@ -4,6 +4,11 @@ into files of the run, so ``alerts.notify`` attaches real files and a reader of 
 A mission writes ``attach: [position, snapshot, world_model]``; the runner calls :func:`materialize` on the
 arguments of every ``alerts.notify`` call before it reaches the tool. Paths that are already files pass through;
 a name that cannot be produced (no frame yet) is passed on as it is, so the alert lists it as unavailable.
+
+This is on the way from the frame that confirms a casualty to the alert sent, so it is kept quick: the World
+Model is written by pydantic's serialiser (:meth:`WorldModel.to_json`; the standard library's indenting encoder is
+pure Python and took several milliseconds for a crowd), and the picture is drawn without matplotlib's figures
+(:mod:`agentic_core.perception.annotate`).
 """
 
 from __future__ import annotations
@@ -51,7 +56,11 @@ def _produce(
         return loop.snapshot(base.with_name(base.name + "-snapshot.png")) if loop is not None else None
     if item == "world_model":
         world: WorldModel | None = loop.world if loop is not None else None
-        return _json(base.with_name(base.name + "-world_model.json"), world.to_dict() if world else None)
+        if world is None:
+            return None
+        path = base.with_name(base.name + "-world_model.json")
+        path.write_text(world.to_json(indent=2) + "\n", encoding="utf-8")  # indented like _json, ten times faster
+        return path
     if item == "position":
         return _json(base.with_name(base.name + "-position.json"), position())
     if item == "assessment":

@@ -16,10 +16,12 @@ marked ``approval`` are answered by the headless policy, or (``approval="ask"``)
 
 from __future__ import annotations
 
+import gc
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -114,6 +116,8 @@ class MissionRun:
         self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
         camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
         self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
+        if self.loop is not None:
+            self.loop.warm()  # the first alert's picture is then as quick as any
         self.track: list[TrackPoint] = []
         self._client: VehicleClient | None = None
         self._last_decision: Decision | None = None
@@ -420,7 +424,7 @@ class MissionRun:
         outcome = "failed"
         over = False
         try:
-            with SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
+            with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
                     self.plan, self.env, checkpointer=saver, reflector=self._reflector(), tools=self.registry
                 )
@@ -478,6 +482,14 @@ class MissionRun:
         self.vehicle.close()
         self._world_log.close()
 
+    def close(self) -> None:
+        """Release what the run holds without flying it (:meth:`execute` does this itself): the executor's workers,
+        the vehicle's socket, the open logs. Safe to call twice."""
+        self.executor.close()
+        self.vehicle.close()
+        self._world_log.close()
+        self.trace.close()
+
     def _summary(self, outcome: str, wall_s: float) -> RunSummary:
         decisions = self.trace.of_kind("decision")
         exchanges = self.trace.of_kind("plan") + self.trace.of_kind("reflection")  # one model call each
@@ -507,6 +519,19 @@ class MissionRun:
         )  # fmt: skip
 
 
+@contextmanager
+def setup_frozen() -> Iterator[None]:
+    """Leave everything that exists now (a run's set-up: the scene, the vehicle, the compiled mission, the models)
+    out of the garbage collector's passes until the block ends, so a collection during the flight, on the way from
+    a frame to an alert say, walks only what the flight made (``gc.freeze``; undone at the end)."""
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
 def _object_id(event: Any) -> str | None:
     """The world-model object a trigger found (None for an event that is not an object)."""
     found = get_field(event, "id")
@@ -523,4 +548,13 @@ def run_mission(
     return MissionRun(settings, progress=progress, operator=operator).execute()
 
 
-__all__ = ["AGENT", "MissionRun", "RunError", "RunResult", "RunSettings", "default_scene", "run_mission"]
+__all__ = [
+    "AGENT",
+    "MissionRun",
+    "RunError",
+    "RunResult",
+    "RunSettings",
+    "default_scene",
+    "run_mission",
+    "setup_frozen",
+]

@@ -25,7 +25,7 @@ from pydantic import BaseModel, Field
 from ..function import spec_from_function
 from ..spec import RetrySpec, ToolContext, ToolSpec, declared_transient
 from .config import BuiltinConfig, may_attach
-from .mail import EmailReceipt, send_email
+from .mail import EmailReceipt, send_email, send_files
 from .outbox import append_line, now_iso
 from .webhook import WebhookReceipt, post_webhook
 
@@ -70,7 +70,7 @@ def notify(
     recipients = recipients_of(to) or list(config.alert_recipients)
     if channel == "email":
         text = body + (f"\n\nNot available: {', '.join(unavailable)}" if unavailable else "")
-        mail = send_email(config, recipients, subject, text, files, keep_as=keep_as)
+        mail = send_files(config, recipients, subject, text, [Path(f).expanduser() for f in files], keep_as=keep_as)
         return NotifyReceipt(
             channel=channel,
             delivered_via=mail.delivered_via,

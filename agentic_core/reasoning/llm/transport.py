@@ -7,9 +7,11 @@ the API key kept out of every message.
 from __future__ import annotations
 
 import asyncio
+import functools
 import json
 import logging
 import random
+import ssl
 import time
 import weakref
 from collections.abc import Awaitable, Callable
@@ -119,6 +121,13 @@ class Redactor:
         return text
 
 
+@functools.cache
+def _ssl_context(trust_env: bool) -> ssl.SSLContext:
+    """The TLS context every client shares (httpx builds one per client otherwise, loading the CA bundle each
+    time); with ``trust_env`` it honours ``SSL_CERT_FILE`` and ``SSL_CERT_DIR`` as httpx does."""
+    return httpx.create_ssl_context(trust_env=trust_env)
+
+
 class JSONEndpoint:
     """POSTs JSON to one URL and returns the JSON object answered, or raises :class:`RequestFailure` when the
     retries are over. ``label`` names the caller in log lines (provider and model)."""
@@ -148,6 +157,7 @@ class JSONEndpoint:
         self._by_loop: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, httpx.AsyncClient] = (
             weakref.WeakKeyDictionary()
         )
+        self._verify = _ssl_context(trust_env)  # made now, not on the first call (tens of ms)
 
     def redact(self, text: str) -> str:
         return self._redactor.redact(text)
@@ -251,7 +261,9 @@ class JSONEndpoint:
         loop = asyncio.get_running_loop()
         client = self._by_loop.get(loop)
         if client is None or client.is_closed:
-            client = httpx.AsyncClient(timeout=self.timeout, transport=self._transport, trust_env=self._trust_env)
+            client = httpx.AsyncClient(
+                timeout=self.timeout, transport=self._transport, trust_env=self._trust_env, verify=self._verify
+            )
             self._by_loop[loop] = client
         return client
 

@@ -5,8 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
-from agentic_core.perception.association import associate
+from agentic_core.perception.association import _components, associate, candidate_pairs
 from agentic_core.perception.kalman import mahalanobis_sq
 
 GATE = 13.8
@@ -43,6 +46,35 @@ def test_clustered_assignment_equals_the_dense_hungarian() -> None:
         assert np.isclose(sum(cost[i, j] for i, j in pairs), sum(cost[i, j] for i, j in ref))
         assert set(got.missed_tracks.tolist()) == set(range(n_t)) - {i for i, _ in pairs}
         assert set(got.new_detections.tolist()) == set(range(n_d)) - {j for _, j in pairs}
+
+
+def test_candidate_pairs_are_every_pair_within_the_tracks_radius() -> None:
+    """Against brute force, dense scenes included: there most tracks have more detections in their radius than
+    the first query asks for, and ask again."""
+    rng = np.random.default_rng(1)
+    for case in range(200):
+        n_t, n_d = int(rng.integers(0, 40)), int(rng.integers(0, 40))
+        side = 3.0 if case % 2 else 30.0
+        tp, z = rng.uniform(0, side, (n_t, 2)), rng.uniform(0, side, (n_d, 2))
+        radius = rng.uniform(0.1, 5.0, n_t)
+        ti, dj = candidate_pairs(tp, radius, cKDTree(z.reshape(n_d, 2)))
+        assert ti.dtype == dj.dtype == np.intp
+        got = sorted(zip(ti.tolist(), dj.tolist(), strict=True))
+        dist = np.hypot(*(tp[:, None, :] - z[None, :, :]).transpose(2, 0, 1)).reshape(n_t, n_d)
+        assert got == sorted(zip(*np.nonzero(dist <= radius[:, None]), strict=True))
+
+
+def test_components_are_the_connected_components() -> None:
+    rng = np.random.default_rng(2)
+    for _ in range(200):
+        n, m = int(rng.integers(1, 30)), int(rng.integers(1, 40))
+        a, b = rng.integers(0, n, m), rng.integers(0, n, m)
+        comp = _components(a.tolist(), b.tolist())
+        _, label = connected_components(coo_matrix((np.ones(m), (a, b)), shape=(n, n)), directed=False)
+        pairs = set(zip(comp.tolist(), label[a].tolist(), strict=True))
+        assert len(pairs) == len(set(comp.tolist())) == len(set(label[a].tolist()))  # the same partition of edges
+        first_seen = list(dict.fromkeys(comp.tolist()))
+        assert first_seen == list(range(len(first_seen)))  # numbered in order of first edge
 
 
 def test_classes_never_mix_and_far_detections_start_tracks() -> None:

@@ -286,6 +286,7 @@ def check_ollama_request(body: Any) -> list[str]:
 # the server --------------------------------------------------------------------------------------------------------
 class _Handler(BaseHTTPRequestHandler):
     protocol_version = "HTTP/1.1"
+    disable_nagle_algorithm = True  # as real servers do: a reply on a kept-alive connection is not held back ~40 ms
     server: _Server
 
     def log_message(self, format: str, *args: Any) -> None:  # quiet
