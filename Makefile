@@ -39,6 +39,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/tool_overhead.py
 	$(PY) benchmarks/sim_speed.py
 	$(PY) benchmarks/perception.py
+	$(PY) benchmarks/decision_latency.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

@@ -11,7 +11,8 @@ that hovering camera's, and times
 * ``trigger``: the trigger's condition evaluated on the mission's scope, as the runner checks it while flying;
 * ``assess``: the runner's tier-2 gate (its ``Environment.gate``): the reasoner's assessment of the person, logged
   with its World Model and traced — ``rules``, or ``llm`` against a local stand-in that answers at once, so the
-  model's own time is zero and only our side (prompt, HTTP, validation) is counted;
+  model's own time is zero and only our side (prompt, HTTP, validation) is counted (the stand-in runs in a
+  process of its own, as a model server does);
 * ``mission``: the mission graph, compiled on the runner's environment with a SQLite checkpointer as the runner
   compiles it, firing the trigger, splicing its sub-plan and running it to the alert (a one-step sub-plan:
   ``notify``), excluding the alert itself (the runner's trace of each step's update is not counted);
@@ -35,11 +36,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import multiprocessing
 import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -171,26 +174,50 @@ def run_once(settings: RunSettings, loop: PerceptionLoop, pose: CameraPose, t: f
     }
 
 
+ANSWER = {"persons_detected": 1, "confidence": 0.9, "severity": "critical", "recommended_actions": ["alert"]}
+
+
+def _serve(urls: Any, stop: Any) -> None:
+    """The model server's process: the tests' OpenAI-compatible stand-in, answering every request at once."""
+    from tests.agentic_core.reasoning.llm.standin import StandIn, openai_completion
+
+    with StandIn(responder=lambda path, body: openai_completion(json.dumps(ANSWER))) as server:
+        urls.put(server.url)
+        stop.wait()
+
+
+@contextmanager
+def model_server() -> Iterator[str]:
+    """The stand-in model in a process of its own, as a real model server is: its work (parsing the request,
+    answering) is the model's side and does not compete with ours for this process's interpreter."""
+    context = multiprocessing.get_context("spawn")
+    urls, stop = context.Queue(), context.Event()
+    process = context.Process(target=_serve, args=(urls, stop), daemon=True)
+    process.start()
+    try:
+        yield str(urls.get(timeout=60))
+    finally:
+        stop.set()
+        process.join(timeout=10)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=15)
     parser.add_argument("--quick", action="store_true", help="3 runs (for the smoke test)")
     args = parser.parse_args(argv)
     runs = 3 if args.quick else args.runs
-    from tests.agentic_core.reasoning.llm.standin import StandIn, openai_completion  # the tests' stand-in
 
     print(TABLE_HEADER)
     rows: dict[str, dict[str, float]] = {}
-    with tempfile.TemporaryDirectory() as tmp, StandIn() as server:
-        answer = {"persons_detected": 1, "confidence": 0.9, "severity": "critical", "recommended_actions": ["alert"]}
-        server.script(*[openai_completion(json.dumps(answer)) for _ in range(runs + 1)])
+    with tempfile.TemporaryDirectory() as tmp, model_server() as url:
         mission = Path(tmp) / "latency.yaml"
         mission.write_text(MISSION, encoding="utf-8")
         reasoners: dict[str, Callable[[Path], RunSettings]] = {
             "rules": lambda runs_dir: RunSettings(mission=mission, scene=SCENE, runs_dir=runs_dir, seed=1),
             "llm (stand-in, 0 s)": lambda runs_dir: RunSettings(
                 mission=mission, scene=SCENE, runs_dir=runs_dir, seed=1, reasoner="llm",
-                llm=f"openai-compatible:stand-in@{server.url}",
+                llm=f"openai-compatible:stand-in@{url}",
             ),
         }  # fmt: skip
         for name, settings in reasoners.items():

@@ -459,7 +459,6 @@ class MissionRun:
             self._finish()
         summary = self._summary(outcome, time.monotonic() - wall0)
         report = write_report(self.run_dir, summary, self.trace.records, self.track, self.scene)
-        self.trace.close()
         return RunResult(self.run_id, self.run_dir, report, summary, final, list(self.track))
 
     def _follow(self, node: str, change: dict[str, Any]) -> None:
@@ -478,9 +477,7 @@ class MissionRun:
 
     def _finish(self) -> None:
         self.trace.write("run", event="end", summary="end")
-        self.executor.close()
-        self.vehicle.close()
-        self._world_log.close()
+        self.close()
 
     def close(self) -> None:
         """Release what the run holds without flying it (:meth:`execute` does this itself): the executor's workers,

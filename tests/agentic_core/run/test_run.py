@@ -68,6 +68,9 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     assert tools[-1] == "flight.rtl" and "incidents.log" not in tools
     verdicts = [r["assessment"]["severity"] for r in records(result, "decision") if r["why"] == "analyze_scene"]
     assert "critical" in verdicts
+    assert [(r["request"]["step"], r["answer"]) for r in records(result, "approval")] == [
+        ("land_near", True), ("release_kit", True)
+    ]  # fmt: skip
 
     # it landed beside P-12 (5 m short, on the side it came from), not on them and not elsewhere
     scene = load_scene(SCENES / "small_emergency.yaml")
