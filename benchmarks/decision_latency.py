@@ -124,6 +124,7 @@ def run_once(settings: RunSettings, loop: PerceptionLoop, pose: CameraPose, t: f
     """One confirming frame to its alert, through a fresh run of the mission (built outside the timings)."""
     run = MissionRun(settings)
     run.loop = loop  # the hovering camera's perception: the runner reads it through this attribute at every use
+    run.prepare()  # as MissionRun.execute does before take-off
     stamps: dict[str, float] = {}
     executor = run.executor
     run.executor = _Marked(executor, stamps)  # type: ignore[assignment]

@@ -116,8 +116,6 @@ class MissionRun:
         self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
         camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
         self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
-        if self.loop is not None:
-            self.loop.warm()  # the first alert's picture is then as quick as any
         self.track: list[TrackPoint] = []
         self._client: VehicleClient | None = None
         self._last_decision: Decision | None = None
@@ -414,12 +412,27 @@ class MissionRun:
 
     # ---- running ----
 
+    def prepare(self) -> None:
+        """Get ready before take-off, so the first event costs no more than any: draw one picture (the annotator
+        loaded) and open the model's connection, reporting a model server that does not answer now rather than at
+        the first event (the run goes on: a failing model is a result the agent handles)."""
+        if self.loop is not None:
+            self.loop.warm()
+        client = self._model_client()
+        warm = getattr(client, "warm", None)
+        if callable(warm):
+            problem = warm()
+            if problem is not None:
+                self.trace.write("log", level="warning", summary=f"the model server does not answer: {problem}")
+                self._say(f"warning: the model server does not answer ({problem}); its calls will fail")
+
     def execute(self) -> RunResult:
         """Fly the mission; always stops the vehicle and writes the report."""
         wall0 = time.monotonic()
-        self.vehicle.start(speed=self.settings.speed)
         self.trace.write("run", event="start", mission=str(self.settings.mission), reasoner=self.reasoner.name,
                          summary=f"start {self.plan.plan_id} with {self.reasoner.name}")  # fmt: skip
+        self.prepare()
+        self.vehicle.start(speed=self.settings.speed)
         final: dict[str, Any] = {}
         outcome = "failed"
         over = False

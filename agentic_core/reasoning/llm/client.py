@@ -90,6 +90,8 @@ class HTTPChatClient:
     """
 
     endpoint: ClassVar[str] = ""
+    probe_endpoint: ClassVar[str] = ""
+    """A cheap GET under ``base_url`` that a live server answers (its model list), for :meth:`warm`."""
     wire_format: ClassVar[str] = ""
     default_provider: ClassVar[str] = ""
 
@@ -363,6 +365,16 @@ class HTTPChatClient:
             )
 
     # lifecycle ------------------------------------------------------------------------------------------------------
+    def warm(self) -> str | None:
+        """Get the synchronous calls ready now — their event loop thread and the connection to the server, through
+        one GET of the server's model list — so the first real call (for the hybrid reasoner, the critical event)
+        pays for none of it, and a server that does not answer is known before it is needed. None when the server
+        answered, else why not; nothing is raised."""
+        try:
+            return self._run_sync(self._endpoint.probe(self.base_url + self.probe_endpoint))
+        except Exception as exc:  # a probe is advice: it never stops the caller
+            return f"{type(exc).__name__}: {exc}"
+
     def _run_sync(self, coroutine: Coroutine[Any, Any, T]) -> T:
         loop = self._background_loop()
         if threading.current_thread() is self._loop_thread:

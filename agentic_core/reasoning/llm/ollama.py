@@ -33,6 +33,7 @@ class OllamaClient(HTTPChatClient):
     """
 
     endpoint: ClassVar[str] = "/api/chat"
+    probe_endpoint: ClassVar[str] = "/api/tags"
     wire_format: ClassVar[str] = "Ollama /api/chat"
     default_provider: ClassVar[str] = "ollama"
 

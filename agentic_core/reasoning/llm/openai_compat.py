@@ -65,6 +65,7 @@ class OpenAICompatibleClient(HTTPChatClient):
     """
 
     endpoint: ClassVar[str] = "/chat/completions"
+    probe_endpoint: ClassVar[str] = "/models"
     wire_format: ClassVar[str] = "chat completions"
     default_provider: ClassVar[str] = "openai-compatible"
 

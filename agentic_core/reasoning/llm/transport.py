@@ -267,6 +267,18 @@ class JSONEndpoint:
             self._by_loop[loop] = client
         return client
 
+    async def probe(self, url: str) -> str | None:
+        """GET ``url`` once, with the endpoint's key and timeouts, opening the connection the calls will reuse; None
+        when the server answered 2xx, else why not (the key redacted)."""
+        try:
+            response = await self._client().get(url, headers=self._headers())
+        except httpx.HTTPError as exc:
+            return self.redact(f"cannot reach {self.server}: {describe(exc)}")
+        if response.is_success:
+            return None
+        message, _ = error_detail(response)
+        return self.redact(f"{self.server} answered {response.status_code}: {message}")
+
     async def aclose(self) -> None:
         """Close the connections opened on the running event loop."""
         client = self._by_loop.pop(asyncio.get_running_loop(), None)

@@ -23,6 +23,8 @@ from typing import Any
 
 OPENAI_PATH = "/v1/chat/completions"
 OLLAMA_PATH = "/api/chat"
+OPENAI_MODELS_PATH = "/v1/models"
+OLLAMA_MODELS_PATH = "/api/tags"
 NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 OPENAI_PARAMETERS = {
     "model", "messages", "tools", "tool_choice", "response_format", "temperature", "max_tokens",
@@ -302,6 +304,12 @@ class _Handler(BaseHTTPRequestHandler):
         standin.record(Received(self.path, {k.lower(): v for k, v in self.headers.items()}, body))
         self._answer(standin.answer(self.path, body, self.headers.get("Authorization")))
 
+    def do_GET(self) -> None:
+        """The model lists a client may probe (OpenAI's ``GET /v1/models``, Ollama's ``GET /api/tags``)."""
+        standin = self.server.standin
+        standin.note_probe(self.path)
+        self._answer(standin.models(self.path, self.headers.get("Authorization")))
+
     def _answer(self, reply: Reply) -> None:
         if reply.stall_s:
             self.server.standin.released.wait(reply.stall_s)
@@ -337,6 +345,8 @@ class StandIn:
         self.responder = responder
         """Answers (path, body) once the scripted replies run out: a stand-in model that reads the request."""
         self.received: list[Received] = []
+        self.probes: list[str] = []
+        """Paths of the GETs clients probed with (kept apart from the chat requests in ``received``)."""
         self.released = threading.Event()
         self._replies: list[Reply] = []
         self._lock = threading.Lock()
@@ -357,6 +367,19 @@ class StandIn:
     def record(self, request: Received) -> None:
         with self._lock:
             self.received.append(request)
+
+    def note_probe(self, path: str) -> None:
+        with self._lock:
+            self.probes.append(path)
+
+    def models(self, path: str, authorization: str | None) -> Reply:
+        if path == OPENAI_MODELS_PATH:
+            if self.key is not None and authorization != f"Bearer {self.key}":
+                return openai_error(401, f"Incorrect API key provided: {authorization}.", code="invalid_api_key")
+            return Reply(body={"object": "list", "data": [{"id": "gpt-4o", "object": "model", "owned_by": "system"}]})
+        if path == OLLAMA_MODELS_PATH:
+            return Reply(body={"models": [{"name": "gemma3:4b", "model": "gemma3:4b", "size": 3338801804}]})
+        return Reply(status=404, text="404 page not found")
 
     def bodies(self) -> list[Any]:
         with self._lock:
