@@ -37,6 +37,15 @@ def fly(tmp_path: Path, mission: Path, scene: str, **options: Any) -> RunResult:
     return run_mission(settings, progress=None)
 
 
+def fly_with_model(tmp_path: Path, scene: str, model: ScriptedModel) -> tuple[RunResult, int]:
+    """The emergency mission with ``--reasoner llm`` against ``model`` behind the stand-in; the run and how many
+    chat requests the stand-in answered."""
+    with StandIn(responder=model) as server:
+        llm = f"openai-compatible:m@{server.url}/v1"
+        result = fly(tmp_path, EMERGENCY, scene, reasoner="llm", llm=llm, camera_hz=15.0)
+        return result, len(server.bodies())
+
+
 def records(result: RunResult, kind: str) -> list[dict[str, Any]]:
     lines = (result.run_dir / "trace.jsonl").read_text(encoding="utf-8").splitlines()
     return [r for r in map(json.loads, lines) if r["kind"] == kind]
@@ -107,11 +116,7 @@ def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) 
     """The emergency mission over normal activity with the llm reasoner: the model reads each scan's World Model
     and sees no one in distress (people resting in the shade are not casualties), so nothing is planned."""
     model = ScriptedModel()
-    with StandIn(responder=model) as server:
-        result = fly(
-            tmp_path, EMERGENCY, "small_normal", reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1",
-            camera_hz=15.0,
-        )  # fmt: skip
+    result, _ = fly_with_model(tmp_path, "small_normal", model)
     assert model.asked["Assessment"] >= 2 and model.asked["Proposal"] == 0
     assert all(d["reasoner"] == "llm:m" for d in records(result, "decision"))
     tools = tools_called(result)
@@ -153,12 +158,7 @@ def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Pat
     """--reasoner llm: every assessment is the model's, and on the event the model writes the response plan,
     which passes the checks and is flown: approach, watch, confirm, alert, land beside, drop the kit, home."""
     model = ScriptedModel()
-    with StandIn(responder=model) as server:
-        result = fly(
-            tmp_path, EMERGENCY, "small_emergency", reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1",
-            camera_hz=15.0,
-        )  # fmt: skip
-        requests = len(server.bodies())
+    result, requests = fly_with_model(tmp_path, "small_emergency", model)
     decisions = records(result, "decision")
     assert decisions and all(d["reasoner"] == "llm:m" and d["llm_calls"] == 1 for d in decisions)
     (plan,) = records(result, "plan")
