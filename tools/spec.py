@@ -7,6 +7,7 @@ imported from an MCP server) ends in one :class:`ToolSpec`, so one executor guar
 from __future__ import annotations
 
 import inspect
+import json
 import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -93,8 +94,19 @@ class RetrySpec:
         raise ToolDefinitionError(f"retry must be a number of attempts or a RetrySpec, not {value!r}")
 
 
+_VALID_SCHEMAS: set[str] = set()
+"""Schemas already checked against the metaschema (as canonical JSON): checking one costs tens of milliseconds,
+and the same tools are built again and again (each run registers its flight tools)."""
+
+
 def _check_schema(name: str, which: str, schema: Mapping[str, Any] | None) -> None:
     if schema is None:
+        return
+    try:
+        key = json.dumps(schema, sort_keys=True, default=repr)
+    except (TypeError, ValueError):  # not JSON at all: let the check say what is wrong
+        key = None
+    if key is not None and key in _VALID_SCHEMAS:
         return
     try:
         jsonschema.Draft202012Validator.check_schema(schema)
@@ -103,6 +115,8 @@ def _check_schema(name: str, which: str, schema: Mapping[str, Any] | None) -> No
         raise ToolDefinitionError(
             f"tool {name!r}: the {which} schema is not valid JSON Schema at {where}: {exc.message}"
         ) from None
+    if key is not None:
+        _VALID_SCHEMAS.add(key)
 
 
 @dataclass(frozen=True)

@@ -50,6 +50,7 @@ from ..mission.functions import MISSING, get_field
 from ..mission.model import PolicyGraph, Trigger
 from ..mission.steps import scope
 from ..mission.validate import load_mission
+from ..perception.world_model import WorldModel
 from ..reasoning.assessment import Assessment, Decision
 from ..reasoning.model_reasoners import StructuredChat
 from ..reasoning.planning import LLMPlanner
@@ -71,6 +72,9 @@ REFUSALS = frozenset({"plan rejected", "revision rejected", "plan failed", "not 
 
 MISSION_EVENTS = frozenset({"fired", "declined", "planned", "plan empty", "replaced", "reflection gave up"})
 """Other mission log entries worth a trace line."""
+
+LOOK_AGAIN_S = 2.0
+"""How long (flight time) an assessment of one object waits for its lost track to be seen again."""
 
 WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
 """Long flight actions during which the triggers are watched: a leg is stopped when one holds for someone new."""
@@ -208,9 +212,9 @@ class MissionRun:
     # ---- the reasoner, as a tool and as the trigger gate ----
 
     def _decide(self, focus: str | None, why: str) -> Decision:
-        world = self.loop.world if self.loop else None
-        if world is None:
+        if self.loop is None:
             raise ToolError("no world model: this run has no scene, so there is nothing to analyse")
+        world = self._look_again(focus) if focus is not None else self.loop.world
         decision = self.reasoner.assess(world, focus)
         with self._lock:
             self._last_decision = decision
@@ -224,6 +228,26 @@ class MissionRun:
         )  # fmt: skip
         self._say(f"decision ({why}): " + (decision.assessment.severity if decision.assessment else "failed"))
         return decision
+
+    def _look_again(self, focus: str) -> WorldModel:
+        """The World Model to judge ``focus`` on: when its track is lost just now (a run of missed detections, which
+        a person lying still gets), look again for up to ``LOOK_AGAIN_S`` of flight time rather than judge a
+        stale track; the latest model when that time is up, or at once when the object is not in the model."""
+        assert self.loop is not None
+        world = self.loop.world
+        found = world.get(focus)
+        if found is None or found.state != "lost":
+            return world
+        until_sim, until_wall = self.sim.time_s + LOOK_AGAIN_S, time.monotonic() + LOOK_AGAIN_S + 1.0
+        while self.sim.time_s < until_sim and time.monotonic() < until_wall:
+            time.sleep(0.005)
+            world = self.loop.world
+            found = world.get(focus)
+            if found is None or found.state != "lost":
+                break
+        self.trace.write("log", level="info", summary=f"looked again at {focus}: "
+                         + ("seen" if found is not None and found.state != "lost" else "still not seen"))  # fmt: skip
+        return world
 
     def _analyze_scene(self, focus: str | None = None, min_confidence: float = 0.5) -> dict[str, Any]:
         """Assess the scene (or one object of the World Model) with the configured reasoner.
