@@ -125,8 +125,8 @@ class MissionRun:
         self._last_decision: Decision | None = None
         self._alert_sent_s: float | None = None
         self._lock = threading.Lock()
-        self._verdicts: dict[tuple[str, str | None], bool] = {}  # (trigger, object) -> act? (the reasoner asked once)
-        self._assessments: dict[tuple[str, str | None], Assessment | None] = {}  # what the verdicts rest on
+        # (trigger, object) -> the reasoner's assessment of it (asked once; None when it failed): whether to act
+        self._assessments: dict[tuple[str, str | None], Assessment | None] = {}
         self._pending: tuple[str, str | None] | None = None  # approved while flying, not yet taken up by the mission
         self._subplan = False  # a trigger's sub-plan is running: its own flight actions are not interrupted
         self.decisions = 0
@@ -270,14 +270,13 @@ class MissionRun:
         acts."""
         focus = _object_id(event)
         key = (trigger.id, focus)
-        if key in self._verdicts:
+        if key in self._assessments:
             if self._pending == key:
                 self._pending = None  # the mission has taken it up
-            return self._verdicts[key]
+            return _acts(self._assessments[key])
         decision = self._decide(focus, f"trigger {trigger.id}")
-        act = decision.assessment is not None and decision.assessment.severity in ACT_AT
-        self._verdicts[key] = act
         self._assessments[key] = decision.assessment
+        act = _acts(decision.assessment)
         self.trace.write("trigger", trigger=trigger.id, event=focus, act=act,
                          summary=f"{trigger.id} on {focus}: {'act' if act else 'no action'}")  # fmt: skip
         return act
@@ -352,7 +351,7 @@ class MissionRun:
                 continue
             events = value if isinstance(value, list) else [value] if value else []
             for event in events:
-                if (trigger.id, _object_id(event)) not in self._verdicts:
+                if (trigger.id, _object_id(event)) not in self._assessments:
                     return trigger, event
         return None
 
@@ -564,6 +563,11 @@ def setup_frozen() -> Iterator[None]:
         yield
     finally:
         gc.unfreeze()
+
+
+def _acts(assessment: Assessment | None) -> bool:
+    """Whether an assessment lets a trigger's sub-plan run (:data:`ACT_AT`); a failed one does not."""
+    return assessment is not None and assessment.severity in ACT_AT
 
 
 def _object_id(event: Any) -> str | None:

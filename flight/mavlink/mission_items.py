@@ -330,40 +330,15 @@ def encode_item(
             frame = item.frame
     else:
         frame = MAV_FRAME_MISSION
+    x: float
+    y: float
     if as_int:
         scale = 1e7 if item.is_global else 1.0
-        x, y = _int32(item.x * scale), _int32(item.y * scale)
-        return mav.mission_item_int_encode(
-            *target,
-            seq,
-            frame,
-            item.command,
-            int(current),
-            item.autocontinue,
-            p1,
-            p2,
-            p3,
-            p4,
-            x,
-            y,
-            item.z,
-            mission_type,
-        )
-    return mav.mission_item_encode(
-        *target,
-        seq,
-        frame,
-        item.command,
-        int(current),
-        item.autocontinue,
-        p1,
-        p2,
-        p3,
-        p4,
-        item.x,
-        item.y,
-        item.z,
-        mission_type,
+        x, y, encode = _int32(item.x * scale), _int32(item.y * scale), mav.mission_item_int_encode
+    else:
+        x, y, encode = item.x, item.y, mav.mission_item_encode
+    return encode(
+        *target, seq, frame, item.command, int(current), item.autocontinue, p1, p2, p3, p4, x, y, item.z, mission_type
     )
 
 
