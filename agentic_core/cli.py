@@ -77,7 +77,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 def _cmd_plan(args: argparse.Namespace) -> int:
     from .mission import Environment, MissionError, compile_mission, load_mission
-    from .mission.compile import initial_state, layers
+    from .mission.layers import layers
+    from .mission.params import initial_state
 
     try:
         plan = load_mission(Path(args.file))

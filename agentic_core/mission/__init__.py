@@ -5,8 +5,9 @@ graph runtime.
 >>> plan = load_mission("missions/inspect_perimeter.yaml")  # doctest: +SKIP
 """
 
-from .compile import Environment, Failure, MissionState, compile_mission, initial_state
+from .compile import Environment, Failure, MissionState, compile_mission
 from .model import ACTION_TOOLS, ACTIONS, PolicyGraph, Step, mission_json_schema
+from .params import initial_state
 from .source import MissionError, Problem
 from .validate import iter_steps, load_mission, validate_document
 

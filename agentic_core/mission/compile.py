@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import math
 import operator
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -497,64 +496,9 @@ def _step_node(rt: MissionRuntime, step_id: str) -> Callable[[MissionState], dic
     return node
 
 
-def parse_param(plan: PolicyGraph, name: str, text: Any) -> Any:
-    """A parameter value from the command line (text) or from code, checked against its declaration."""
-    spec = plan.params.get(name)
-    if spec is None:
-        known = ", ".join(plan.params) or "none"
-        raise ValueError(f"unknown parameter {name!r}; the mission has: {known}")
-    value = text
-    try:
-        if spec.type == "number":
-            value = float(text)
-            if not math.isfinite(value):
-                raise ValueError
-        elif spec.type == "integer":
-            value = int(text)
-        elif spec.type == "boolean":
-            value = text if isinstance(text, bool) else str(text).strip().lower() in ("1", "true", "yes", "on")
-        elif spec.type == "position" and isinstance(text, str):
-            lat, lon = (float(v) for v in text.split(","))
-            value = {"lat": lat, "lon": lon}
-    except (TypeError, ValueError):
-        article = "an" if spec.type[0] in "aeiou" else "a"
-        raise ValueError(f"parameter {name!r} is {article} {spec.type}, not {text!r}") from None
-    problem = spec.out_of_bounds(value)
-    if problem:
-        raise ValueError(f"parameter {name!r} {problem}")
-    return value
-
-
-def initial_state(plan: PolicyGraph, overrides: Mapping[str, Any] | None = None) -> MissionState:
-    """The state a mission starts from: parameter defaults, overridden (and type-checked) by ``overrides``."""
-    params = {name: p.default for name, p in plan.params.items()}
-    for name, value in (overrides or {}).items():
-        params[name] = parse_param(plan, name, value)
-    missing = [name for name, value in params.items() if value is None]
-    if missing:
-        given = " ".join(f"--param {name}=..." for name in missing)
-        raise ValueError(f"parameter(s) {', '.join(missing)} have no default and were not given: {given}")
-    return {"params": params, "outputs": {}, "status": {}, "fired": [], "log": [], "reflections": 0}
-
-
-def layers(plan: PolicyGraph) -> list[list[str]]:
-    """The plan's steps grouped by the superstep they run in when nothing fails (topological generations)."""
-    import networkx as nx
-
-    graph = nx.DiGraph()
-    for step in plan.steps:
-        graph.add_node(step.id)
-        for dep in [*step.depends_on, *plan.dependencies.get(step.id, [])]:
-            graph.add_edge(dep, step.id)
-    return [sorted(gen) for gen in nx.topological_generations(graph)]
-
-
 __all__ = [
     "Environment",
     "Failure",
     "MissionState",
     "compile_mission",
-    "initial_state",
-    "layers",
-    "parse_param",
 ]

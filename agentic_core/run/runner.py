@@ -45,9 +45,10 @@ from tools.function import spec_from_function
 from ..graph import Command
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
-from ..mission.compile import Reflector, abort_reflector, parse_param
+from ..mission.compile import Reflector, abort_reflector
 from ..mission.functions import MISSING, get_field
 from ..mission.model import PolicyGraph, Trigger
+from ..mission.params import parse_param
 from ..mission.steps import scope
 from ..mission.validate import load_mission
 from ..perception.world_model import WorldModel

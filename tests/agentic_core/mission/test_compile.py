@@ -11,8 +11,8 @@ import pytest
 
 from agentic_core.graph import Command, InMemorySaver
 from agentic_core.mission import Environment, Failure, compile_mission, initial_state, load_mission
-from agentic_core.mission.compile import layers
 from agentic_core.mission.geometry import lawnmower
+from agentic_core.mission.layers import layers
 
 MISSIONS = Path(__file__).resolve().parents[3] / "missions"
 
