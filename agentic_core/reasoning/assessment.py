@@ -75,7 +75,12 @@ class Decision(BaseModel):
     reasoner: str = Field(description="yolo, rules, llm:<model> or hybrid")
     assessment: Assessment | None
     processing_time_s: float = Field(ge=0.0, description="wall time of the whole assessment, model calls included")
-    model_time_s: float = Field(default=0.0, ge=0.0, description="of which waiting for a model")
+    model_time_s: float = Field(
+        default=0.0,
+        ge=0.0,
+        description="of which the model's own time: what its server says it spent when it says so (OpenAI's "
+        "openai-processing-ms, Ollama's total_duration), else the whole wait for its answer",
+    )
     llm_calls: int = Field(default=0, ge=0)
     prompt_tokens: int = Field(default=0, ge=0)
     completion_tokens: int = Field(default=0, ge=0)

@@ -98,7 +98,7 @@ class LLMReasoner:
         common: dict[str, Any] = {
             "reasoner": self.name,
             "processing_time_s": elapsed,
-            "model_time_s": min(result.latency_s, elapsed),
+            "model_time_s": min(result.latency_s if result.server_s is None else result.server_s, elapsed),
             "llm_calls": 1,
             "prompt_tokens": result.usage.prompt_tokens,
             "completion_tokens": result.usage.completion_tokens,

@@ -66,7 +66,11 @@ class DecisionRecord(BaseModel):
     assessment: Assessment | None = Field(default=None, description="the raw assessment (null with an error)")
     reasoner: str = Field(default="", description="the reasoner's own name (Decision.reasoner)")
     # --- what it cost ----------------------------------------------------------------------------------------------
-    model_time_s: float = Field(default=0.0, ge=0.0, description="of processing_time_s, waiting for a model")
+    model_time_s: float = Field(
+        default=0.0,
+        ge=0.0,
+        description="of processing_time_s, the model's own time (as its server says, else the wait)",
+    )
     llm_calls: int = Field(default=0, ge=0, description="model calls of the final assessment")
     prompt_tokens: int = Field(default=0, ge=0)
     completion_tokens: int = Field(default=0, ge=0)

@@ -1,7 +1,11 @@
 """The LLM client interface and what both wire formats share around the HTTP requests of
 :mod:`~agentic_core.reasoning.llm.transport`: tool calls checked against the tools' schemas and shown back to the
-model once when they are broken, refusals, per-call and running token and latency accounting, and a synchronous
-wrapper on the client's own event loop thread.
+model once when they are broken, refusals, per-call and running token and latency accounting, and synchronous
+calls made on the caller's own thread.
+
+A call is written once, as an exchange that yields the bodies to send and receives the answers
+(:meth:`HTTPChatClient._exchange`); :meth:`~HTTPChatClient.chat` sends them from an event loop and
+:meth:`~HTTPChatClient.chat_sync` from the calling thread, so both behave alike to the byte.
 
 Nothing raises across :meth:`HTTPChatClient.chat`: every outcome is an :class:`LLMResult` (but a cancellation by
 the caller, which goes on).
@@ -15,7 +19,7 @@ import json
 import logging
 import threading
 import time
-from collections.abc import Coroutine
+from collections.abc import Coroutine, Generator
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol, Self, TypeVar, runtime_checkable
 
@@ -26,7 +30,7 @@ from pydantic import BaseModel, SecretStr
 from .config import LLMConfig, RetryPolicy
 from .messages import ChatRequest, Message, ResponseSchema, ToolCall
 from .result import LLMResult, Usage, UsageTotals
-from .transport import EXCERPT_CHARS, JSONEndpoint, RequestFailure, SleepFn, describe
+from .transport import EXCERPT_CHARS, Answer, JSONEndpoint, RequestFailure, SleepFn, describe
 
 logger = logging.getLogger("agentic_core.reasoning.llm")
 T = TypeVar("T")
@@ -70,6 +74,7 @@ class Turn:
     model: str | None = None
     refusal: str | None = None
     problems: dict[str, str] = field(default_factory=dict)  # call id -> what is wrong with it
+    server_s: float | None = None  # the server's own time, when its reply says it (Ollama's total_duration)
 
 
 @dataclass
@@ -79,6 +84,10 @@ class _Progress:
     attempts: int = 0
     usage: Usage = field(default_factory=Usage)
     model: str | None = None
+    server_s: float | None = None
+
+    def count(self) -> None:
+        self.attempts += 1
 
 
 class HTTPChatClient:
@@ -106,7 +115,7 @@ class HTTPChatClient:
         read_timeout_s: float = 120.0,
         retry: RetryPolicy | None = None,
         repair_attempts: int = 1,
-        transport: httpx.AsyncBaseTransport | None = None,
+        transport: httpx.AsyncBaseTransport | httpx.BaseTransport | None = None,
         trust_env: bool = True,
         sleep: SleepFn = asyncio.sleep,
     ) -> None:
@@ -192,20 +201,34 @@ class HTTPChatClient:
     # chat ---------------------------------------------------------------------------------------------------------
     async def chat(self, request: ChatRequest) -> LLMResult:
         """Send ``request`` and return the model's reply, or what went wrong, as an :class:`LLMResult`."""
-        started = time.perf_counter()
-        progress = _Progress()
+        started, progress = time.perf_counter(), _Progress()
+        exchange = self._exchange(request, progress)
         try:
-            result = await self._converse(request, progress)
-        except RequestFailure as failure:
-            result = self._failed(progress, failure)
-        except Exception as exc:  # a bug of ours or of a library: still a result
-            logger.exception("%s %s: internal error", self.provider, self.model)
-            result = self._failed(progress, RequestFailure("http_error", f"internal error: {describe(exc)}"))
-        result = result.model_copy(update={"latency_s": time.perf_counter() - started})
-        with self._lock:
-            self._totals = self._totals.add(result)
-        self._log(result)
-        return result
+            body = next(exchange)
+            while True:
+                body = exchange.send(await self._endpoint.post(body, progress.count))
+        except StopIteration as done:
+            result: LLMResult = done.value
+        except Exception as exc:
+            result = self._failed(progress, exc)
+        return self._settled(result, started)
+
+    def chat_sync(self, request: ChatRequest) -> LLMResult:
+        """:meth:`chat` for synchronous callers, sent from the calling thread (from the client's own event loop
+        thread when a test's transport serves only async calls)."""
+        if not self._endpoint.sends_sync:
+            return self._run_sync(self.chat(request))
+        started, progress = time.perf_counter(), _Progress()
+        exchange = self._exchange(request, progress)
+        try:
+            body = next(exchange)
+            while True:
+                body = exchange.send(self._endpoint.post_sync(body, progress.count))
+        except StopIteration as done:
+            result: LLMResult = done.value
+        except Exception as exc:
+            result = self._failed(progress, exc)
+        return self._settled(result, started)
 
     async def chat_structured(
         self,
@@ -219,10 +242,6 @@ class HTTPChatClient:
 
         return await chat_structured(self, request, output, name=name)
 
-    def chat_sync(self, request: ChatRequest) -> LLMResult:
-        """:meth:`chat` for synchronous callers (it runs on the client's own event loop thread)."""
-        return self._run_sync(self.chat(request))
-
     def chat_structured_sync(
         self,
         request: ChatRequest,
@@ -230,10 +249,16 @@ class HTTPChatClient:
         *,
         name: str | None = None,
     ) -> LLMResult:
-        return self._run_sync(self.chat_structured(request, output, name=name))
+        """:meth:`chat_structured` for synchronous callers, sent from the calling thread."""
+        from .structured import chat_structured_sync
 
-    async def _converse(self, request: ChatRequest, progress: _Progress) -> LLMResult:
-        turn = await self._turn(request, progress)
+        return chat_structured_sync(self, request, output, name=name)
+
+    def _exchange(self, request: ChatRequest, progress: _Progress) -> Generator[dict[str, Any], Answer, LLMResult]:
+        """One call without its input and output: yields each request body to send, is sent each answer, and
+        returns the result (a broken tool call shown back to the model up to ``repair_attempts`` times). A request
+        that fails raises :class:`RequestFailure` out of whoever sends."""
+        turn = yield from self._turn(request, progress)
         repairs = 0
         for _ in range(self.repair_attempts):
             if not turn.problems or turn.refusal is not None:
@@ -245,7 +270,7 @@ class HTTPChatClient:
                 self._endpoint.redact("; ".join(turn.problems.values())),
             )
             request = request.with_messages(*self._repair_messages(turn))
-            turn = await self._turn(request, progress)
+            turn = yield from self._turn(request, progress)
             repairs += 1
         common: dict[str, Any] = {
             "content": turn.content,
@@ -255,6 +280,7 @@ class HTTPChatClient:
             "attempts": progress.attempts,
             "model": progress.model or self.model,
             "provider": self.provider,
+            "server_s": progress.server_s,
         }
         if turn.refusal is not None:
             return LLMResult(
@@ -267,11 +293,9 @@ class HTTPChatClient:
             return LLMResult(status="invalid_output", error=self._endpoint.redact(error), **common)
         return LLMResult(status="ok", repaired=repairs > 0, **common)
 
-    async def _turn(self, request: ChatRequest, progress: _Progress) -> Turn:
-        def count() -> None:
-            progress.attempts += 1
-
-        data = await self._endpoint.post(self.request_body(request), count)
+    def _turn(self, request: ChatRequest, progress: _Progress) -> Generator[dict[str, Any], Answer, Turn]:
+        answer = yield self.request_body(request)
+        data = answer.data
         try:
             turn = self.read_reply(data, request)
         except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
@@ -281,6 +305,9 @@ class HTTPChatClient:
             ) from None
         progress.usage = progress.usage + turn.usage
         progress.model = turn.model or progress.model
+        server_s = turn.server_s if turn.server_s is not None else answer.server_s
+        if server_s is not None:
+            progress.server_s = (progress.server_s or 0.0) + server_s
         self._check_calls(turn, request)
         return turn
 
@@ -330,7 +357,13 @@ class HTTPChatClient:
         return messages
 
     # results ------------------------------------------------------------------------------------------------------
-    def _failed(self, progress: _Progress, failure: RequestFailure) -> LLMResult:
+    def _failed(self, progress: _Progress, exc: Exception) -> LLMResult:
+        """The result of a call that raised: a request that failed, or (a bug of ours or of a library) anything."""
+        if isinstance(exc, RequestFailure):
+            failure = exc
+        else:
+            logger.error("%s %s: internal error", self.provider, self.model, exc_info=exc)
+            failure = RequestFailure("http_error", f"internal error: {describe(exc)}")
         return LLMResult(
             status=failure.status,
             error=self._endpoint.redact(failure.message),
@@ -340,7 +373,16 @@ class HTTPChatClient:
             provider=self.provider,
             http_status=failure.http_status,
             retry_after_s=failure.retry_after_s if failure.status == "rate_limited" else None,
+            server_s=progress.server_s,
         )
+
+    def _settled(self, result: LLMResult, started: float) -> LLMResult:
+        """``result`` timed, counted in the running account and logged."""
+        result = result.model_copy(update={"latency_s": time.perf_counter() - started})
+        with self._lock:
+            self._totals = self._totals.add(result)
+        self._log(result)
+        return result
 
     def _log(self, result: LLMResult) -> None:
         if result.ok:
@@ -366,12 +408,15 @@ class HTTPChatClient:
 
     # lifecycle ------------------------------------------------------------------------------------------------------
     def warm(self) -> str | None:
-        """Get the synchronous calls ready now — their event loop thread and the connection to the server, through
-        one GET of the server's model list — so the first real call (for the hybrid reasoner, the critical event)
-        pays for none of it, and a server that does not answer is known before it is needed. None when the server
-        answered, else why not; nothing is raised."""
+        """Get the synchronous calls ready now — the connection to the server, through one GET of the server's
+        model list — so the first real call (for the hybrid reasoner, the critical event) pays for none of it, and
+        a server that does not answer is known before it is needed. None when the server answered, else why not;
+        nothing is raised."""
+        url = self.base_url + self.probe_endpoint
         try:
-            return self._run_sync(self._endpoint.probe(self.base_url + self.probe_endpoint))
+            if self._endpoint.sends_sync:
+                return self._endpoint.probe_sync(url)
+            return self._run_sync(self._endpoint.probe(url))
         except Exception as exc:  # a probe is advice: it never stops the caller
             return f"{type(exc).__name__}: {exc}"
 
@@ -396,7 +441,8 @@ class HTTPChatClient:
         await self._endpoint.aclose()
 
     def close(self) -> None:
-        """Close the connections of :meth:`chat_sync` and stop its event loop thread."""
+        """Close the connections of :meth:`chat_sync` (and stop its event loop thread, if it had one)."""
+        self._endpoint.close_sync()
         with self._lock:
             loop, thread, self._loop, self._loop_thread = self._loop, self._loop_thread, None, None
         if loop is None or thread is None:

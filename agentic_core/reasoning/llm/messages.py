@@ -8,6 +8,7 @@ model calls them by that exported name (``weather__get_forecast``), which ``Tool
 from __future__ import annotations
 
 import base64
+import functools
 import json
 import re
 from typing import Any, Literal, Self
@@ -191,8 +192,16 @@ class ResponseSchema(BaseModel):
 
     @classmethod
     def from_model(cls, model: type[BaseModel], *, name: str | None = None, strict: bool = False) -> ResponseSchema:
-        schema_name = name or re.sub(r"[^A-Za-z0-9_-]", "_", model.__name__)[:64]
-        return cls(name=schema_name, json_schema=model.model_json_schema(), description=model.__doc__, strict=strict)
+        """The schema of a pydantic model, made once per model, name and ``strict`` and shared after (generating
+        a model's JSON Schema takes about a millisecond, on the way from a critical frame to its assessment): it is
+        frozen, and its ``json_schema`` is to be read, not changed."""
+        return _model_schema(cls, model, name, strict)
+
+
+@functools.cache
+def _model_schema(cls: type[ResponseSchema], model: type[BaseModel], name: str | None, strict: bool) -> ResponseSchema:
+    schema_name = name or re.sub(r"[^A-Za-z0-9_-]", "_", model.__name__)[:64]
+    return cls(name=schema_name, json_schema=model.model_json_schema(), description=model.__doc__, strict=strict)
 
 
 class ChatRequest(BaseModel):

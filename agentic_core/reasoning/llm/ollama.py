@@ -22,6 +22,11 @@ def _count(value: Any) -> int:
     return value if isinstance(value, int) and value >= 0 else 0
 
 
+def _nanoseconds(value: Any) -> float | None:
+    """A duration Ollama gives in nanoseconds (``total_duration``), in seconds; None when absent or not one."""
+    return value / 1e9 if isinstance(value, int) and not isinstance(value, bool) and value >= 0 else None
+
+
 class OllamaClient(HTTPChatClient):
     """A model served by Ollama, through its native chat API; ``base_url`` is the server root.
 
@@ -113,4 +118,5 @@ class OllamaClient(HTTPChatClient):
             ),
             model=data.get("model") if isinstance(data.get("model"), str) else None,
             problems=problems,
+            server_s=_nanoseconds(data.get("total_duration")),
         )

@@ -57,6 +57,12 @@ class LLMResult(BaseModel):
     finish_reason: str | None = Field(default=None, description="as the server said it (finish or done reason)")
     usage: Usage = Field(default_factory=Usage)
     latency_s: float = Field(default=0.0, ge=0, description="wall time of the call, retries and repair included")
+    server_s: float | None = Field(
+        default=None,
+        ge=0,
+        description="of latency_s, the time the server says it spent (OpenAI's openai-processing-ms header, "
+        "Ollama's total_duration), summed over the requests that said it; None when none did",
+    )
     attempts: int = Field(default=0, ge=0, description="HTTP requests sent, retries and repair included")
     model: str = Field(description="the model that answered, as the server named it (else the one asked for)")
     provider: str

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import json
 import re
-from typing import Any
+from collections.abc import Generator
+from typing import Any, Protocol
 
 import jsonschema
 from pydantic import BaseModel, ValidationError
@@ -78,11 +79,13 @@ def _join(problems: list[str]) -> str:
 
 def _combined(first: LLMResult, second: LLMResult, **changes: Any) -> LLMResult:
     """``second`` with the usage, requests and time of both calls."""
+    servers = [r.server_s for r in (first, second) if r.server_s is not None]
     return second.model_copy(
         update={
             "usage": first.usage + second.usage,
             "attempts": first.attempts + second.attempts,
             "latency_s": first.latency_s + second.latency_s,
+            "server_s": sum(servers) if servers else None,
             **changes,
         }
     )
@@ -115,10 +118,50 @@ async def chat_structured(
     >>> result.status, result.parsed, result.repaired, result.attempts
     ('ok', {'persons': 2}, True, 2)
     """
+    exchange = _structured(request, output, name, repairs)
+    try:
+        current = next(exchange)
+        while True:
+            current = exchange.send(await client.chat(current))
+    except StopIteration as done:
+        result: LLMResult = done.value
+        return result
+
+
+class SyncChat(Protocol):
+    """What :func:`chat_structured_sync` needs of a client: a synchronous ``chat_sync``."""
+
+    def chat_sync(self, request: ChatRequest) -> LLMResult: ...
+
+
+def chat_structured_sync(
+    client: SyncChat,
+    request: ChatRequest,
+    output: type[BaseModel] | dict[str, Any] | ResponseSchema,
+    *,
+    name: str | None = None,
+    repairs: int = 1,
+) -> LLMResult:
+    """:func:`chat_structured` for synchronous callers, through ``client.chat_sync``."""
+    exchange = _structured(request, output, name, repairs)
+    try:
+        current = next(exchange)
+        while True:
+            current = exchange.send(client.chat_sync(current))
+    except StopIteration as done:
+        result: LLMResult = done.value
+        return result
+
+
+def _structured(
+    request: ChatRequest, output: type[BaseModel] | dict[str, Any] | ResponseSchema, name: str | None, repairs: int
+) -> Generator[ChatRequest, LLMResult, LLMResult]:
+    """The structured call without its input and output: yields each request to chat, is sent each result, and
+    returns the final result."""
     schema = response_schema(output, name)
     target = output if isinstance(output, type) else schema
     current = request.model_copy(update={"response_schema": schema})
-    result = await client.chat(current)
+    result = yield current
     total = result
     for round_ in range(repairs + 1):
         if not result.ok or (result.tool_calls and not (result.content or "").strip()):
@@ -135,6 +178,6 @@ async def chat_structured(
             "Reply again with only the corrected JSON, nothing else."
         )
         current = current.with_messages(Message.assistant(result.content or ""), feedback)
-        result = await client.chat(current)
+        result = yield current
         total = _combined(total, result)
     return total

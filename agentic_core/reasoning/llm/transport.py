@@ -1,7 +1,8 @@
 """One JSON POST to a model server, the way both wire formats need it: httpx with connect and read timeouts, one
-connection pool per event loop, retries with tenacity on 429, 5xx and failed connections (what Retry-After or
-retry-after-ms says, else a jittered doubling backoff), error answers read in OpenAI's and Ollama's shapes, and
-the API key kept out of every message.
+connection pool per event loop (and one for synchronous callers, who send from their own thread), retries with
+tenacity on 429, 5xx and failed connections (what Retry-After or retry-after-ms says, else a jittered doubling
+backoff), error answers read in OpenAI's and Ollama's shapes, the server's own time when it says it
+(``openai-processing-ms``), and the API key kept out of every message.
 """
 
 from __future__ import annotations
@@ -10,11 +11,14 @@ import asyncio
 import functools
 import json
 import logging
+import math
 import random
 import ssl
+import threading
 import time
 import weakref
 from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
 from email.utils import parsedate_to_datetime
 from typing import Any
 from urllib.parse import quote
@@ -29,6 +33,9 @@ from .result import LLMStatus
 logger = logging.getLogger("agentic_core.reasoning.llm")
 EXCERPT_CHARS = 300
 REDACTED = "[redacted]"
+PROCESSING_HEADER = "openai-processing-ms"
+"""OpenAI's answer header: the milliseconds the server spent on the request (llama-cpp-python's server sends it
+too)."""
 SleepFn = Callable[[float], Awaitable[None]]
 
 
@@ -128,9 +135,61 @@ def _ssl_context(trust_env: bool) -> ssl.SSLContext:
     return httpx.create_ssl_context(trust_env=trust_env)
 
 
+@dataclass(frozen=True)
+class Answer:
+    """A 2xx answer: its JSON object, and the seconds the server says it spent on it (None when it does not say)."""
+
+    data: dict[str, Any]
+    server_s: float | None = None
+
+
+def processing_s(headers: httpx.Headers) -> float | None:
+    """The server's own time from ``openai-processing-ms``, in seconds; None when absent or not a number.
+
+    >>> processing_s(httpx.Headers({"openai-processing-ms": "812"}))
+    0.812
+    """
+    value = headers.get(PROCESSING_HEADER)
+    if value is None:
+        return None
+    try:
+        seconds = float(value) / 1000
+    except ValueError:
+        return None
+    return seconds if math.isfinite(seconds) and seconds >= 0 else None
+
+
+def blocking(sleep: SleepFn) -> Callable[[float], None]:
+    """The wait between retries for synchronous calls: ``time.sleep`` for ``asyncio.sleep``, else the given (async)
+    sleep run to its end, on a thread of its own when this one already runs an event loop."""
+    if sleep is asyncio.sleep:
+        return time.sleep
+
+    def wait(seconds: float) -> None:
+        async def waited() -> None:
+            await sleep(seconds)
+
+        try:
+            asyncio.get_running_loop()
+        except RuntimeError:
+            asyncio.run(waited())
+            return
+        thread = threading.Thread(target=asyncio.run, args=(waited(),), name="llm-retry-wait")
+        thread.start()
+        thread.join()
+
+    return wait
+
+
 class JSONEndpoint:
     """POSTs JSON to one URL and returns the JSON object answered, or raises :class:`RequestFailure` when the
-    retries are over. ``label`` names the caller in log lines (provider and model)."""
+    retries are over. ``label`` names the caller in log lines (provider and model).
+
+    :meth:`post` sends from the running event loop; :meth:`post_sync` from the calling thread, with no event loop
+    and no hand-over to another thread (the agent's graph calls the model from synchronous code, on the way from
+    a critical frame to its alert). Both follow the same retry policy and give the same answers and failures.
+    ``transport`` (tests) must serve the kind of call made: ``httpx.MockTransport`` serves both.
+    """
 
     def __init__(
         self,
@@ -139,7 +198,7 @@ class JSONEndpoint:
         api_key: SecretStr | None,
         timeout: httpx.Timeout,
         retry: RetryPolicy,
-        transport: httpx.AsyncBaseTransport | None = None,
+        transport: httpx.AsyncBaseTransport | httpx.BaseTransport | None = None,
         trust_env: bool = True,
         sleep: SleepFn = asyncio.sleep,
         label: str = "llm",
@@ -154,16 +213,52 @@ class JSONEndpoint:
         self._transport = transport
         self._trust_env = trust_env
         self._sleep = sleep
+        self._sleep_sync = blocking(sleep)
         self._by_loop: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, httpx.AsyncClient] = (
             weakref.WeakKeyDictionary()
         )
+        self._sync: httpx.Client | None = None
+        self._sync_lock = threading.Lock()
         self._verify = _ssl_context(trust_env)  # made now, not on the first call (tens of ms)
+
+    @property
+    def sends_sync(self) -> bool:
+        """Whether :meth:`post_sync` can be used: always, unless the transport given serves only async calls."""
+        return self._transport is None or isinstance(self._transport, httpx.BaseTransport)
 
     def redact(self, text: str) -> str:
         return self._redactor.redact(text)
 
-    async def post(self, body: dict[str, Any], on_attempt: Callable[[], None] = lambda: None) -> dict[str, Any]:
+    async def post(self, body: dict[str, Any], on_attempt: Callable[[], None] = lambda: None) -> Answer:
         """Send ``body`` until an answer comes or the retry policy gives up; ``on_attempt`` runs before each."""
+
+        async def attempt() -> Answer:
+            on_attempt()
+            try:
+                response = await self._client().post(self.url, json=body, headers=self._headers())
+            except httpx.TransportError as exc:
+                raise self._transport_failure(exc) from None
+            return self._answer(response)
+
+        answer: Answer = await tenacity.AsyncRetrying(sleep=self._sleep, **self._retrying())(attempt)
+        return answer
+
+    def post_sync(self, body: dict[str, Any], on_attempt: Callable[[], None] = lambda: None) -> Answer:
+        """:meth:`post` from the calling thread."""
+
+        def attempt() -> Answer:
+            on_attempt()
+            try:
+                response = self._client_sync().post(self.url, json=body, headers=self._headers())
+            except httpx.TransportError as exc:
+                raise self._transport_failure(exc) from None
+            return self._answer(response)
+
+        answer: Answer = tenacity.Retrying(sleep=self._sleep_sync, **self._retrying())(attempt)
+        return answer
+
+    def _retrying(self) -> dict[str, Any]:
+        """The retry policy as tenacity's options (all but the sleep, which differs for async and sync calls)."""
         policy = self.retry
 
         def failure_of(state: tenacity.RetryCallState) -> RequestFailure | None:
@@ -193,38 +288,31 @@ class JSONEndpoint:
                 policy.attempts,
             )
 
-        async def attempt() -> dict[str, Any]:
-            on_attempt()
-            return await self._post_once(body)
+        return {
+            "stop": stop,
+            "wait": wait,
+            "retry": tenacity.retry_if_exception(lambda exc: isinstance(exc, RequestFailure) and exc.retryable),
+            "before_sleep": before_sleep,
+            "reraise": True,
+        }
 
-        retrying = tenacity.AsyncRetrying(
-            stop=stop,
-            wait=wait,
-            retry=tenacity.retry_if_exception(lambda exc: isinstance(exc, RequestFailure) and exc.retryable),
-            sleep=self._sleep,
-            before_sleep=before_sleep,
-            reraise=True,
-        )
-        answer: dict[str, Any] = await retrying(attempt)
-        return answer
-
-    async def _post_once(self, body: dict[str, Any]) -> dict[str, Any]:
+    def _transport_failure(self, exc: httpx.TransportError) -> RequestFailure:
+        """A request that got no answer: no connection, no answer in time, or the connection failed."""
         where = self.server
-        try:
-            response = await self._client().post(self.url, json=body, headers=self._headers())
-        except httpx.ConnectTimeout:
+        if isinstance(exc, httpx.ConnectTimeout):
             message = f"no connection to {where} in {self.timeout.connect:g} s"
-            raise RequestFailure("timeout", message, retryable=True) from None
-        except httpx.TimeoutException as exc:
+            return RequestFailure("timeout", message, retryable=True)
+        if isinstance(exc, httpx.TimeoutException):
             message = f"no answer from {where} in {self.timeout.read:g} s ({type(exc).__name__})"
-            raise RequestFailure("timeout", message, retryable=self.retry.retry_timeouts) from None
-        except httpx.ConnectError as exc:
-            raise RequestFailure(
-                "connection", self.redact(f"cannot connect to {where}: {exc}"), retryable=True
-            ) from None
-        except httpx.TransportError as exc:
-            message = self.redact(f"the connection to {where} failed: {describe(exc)}")
-            raise RequestFailure("connection", message, retryable=True) from None
+            return RequestFailure("timeout", message, retryable=self.retry.retry_timeouts)
+        if isinstance(exc, httpx.ConnectError):
+            return RequestFailure("connection", self.redact(f"cannot connect to {where}: {exc}"), retryable=True)
+        message = self.redact(f"the connection to {where} failed: {describe(exc)}")
+        return RequestFailure("connection", message, retryable=True)
+
+    def _answer(self, response: httpx.Response) -> Answer:
+        """The JSON object of a 2xx answer, else the failure it is."""
+        where = self.server
         status = response.status_code
         if status >= 400:
             raise self._http_failure(response)
@@ -237,7 +325,7 @@ class JSONEndpoint:
             ) from None
         if not isinstance(data, dict):
             raise RequestFailure("http_error", f"the answer from {where} is not a JSON object", http_status=status)
-        return data
+        return Answer(data, processing_s(response.headers))
 
     def _http_failure(self, response: httpx.Response) -> RequestFailure:
         status = response.status_code
@@ -261,11 +349,22 @@ class JSONEndpoint:
         loop = asyncio.get_running_loop()
         client = self._by_loop.get(loop)
         if client is None or client.is_closed:
+            transport = self._transport if isinstance(self._transport, httpx.AsyncBaseTransport) else None
             client = httpx.AsyncClient(
-                timeout=self.timeout, transport=self._transport, trust_env=self._trust_env, verify=self._verify
+                timeout=self.timeout, transport=transport, trust_env=self._trust_env, verify=self._verify
             )
             self._by_loop[loop] = client
         return client
+
+    def _client_sync(self) -> httpx.Client:
+        """The httpx client of synchronous calls, shared by every thread (its connection pool is thread-safe)."""
+        with self._sync_lock:
+            if self._sync is None or self._sync.is_closed:
+                transport = self._transport if isinstance(self._transport, httpx.BaseTransport) else None
+                self._sync = httpx.Client(
+                    timeout=self.timeout, transport=transport, trust_env=self._trust_env, verify=self._verify
+                )
+            return self._sync
 
     async def probe(self, url: str) -> str | None:
         """GET ``url`` once, with the endpoint's key and timeouts, opening the connection the calls will reuse; None
@@ -273,7 +372,21 @@ class JSONEndpoint:
         try:
             response = await self._client().get(url, headers=self._headers())
         except httpx.HTTPError as exc:
-            return self.redact(f"cannot reach {self.server}: {describe(exc)}")
+            return self._unreachable(exc)
+        return self._probed(response)
+
+    def probe_sync(self, url: str) -> str | None:
+        """:meth:`probe` from the calling thread, opening the connection :meth:`post_sync` will reuse."""
+        try:
+            response = self._client_sync().get(url, headers=self._headers())
+        except httpx.HTTPError as exc:
+            return self._unreachable(exc)
+        return self._probed(response)
+
+    def _unreachable(self, exc: httpx.HTTPError) -> str:
+        return self.redact(f"cannot reach {self.server}: {describe(exc)}")
+
+    def _probed(self, response: httpx.Response) -> str | None:
         if response.is_success:
             return None
         message, _ = error_detail(response)
@@ -284,3 +397,10 @@ class JSONEndpoint:
         client = self._by_loop.pop(asyncio.get_running_loop(), None)
         if client is not None:
             await client.aclose()
+
+    def close_sync(self) -> None:
+        """Close the connections of synchronous calls."""
+        with self._sync_lock:
+            client, self._sync = self._sync, None
+        if client is not None:
+            client.close()

@@ -81,6 +81,15 @@ def test_the_model_assesses_from_the_world_model_and_its_answer_is_the_decision(
     assert "self-reported" in prompt
 
 
+def test_the_models_own_time_is_what_its_server_says(standin: StandIn, client: OpenAICompatibleClient) -> None:
+    reply = openai_completion(json.dumps(CRITICAL))
+    reply.headers["openai-processing-ms"] = "0.5"  # the server's own time; the rest of the wait is ours
+    standin.script(reply)
+    decision = LLMReasoner(client).assess(world(True))
+    assert decision.ok and decision.model_time_s == pytest.approx(0.0005)
+    assert decision.processing_time_s > decision.model_time_s
+
+
 def test_a_failing_model_is_a_failed_decision(standin: StandIn, client: OpenAICompatibleClient) -> None:
     standin.script(openai_error(500, "overloaded"), openai_error(500, "overloaded"))
     decision = LLMReasoner(client).assess(world(True))

@@ -66,6 +66,9 @@ def ollama_client(standin: StandIn, sleep: RecordingSleep) -> Callable[..., Olla
     return make
 
 
+Send = Callable[[HTTPChatClient, ChatRequest], LLMResult]
+
+
 def chat(client: HTTPChatClient, request: ChatRequest) -> LLMResult:
     """One call on a fresh event loop, the client's connections closed after it."""
 
@@ -82,3 +85,32 @@ def structured(client: HTTPChatClient, request: ChatRequest, output: Any, **opti
             return await chat_structured(client, request, output, **options)
 
     return asyncio.run(go())
+
+
+def chat_from_this_thread(client: HTTPChatClient, request: ChatRequest) -> LLMResult:
+    """One call through ``chat_sync`` (sent from the calling thread), the client's connections closed after it."""
+    with client:
+        return client.chat_sync(request)
+
+
+@pytest.fixture(params=["chat", "chat_sync"])
+def send(request: pytest.FixtureRequest) -> Send:
+    """A call made both ways, which must behave alike: ``await chat()`` on an event loop, and ``chat_sync()``."""
+    sends: dict[str, Send] = {"chat": chat, "chat_sync": chat_from_this_thread}
+    return sends[request.param]
+
+
+def structured_from_this_thread(client: HTTPChatClient, request: ChatRequest, output: Any, **options: Any) -> LLMResult:
+    """One structured call through ``chat_structured_sync``, the client's connections closed after it."""
+    with client:
+        return client.chat_structured_sync(request, output, **options)
+
+
+Ask = Callable[..., LLMResult]
+
+
+@pytest.fixture(params=["chat_structured", "chat_structured_sync"])
+def ask(request: pytest.FixtureRequest) -> Ask:
+    """A structured call made both ways: ``await chat_structured()`` and ``chat_structured_sync()``."""
+    asks: dict[str, Ask] = {"chat_structured": structured, "chat_structured_sync": structured_from_this_thread}
+    return asks[request.param]

@@ -6,6 +6,9 @@ Requests are checked against the wire formats: OpenAI's tool-call ``arguments`` 
 ``tool_calls`` id must be answered by a ``role: tool`` message with its ``tool_call_id``, unknown parameters are
 refused; Ollama's ``arguments`` must be an object, ``content`` a string, ``stream`` false. A request that breaks
 them gets the 400 the real server would send, in its error format, and no scripted reply is used.
+
+Like OpenAI, every answer under ``/v1`` says in ``openai-processing-ms`` how long the server worked on the request
+(from its request line to its answer; in fractions of a millisecond here, where OpenAI gives whole ones).
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ OPENAI_PATH = "/v1/chat/completions"
 OLLAMA_PATH = "/api/chat"
 OPENAI_MODELS_PATH = "/v1/models"
 OLLAMA_MODELS_PATH = "/api/tags"
+PROCESSING_HEADER = "openai-processing-ms"
 NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 OPENAI_PARAMETERS = {
     "model", "messages", "tools", "tool_choice", "response_format", "temperature", "max_tokens",
@@ -294,6 +298,10 @@ class _Handler(BaseHTTPRequestHandler):
     def log_message(self, format: str, *args: Any) -> None:  # quiet
         pass
 
+    def parse_request(self) -> bool:
+        self.started = time.perf_counter()  # the request line is in: from here on the server is at work
+        return super().parse_request()
+
     def do_POST(self) -> None:
         standin = self.server.standin
         raw = self.rfile.read(int(self.headers.get("Content-Length") or 0))
@@ -319,7 +327,11 @@ class _Handler(BaseHTTPRequestHandler):
             content_type = "text/plain; charset=utf-8" if reply.text is not None else "application/json"
             self.send_header("Content-Type", content_type)
             self.send_header("Content-Length", str(len(payload)))
-            for name, value in reply.headers.items():
+            headers = dict(reply.headers)
+            if self.path.startswith("/v1/") and PROCESSING_HEADER not in {k.lower() for k in headers}:
+                # as OpenAI says how long it worked on a request (in whole ms; finer here, for the benchmark)
+                headers[PROCESSING_HEADER] = f"{1000 * (time.perf_counter() - self.started):.3f}"
+            for name, value in headers.items():
                 self.send_header(name, value)
             self.end_headers()
             self.wfile.write(payload)

@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 from agentic_core.reasoning.llm import ChatRequest, Image, Message, OllamaClient, OpenAICompatibleClient, ResponseSchema
 
-from .conftest import chat
+from .conftest import Send, chat
 from .standin import StandIn, ollama_call, ollama_chat, ollama_error, openai_call, openai_completion
 from .test_openai import registry
 
@@ -123,12 +123,14 @@ def test_images_are_sent_as_base64(standin: StandIn, ollama_client: MakeOllama) 
     assert standin.received[0].body["messages"][0]["images"] == ["/9j/4A=="]
 
 
-def test_text_arguments_from_ollama_are_parsed_or_repaired(standin: StandIn, ollama_client: MakeOllama) -> None:
+def test_text_arguments_from_ollama_are_parsed_or_repaired(
+    standin: StandIn, ollama_client: MakeOllama, send: Send
+) -> None:
     standin.script(
         ollama_chat(tool_calls=[ollama_call("weather__wind", '{"lat": 1.0,')]),
         ollama_chat(tool_calls=[ollama_call("weather__wind", '{"lat": 1.0, "lon": 2.0}')]),
     )
-    result = chat(ollama_client(), ChatRequest(messages=[Message.user("Wind?")], tools=registry().to_openai()))
+    result = send(ollama_client(), ChatRequest(messages=[Message.user("Wind?")], tools=registry().to_openai()))
     assert result.ok and result.repaired and result.tool_calls[0].arguments == {"lat": 1.0, "lon": 2.0}
     repair = standin.received[1].body["messages"]
     assert repair[1]["tool_calls"][0]["function"]["arguments"] == {}  # Ollama takes objects only
@@ -142,7 +144,7 @@ def test_an_ollama_error_is_read(standin: StandIn, ollama_client: MakeOllama) ->
     assert result.error is not None and result.error.endswith("model 'gemma3:4b' not found, try pulling it first")
 
 
-def test_a_server_error_then_success(standin: StandIn, ollama_client: MakeOllama) -> None:
+def test_a_server_error_then_success(standin: StandIn, ollama_client: MakeOllama, send: Send) -> None:
     standin.script(ollama_error(500, "llama runner process has terminated"), ollama_chat("ok"))
-    result = chat(ollama_client(), ChatRequest(messages=[Message.user("x")]))
+    result = send(ollama_client(), ChatRequest(messages=[Message.user("x")]))
     assert result.ok and result.attempts == 2

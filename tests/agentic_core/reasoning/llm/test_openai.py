@@ -9,7 +9,7 @@ from collections.abc import Callable
 from agentic_core.reasoning.llm import ChatRequest, Image, Message, OpenAICompatibleClient, ToolCall, create_client
 from tools import ToolRegistry
 
-from .conftest import KEY, chat
+from .conftest import KEY, Send, chat
 from .standin import StandIn, openai_call, openai_completion, openai_error
 
 MakeClient = Callable[..., OpenAICompatibleClient]
@@ -139,7 +139,9 @@ def test_images_are_sent_as_data_urls(standin: StandIn, openai_client: MakeClien
     }
 
 
-def test_malformed_arguments_are_shown_back_once_and_fixed(standin: StandIn, openai_client: MakeClient) -> None:
+def test_malformed_arguments_are_shown_back_once_and_fixed(
+    standin: StandIn, openai_client: MakeClient, send: Send
+) -> None:
     standin.script(
         openai_completion(
             tool_calls=[openai_call("weather__wind", '{"lat": 21.42, "lon": ', "call_bad"),
@@ -150,7 +152,7 @@ def test_malformed_arguments_are_shown_back_once_and_fixed(standin: StandIn, ope
                           prompt_tokens=20, completion_tokens=4),
     )  # fmt: skip
     request = ChatRequest(messages=[Message.user("Check the wind.")], tools=registry().to_openai())
-    result = chat(openai_client(), request)
+    result = send(openai_client(), request)
 
     assert result.ok and result.repaired
     assert [c.id for c in result.tool_calls] == ["call_good"]
@@ -161,10 +163,10 @@ def test_malformed_arguments_are_shown_back_once_and_fixed(standin: StandIn, ope
     assert repair[3]["tool_call_id"] == "call_ok" and repair[3]["content"].startswith("not run")
 
 
-def test_malformed_twice_is_invalid_output(standin: StandIn, openai_client: MakeClient) -> None:
+def test_malformed_twice_is_invalid_output(standin: StandIn, openai_client: MakeClient, send: Send) -> None:
     broken = openai_completion(tool_calls=[openai_call("weather__wind", "lat=21.42", "call_bad")])
     standin.script(broken, broken)
-    result = chat(openai_client(), ChatRequest(messages=[Message.user("Wind?")], tools=registry().to_openai()))
+    result = send(openai_client(), ChatRequest(messages=[Message.user("Wind?")], tools=registry().to_openai()))
 
     assert result.status == "invalid_output" and not result.ok
     assert result.error is not None and "after 1 correction:" in result.error and "not valid JSON" in result.error
@@ -172,13 +174,13 @@ def test_malformed_twice_is_invalid_output(standin: StandIn, openai_client: Make
     assert result.tool_calls[0].raw_arguments == "lat=21.42" and result.tool_calls[0].arguments == {}
 
 
-def test_arguments_are_checked_against_the_tool_schema(standin: StandIn, openai_client: MakeClient) -> None:
+def test_arguments_are_checked_against_the_tool_schema(standin: StandIn, openai_client: MakeClient, send: Send) -> None:
     standin.script(
         openai_completion(tool_calls=[openai_call("weather__wind", {"lat": "north", "lon": 39.8}, "c1")]),
         openai_completion(tool_calls=[openai_call("weather__gust", {}, "c2")]),
     )
     client = openai_client(repair_attempts=1)
-    result = chat(client, ChatRequest(messages=[Message.user("Wind?")], tools=registry().to_openai()))
+    result = send(client, ChatRequest(messages=[Message.user("Wind?")], tools=registry().to_openai()))
 
     assert result.status == "invalid_output"
     repair_message = standin.received[1].body["messages"][2]["content"]

@@ -1,10 +1,15 @@
-"""The synchronous wrapper: ``chat_sync`` on the client's own event loop thread, from plain code and from inside
-a running event loop, and closing it."""
+"""Synchronous calls: ``chat_sync`` sent from the calling thread (no event loop, no other thread), from plain
+code and from inside a running event loop; on the client's own event loop thread only when a transport serves
+async calls alone; and closing it."""
 
 from __future__ import annotations
 
 import asyncio
+import json
+import threading
 from collections.abc import Callable
+
+import httpx
 
 from agentic_core.reasoning.llm import ChatRequest, LLMClient, Message, OpenAICompatibleClient
 
@@ -39,3 +44,34 @@ def test_chat_sync_inside_a_running_loop(standin: StandIn, openai_client: MakeCl
 
 def test_clients_satisfy_the_protocol(openai_client: MakeClient) -> None:
     assert isinstance(openai_client(), LLMClient)
+
+
+def test_chat_sync_sends_from_the_calling_thread(standin: StandIn, openai_client: MakeClient) -> None:
+    def ours() -> set[threading.Thread]:  # all threads but the stand-in server's, one per connection
+        return {t for t in threading.enumerate() if "process_request_thread" not in t.name}
+
+    standin.script(openai_completion("here"), openai_completion('{"n": 1}'))
+    before = ours()
+    with openai_client() as client:
+        assert client.warm() is None
+        assert client.chat_sync(REQUEST).content == "here"
+        assert client.chat_structured_sync(REQUEST, {"type": "object"}, name="n").parsed == {"n": 1}
+        assert ours() == before  # no event loop thread, no worker: this thread sent them
+
+
+class AsyncOnly(httpx.AsyncBaseTransport):
+    """A transport that serves async calls only (as ``httpx.AsyncHTTPTransport`` does)."""
+
+    async def handle_async_request(self, request: httpx.Request) -> httpx.Response:
+        body = openai_completion("from the loop thread").body
+        return httpx.Response(200, content=json.dumps(body), headers={"Content-Type": "application/json"})
+
+
+def test_an_async_only_transport_is_served_from_the_clients_event_loop() -> None:
+    client = OpenAICompatibleClient("m", "http://model.test/v1", transport=AsyncOnly(), trust_env=False)
+    try:
+        assert client.chat_sync(REQUEST).content == "from the loop thread"
+        assert any(t.name == "llm-client-loop" for t in threading.enumerate())
+    finally:
+        client.close()
+    assert not any(t.name == "llm-client-loop" and t.is_alive() for t in threading.enumerate())
