@@ -28,6 +28,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import math
 import struct
 import threading
@@ -219,10 +220,11 @@ class _Canvas:
         picture, in one indexed assignment."""
         if len(rects) == 0:
             return
-        x0 = np.clip(rects[:, 0], 0, self.width)
-        x1 = np.clip(rects[:, 2], 0, self.width)
-        y0 = np.clip(rects[:, 1], 0, self.height)
-        y1 = np.clip(rects[:, 3], 0, self.height)
+        low = np.maximum(rects, 0)  # np.clip does the same, but looks up its dtype's limits on every call
+        x0 = np.minimum(low[:, 0], self.width)
+        x1 = np.minimum(low[:, 2], self.width)
+        y0 = np.minimum(low[:, 1], self.height)
+        y1 = np.minimum(low[:, 3], self.height)
         keep = (x1 > x0) & (y1 > y0)
         x0, x1, y0, y1 = x0[keep], x1[keep], y0[keep], y1[keep]
         rows = y1 - y0
@@ -242,15 +244,17 @@ class _Canvas:
         y0 = np.round(corners[:, 1] - half).astype(np.intp)
         x1 = np.maximum(np.round(corners[:, 2] + half).astype(np.intp), x0 + 2 * line)
         y1 = np.maximum(np.round(corners[:, 3] + half).astype(np.intp), y0 + 2 * line)
-        edges = np.concatenate(
-            [
-                np.stack([x0, y0, x1, y0 + line], axis=1),  # top
-                np.stack([x0, y1 - line, x1, y1], axis=1),  # bottom
-                np.stack([x0, y0, x0 + line, y1], axis=1),  # left
-                np.stack([x1 - line, y0, x1, y1], axis=1),  # right
-            ]
-        )
-        self.fill_rects(edges, color)
+        n = len(boxes)
+        edges = np.empty((4, n, 4), dtype=np.intp)  # top, bottom, left, right; each x0, y0, x1, y1
+        edges[:, :, 0] = x0
+        edges[:, :, 1] = y0
+        edges[:, :, 2] = x1
+        edges[:, :, 3] = y1
+        edges[0, :, 3] = y0 + line
+        edges[1, :, 1] = y1 - line
+        edges[2, :, 2] = x0 + line
+        edges[3, :, 0] = x1 - line
+        self.fill_rects(edges.reshape(4 * n, 4), color)
 
     def disks(self, centres: Sequence[tuple[float, float]], size_pt: float, color: RGB) -> None:
         """Filled round markers ``size_pt`` across, centred on frame pixels."""
@@ -341,11 +345,11 @@ class _Glyph:
     advance: int
     """In whole pixels (hinted), as matplotlib lays out a line."""
 
-    @property
+    @functools.cached_property
     def width(self) -> int:
         return int(self.coverage.shape[1])
 
-    @property
+    @functools.cached_property
     def height(self) -> int:
         return int(self.coverage.shape[0])
 
