@@ -14,6 +14,8 @@ from typing import Any
 
 import yaml
 
+from flight.yaml_positions import node_position, position_at
+
 Path = tuple[str | int, ...]
 
 
@@ -59,36 +61,14 @@ class SourceMap:
             self.root = _compose_for_positions(self.text)
         return self.root
 
-    def _find(self, path: Path) -> tuple[yaml.Node | None, yaml.Node | None, int]:
-        """The value node and key node at ``path`` (the deepest that exists), and how many parts matched."""
-        node, key_node, depth = self.tree(), None, 0
-        for part in path:
-            nxt = key = None
-            if isinstance(node, yaml.MappingNode):
-                for k, v in reversed(node.value):  # the last of duplicate keys wins, as when loading
-                    if isinstance(k, yaml.ScalarNode) and (k.value == part or k.value == str(part)):
-                        nxt, key = v, k
-                        break
-            elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and part < len(node.value):
-                nxt = node.value[part]
-            if nxt is None:
-                break
-            node, key_node, depth = nxt, key, depth + 1
-        return node, key_node, depth
-
     def at(self, path: Path, *, key: bool = False) -> tuple[int, int]:
         """The position of ``path``, or of its nearest ancestor that exists (a missing field: its parent)."""
-        node, key_node, depth = self._find(path)
-        target = key_node if key and key_node is not None and depth == len(path) else node
-        return _pos(target) if target is not None else (1, 1)
+        root = self.tree()
+        return position_at(root, path, key=key) if root is not None else (1, 1)
 
     def problem(self, path: Path, message: str, *, key: bool = False) -> Problem:
         line, col = self.at(path, key=key)
         return Problem(self.file, line, col, message)
-
-
-def _pos(node: yaml.Node) -> tuple[int, int]:
-    return node.start_mark.line + 1, node.start_mark.column + 1
 
 
 def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> Any:
@@ -99,7 +79,7 @@ def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, active: se
     if isinstance(node, yaml.ScalarNode):
         return _scalar(node, loader)
     if id(node) in active:
-        line, col = _pos(node)
+        line, col = node_position(node)
         raise MissionError(
             [Problem(smap.file, line, col, "a YAML alias refers to itself: the document would be infinite")]
         )
@@ -135,8 +115,8 @@ def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, a
         key = key_node.value
         first = seen.get(key)
         if first is not None:
-            line, col = _pos(key_node)
-            message = f"duplicate key {key!r} (first at line {_pos(first)[0]}); the last wins"
+            line, col = node_position(key_node)
+            message = f"duplicate key {key!r} (first at line {node_position(first)[0]}); the last wins"
             smap.problems.append(Problem(smap.file, line, col, message))
         seen[key] = key_node
     if flatten:
@@ -150,7 +130,7 @@ def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, a
         else:
             key = loader.construct_object(key_node)
         if key is None or isinstance(key, list | dict):
-            line, col = _pos(key_node)
+            line, col = node_position(key_node)
             raise MissionError([Problem(smap.file, line, col, "a mapping key must be a plain name or number")])
         if value_node.tag == _STR_TAG and isinstance(value_node, yaml.ScalarNode):
             out[key] = value_node.value

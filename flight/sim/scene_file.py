@@ -3,8 +3,8 @@
 A wrong scene file raises :class:`SceneFileError`, whose message lists each problem as ``file:line:col: message``
 with the field's path (``scenes/x.yaml:14:17: actors[3] (P-S2).behaviour: ...``): YAML syntax, duplicate keys,
 wrong types, unknown fields (with the nearest known name), and the scene checks (unknown ids, a casualty who is not
-isolated, a wrong person count). Positions come from PyYAML's composed node tree, looked up by the field's path,
-the same approach as the mission loader (``agentic_core.mission.source``), which ``flight`` cannot import.
+isolated, a wrong person count). Positions come from PyYAML's composed node tree, looked up by the field's path
+with :mod:`flight.yaml_positions`, which the mission loader (``agentic_core.mission.source``) uses too.
 
 The JSON Schema of scene files (:func:`scene_json_schema`) ships as ``scenes/scene.schema.json``; regenerate it
 with ``agentic-uav schema scene > scenes/scene.schema.json``.
@@ -34,6 +34,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from flight.sim.scene_model import Path, Scene, describe_path, scene_problems
+from flight.yaml_positions import node_position, position_at
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 SCHEMA_HEADER = "# yaml-language-server: $schema=scene.schema.json\n"
@@ -119,6 +120,8 @@ def _parse(text: str, file: str) -> Scene:
         before = text[: exc.position]
         line, col = before.count("\n") + 1, exc.position - (before.rfind("\n") + 1) + 1
         raise SceneFileError([SceneProblem(file, line, col, "YAML cannot contain this character")]) from None
+    except SceneFileError:
+        raise
     except (yaml.YAMLError, RecursionError, ValueError) as exc:
         raise SceneFileError([SceneProblem(file, 1, 1, f"YAML error: {exc}")]) from None
     finally:
@@ -133,7 +136,7 @@ def _parse(text: str, file: str) -> Scene:
     except ValidationError as exc:
         raise SceneFileError([*problems, *_schema_problems(exc, data, root, file)]) from None
     for path, message in scene_problems(scene):
-        line, col = _position(root, path, key=isinstance(path[-1], str) and path[-2:-1] == ("mix",))
+        line, col = position_at(root, path, key=isinstance(path[-1], str) and path[-2:-1] == ("mix",))
         problems.append(SceneProblem(file, line, col, f"{describe_path(path, data)}: {message}"))
     if problems:
         raise SceneFileError(problems)
@@ -146,16 +149,16 @@ def _schema_problems(exc: ValidationError, data: Any, root: yaml.Node, file: str
         loc = tuple(err["loc"])
         if loc and loc[-1] == "[key]":
             path: Path = loc[:-1]
-            line, col = _position(root, path, key=True)
+            line, col = position_at(root, path, key=True)
             message = f"{describe_path(path, data)}: {err['msg']} (got {_short(path[-1])})"
         elif err["type"] == "missing":
             path = loc
-            line, col = _position(root, path[:-1])
+            line, col = position_at(root, path[:-1])
             message = f"{describe_path(path[:-1], data)}: " if len(path) > 1 else ""
             message += f"missing required field {path[-1]!r}"
         elif err["type"] == "extra_forbidden":
             path = loc
-            line, col = _position(root, path, key=True)
+            line, col = position_at(root, path, key=True)
             known = _fields_at(path[:-1])
             close = difflib.get_close_matches(str(path[-1]), known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else f"; known fields: {', '.join(known)}"
@@ -163,7 +166,7 @@ def _schema_problems(exc: ValidationError, data: Any, root: yaml.Node, file: str
             message = f"{where}: unknown field {path[-1]!r}{hint}"
         else:
             path = loc
-            line, col = _position(root, path)
+            line, col = position_at(root, path)
             message = f"{describe_path(path, data)}: {err['msg']} (got {_short(err['input'])})"
         out.append(SceneProblem(file, line, col, message))
     return out
@@ -174,43 +177,38 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _position(root: yaml.Node, path: Path, *, key: bool = False) -> tuple[int, int]:
-    """Line and column of the value at ``path`` (of its key with ``key``), or of the nearest ancestor there is."""
-    node: yaml.Node = root
-    key_node: yaml.Node | None = None
-    for depth, part in enumerate(path):
-        nxt: yaml.Node | None = None
-        if isinstance(node, yaml.MappingNode):
-            for k, v in reversed(node.value):
-                if isinstance(k, yaml.ScalarNode) and k.value == str(part):
-                    nxt, key_node = v, k
-                    break
-        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and 0 <= part < len(node.value):
-            nxt, key_node = node.value[part], None
-        if nxt is None:
-            break
-        node = nxt
-        if depth == len(path) - 1 and key and key_node is not None:
-            node = key_node
-    return node.start_mark.line + 1, node.start_mark.column + 1
-
-
 def _duplicate_keys(node: yaml.Node, file: str) -> list[SceneProblem]:
+    """Every duplicate mapping key (a node an alias shares is looked at once); a :class:`SceneFileError` for a node
+    that contains itself (an alias inside its own anchor), whose document would be infinite."""
     out: list[SceneProblem] = []
-    stack = [node]
+    done: set[int] = set()
+    inside: set[int] = set()  # the nodes on the way from the root to the one at hand
+    stack: list[tuple[yaml.Node, bool]] = [(node, False)]
     while stack:
-        n = stack.pop()
+        n, leaving = stack.pop()
+        if leaving:
+            inside.discard(id(n))
+            done.add(id(n))
+            continue
+        if id(n) in inside:
+            line, col = node_position(n)
+            message = "a YAML alias refers to itself: the document would be infinite"
+            raise SceneFileError([SceneProblem(file, line, col, message)])
+        if id(n) in done or not isinstance(n, yaml.MappingNode | yaml.SequenceNode):
+            continue
+        inside.add(id(n))
+        stack.append((n, True))
         if isinstance(n, yaml.MappingNode):
             seen: dict[str, int] = {}
             for k, v in n.value:
                 if isinstance(k, yaml.ScalarNode):
                     if k.value in seen:
                         message = f"duplicate key {k.value!r} (first at line {seen[k.value]})"
-                        out.append(SceneProblem(file, k.start_mark.line + 1, k.start_mark.column + 1, message))
+                        out.append(SceneProblem(file, *node_position(k), message))
                     seen.setdefault(k.value, k.start_mark.line + 1)
-                stack.append(v)
-        elif isinstance(n, yaml.SequenceNode):
-            stack.extend(n.value)
+                stack.append((v, False))
+        else:
+            stack.extend((item, False) for item in n.value)
     return out
 
 

@@ -103,6 +103,8 @@ def test_inconsistent_scenes_point_at_the_field_at_fault(tmp_path):
             "scene.yaml:3:5: zones[0] (Z): a zone needs exactly one of polygon or circle",
         ),
         (b"id: x\nlandmarks:\n  - {id: L, kind: well, position: {north: 0, east: 0}}\n", "landmarks[0] (L).kind"),
+        (b"id: x\na: &r [*r]\n", "scene.yaml:2:4: a YAML alias refers to itself: the document would be infinite"),
+        (b"id: x\na: &m {b: *m}\n", "scene.yaml:2:4: a YAML alias refers to itself: the document would be infinite"),
     ],
 )
 def test_broken_files_are_reported_not_raised(tmp_path, content, expected):

@@ -1,0 +1,44 @@
+"""Where a value is written in a YAML file: 1-based line and column found by its path in PyYAML's composed tree.
+
+Shared by the scene loader (``flight.sim.scene_file``) and the mission loader (``agentic_core.mission.source``);
+it lives at the bottom of ``flight``, like ``flight.geodesy``, because ``flight`` must not import ``agentic_core``.
+
+>>> root = yaml.compose("steps:\\n  - {id: up, action: takeoff}\\n")
+>>> position_at(root, ("steps", 0, "action")), position_at(root, ("steps", 0, "action"), key=True)
+((2, 22), (2, 14))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import yaml
+
+
+def node_position(node: yaml.Node) -> tuple[int, int]:
+    """The 1-based line and column where ``node`` starts (PyYAML's marks count from 0)."""
+    mark = node.start_mark
+    return mark.line + 1, mark.column + 1
+
+
+def position_at(root: yaml.Node, path: Sequence[str | int], *, key: bool = False) -> tuple[int, int]:
+    """The position of the value at ``path`` (mapping keys, list indexes), of its key with ``key``, or of the
+    nearest ancestor that exists (a missing field: its parent); of duplicate keys the last wins, as in loading."""
+    node, key_node, depth = root, None, 0
+    for part in path:
+        nxt: yaml.Node | None = None
+        if isinstance(node, yaml.MappingNode):
+            name = str(part)
+            for k, v in reversed(node.value):
+                if isinstance(k, yaml.ScalarNode) and k.value == name:
+                    nxt, key_node = v, k
+                    break
+        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and 0 <= part < len(node.value):
+            nxt, key_node = node.value[part], None
+        if nxt is None:
+            break
+        node, depth = nxt, depth + 1
+    return node_position(key_node if key and key_node is not None and depth == len(path) else node)
+
+
+__all__ = ["node_position", "position_at"]
