@@ -14,18 +14,16 @@ while the server receives the message is a :class:`ToolError` too: it may have b
 
 from __future__ import annotations
 
-import binascii
 import email.policy
-import mimetypes
-import random
 import re
 import smtplib
 import ssl
 import sys
 from collections.abc import Sequence
+from datetime import UTC, datetime
 from email.headerregistry import BaseHeader, HeaderRegistry
 from email.message import EmailMessage
-from email.utils import formatdate, make_msgid, parseaddr
+from email.utils import format_datetime, formatdate, make_msgid, parseaddr
 from pathlib import Path
 from typing import Literal
 
@@ -33,12 +31,11 @@ from pydantic import BaseModel, Field
 
 from ..errors import ToolError, TransientToolError
 from .config import BuiltinConfig, may_attach
+from .eml import PLAIN_NAME, PLAIN_TYPE, attachment_type, base64_lines, new_boundary, plain_message
 from .outbox import discard_undelivered, keep_undelivered, write_file
 
 MAX_ATTACHMENTS_BYTES = 25 * 1024 * 1024
 _NEWLINES = re.compile(r"\r\n|\r|\n")
-_PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9._-]*\Z")
-_PLAIN_TYPE = re.compile(r"[a-z0-9][a-z0-9.+-]*\Z")
 
 
 class _HeaderClasses(HeaderRegistry):
@@ -60,7 +57,6 @@ class _HeaderClasses(HeaderRegistry):
 MESSAGE_POLICY = email.policy.SMTP.clone(header_factory=_HeaderClasses())
 """The policy of the messages :func:`build_message` makes: ``email.policy.SMTP`` (CRLF, 78 columns, 8-bit), its
 header classes made once."""
-_BOUNDARY_DIGITS = len(repr(sys.maxsize - 1))
 
 
 class EmailReceipt(BaseModel):
@@ -127,11 +123,7 @@ def build_message(
     message["Message-ID"] = make_msgid(domain=domain)
     message.set_content(body)
     for file in files:
-        kind, encoding = mimetypes.guess_type(file.name)
-        maintype, subtype = (kind or "application/octet-stream").split("/", 1)
-        if encoding is not None:  # a .gz file is gzip data, not text
-            maintype, subtype = "application", "octet-stream"
-        attach_bytes(message, file.read_bytes(), maintype, subtype, file.name)
+        attach_bytes(message, file.read_bytes(), *attachment_type(file.name), file.name)
     return message
 
 
@@ -150,7 +142,7 @@ def attach_bytes(message: EmailMessage, data: bytes, maintype: str, subtype: str
     plain = (
         isinstance(policy, email.policy.EmailPolicy)
         and policy.refold_source != "all"
-        and bool(_PLAIN_TYPE.match(maintype) and _PLAIN_TYPE.match(subtype) and _PLAIN_NAME.match(filename))
+        and bool(PLAIN_TYPE.match(maintype) and PLAIN_TYPE.match(subtype) and PLAIN_NAME.match(filename))
         and len("Content-Disposition: ") + len(disposition) <= (policy.max_line_length or sys.maxsize)
     )
     if plain:
@@ -168,16 +160,6 @@ def attach_bytes(message: EmailMessage, data: bytes, maintype: str, subtype: str
         assert isinstance(attachments, list) and isinstance(attachments[-1], EmailMessage)
         part = attachments[-1]
     part.set_payload(base64_lines(data, policy.max_line_length))
-
-
-def base64_lines(data: bytes, max_line_length: int | None) -> str:
-    """``data`` in base64 as the e-mail content manager writes an attachment: lines of ``max_line_length // 4 * 4``
-    characters (76 for 78), each ending in a newline; nothing for nothing."""
-    if not data:
-        return ""
-    width = (max_line_length or 78) // 4 * 4
-    encoded = binascii.b2a_base64(data, newline=False)
-    return (b"\n".join([encoded[i : i + width] for i in range(0, len(encoded), width)]) + b"\n").decode("ascii")
 
 
 def message_bytes(message: EmailMessage, policy: email.policy.Policy | None = None) -> bytes:
@@ -217,7 +199,7 @@ def message_bytes(message: EmailMessage, policy: email.policy.Policy | None = No
     texts = [_header_block(part, own) + _body(part, newline) for part in parts]
     boundary = message.get_boundary()
     if not boundary:
-        boundary = _new_boundary(newline.encode("ascii").join(texts))
+        boundary = new_boundary(newline.encode("ascii").join(texts))
         message.set_boundary(boundary)
     delimiter = f"{newline}--{boundary}{newline}".encode("ascii")
     body = b"".join(
@@ -246,15 +228,6 @@ def _body(part: EmailMessage, newline: str) -> bytes:
         return b""
     lines = payload.replace("\n", newline) if "\r" not in payload else _NEWLINES.sub(newline, payload)  # same, faster
     return lines.encode("ascii", "surrogateescape")
-
-
-def _new_boundary(text: bytes) -> str:
-    """A boundary of the generator's form (``=`` * 15, a random number, ``==``) that occurs nowhere in ``text``."""
-    boundary = "=" * 15 + str(random.randrange(sys.maxsize)).zfill(_BOUNDARY_DIGITS) + "=="
-    candidate, counter = boundary, 0
-    while f"--{candidate}".encode("ascii") in text:
-        candidate, counter = f"{boundary}.{counter}", counter + 1
-    return candidate
 
 
 def send_email(
@@ -287,24 +260,39 @@ def send_files(
     return _send(config, to, subject, body, files, keep_as)
 
 
+def encode_message(
+    config: BuiltinConfig, to: Sequence[str], subject: str, body: str, files: Sequence[Path]
+) -> tuple[bytes, str]:
+    """The message's bytes and its Message-ID: written straight (:func:`.eml.plain_message`) when everything in it
+    is plain, else :func:`build_message` and :func:`message_bytes`; the same bytes either way."""
+    domain = parseaddr(config.smtp_from)[1].rpartition("@")[2] or "localhost"
+    message_id = make_msgid(domain=domain)
+    date = format_datetime(datetime.now(UTC).replace(microsecond=0))
+    attachments = [(file.name, file.read_bytes()) for file in files]
+    data = plain_message(config.smtp_from, to, subject, body, attachments, date=date, message_id=message_id)
+    if data is not None:
+        return data, message_id
+    message = build_message(config, to, subject, body, files)
+    return message_bytes(message), str(message["Message-ID"])
+
+
 def _send(
     config: BuiltinConfig, to: Sequence[str], subject: str, body: str, files: Sequence[Path], keep_as: str | None
 ) -> EmailReceipt:
     recipients = check_recipients(to)
-    message = build_message(config, to, subject, body, files)
-    message_id = str(message["Message-ID"])
+    data, message_id = encode_message(config, to, subject, body, files)
     names = [f.name for f in files]
     if not config.smtp_host:
-        path = write_file(config.outbox_dir, ".eml", message_bytes(message))
+        path = write_file(config.outbox_dir, ".eml", data)
         return EmailReceipt(
             delivered_via="outbox", message_id=message_id, recipients=recipients, attachments=names, eml_path=str(path)
         )
     try:
         if not recipients:
             raise ToolError("no recipients: pass 'to', or set AGENTIC_UAV_ALERT_RECIPIENTS")
-        accepted, refused = smtp_send(config, config.smtp_host, message, recipients)
+        accepted, refused = smtp_send(config, config.smtp_host, data, recipients)
     except Exception as exc:  # keep the message for the operator, whatever went wrong: no alert is lost
-        path = keep_undelivered(config.outbox_dir, keep_as, ".eml", message_bytes(message))
+        path = keep_undelivered(config.outbox_dir, keep_as, ".eml", data)
         kept = type(exc) if isinstance(exc, ToolError | TransientToolError) else ToolError
         raise kept(f"{exc} (a copy was kept in {path})") from None
     discard_undelivered(config.outbox_dir, keep_as, ".eml")
@@ -356,10 +344,9 @@ def _connect(config: BuiltinConfig, host: str) -> smtplib.SMTP:
         raise ToolError(f"the mail server {where} cannot be used: {type(exc).__name__}: {exc}") from None
 
 
-def smtp_send(
-    config: BuiltinConfig, host: str, message: EmailMessage, recipients: Sequence[str]
-) -> tuple[list[str], list[str]]:
-    """Send ``message`` to ``recipients``; returns the accepted and the refused (``"addr (550)"``) addresses."""
+def smtp_send(config: BuiltinConfig, host: str, data: bytes, recipients: Sequence[str]) -> tuple[list[str], list[str]]:
+    """Send the message ``data`` (CRLF line ends) to ``recipients``; returns the accepted and the refused
+    (``"addr (550)"``) addresses."""
     smtp = _connect(config, host)
     try:
         sender = parseaddr(config.smtp_from)[1] or config.smtp_from
@@ -382,7 +369,7 @@ def smtp_send(
         except OSError as exc:  # a timeout or a reset before DATA: nothing was accepted yet
             raise TransientToolError(f"the mail server dropped the connection before the message: {exc}") from None
         try:
-            code, reply = smtp.data(message_bytes(message, email.policy.SMTP))
+            code, reply = smtp.data(data)
         except smtplib.SMTPResponseException as exc:  # DATA itself refused: the message was not sent
             raise _refusal("the message", exc.smtp_code, exc.smtp_error) from None
         except (smtplib.SMTPException, OSError) as exc:
@@ -409,6 +396,7 @@ __all__ = [
     "check_attachments",
     "check_recipients",
     "check_size",
+    "encode_message",
     "message_bytes",
     "send_email",
     "send_files",

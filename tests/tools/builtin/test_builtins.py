@@ -28,6 +28,7 @@ MODULES = [
     "tools.builtin.weather",
     "tools.builtin.outbox",
     "tools.builtin.mail",
+    "tools.builtin.eml",
     "tools.builtin.webhook",
     "tools.builtin.alerts",
     "tools.builtin.incidents",

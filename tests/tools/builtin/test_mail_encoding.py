@@ -1,5 +1,6 @@
 """The alert e-mail's quick paths write exactly what the standard library writes: ``attach_bytes`` the part
-``add_attachment`` makes, ``base64_lines`` the content manager's base64, ``message_bytes`` the generator's bytes."""
+``add_attachment`` makes, ``base64_lines`` the content manager's base64, ``message_bytes`` the generator's bytes,
+and ``plain_message`` a plain alert's whole message; anything not plain is left to the standard library."""
 
 from __future__ import annotations
 
@@ -7,17 +8,20 @@ import base64
 import email
 import email.policy
 import os
+import re
 from email.message import EmailMessage
 from pathlib import Path
 
 import pytest
 
 from tools.builtin import BuiltinConfig
+from tools.builtin.eml import plain_message
 from tools.builtin.mail import (
     MAX_ATTACHMENTS_BYTES,
     attach_bytes,
     base64_lines,
     build_message,
+    encode_message,
     message_bytes,
     send_files,
 )
@@ -135,3 +139,63 @@ def test_send_files_still_refuses_too_much(tmp_path: Path) -> None:
     with pytest.raises(ToolError, match="MB limit"):
         send_files(config, ["ops@example.org"], "s", "b", [big])
     assert not (tmp_path / "outbox").exists()
+
+
+DATE, MESSAGE_ID = "Sun, 22 Nov 2026 06:05:30 +0000", "<179532753037.383.11046770362973036824@localhost>"
+
+
+@pytest.mark.parametrize(
+    ("to", "subject", "body"),
+    [
+        (["medics@example.org"], "Collapse at 21.4147, 39.8932", "Motionless 40 s at ramp 3; kit released."),
+        (["Ops <ops@example.org>", "Medical Team 2 <m2@example.org>"], "two recipients", "line one\nline two\n"),
+        ([], "no recipients", ""),
+        (["m@example.org"], "  spaced \t subject  ", "a\r\nb\rc\n\n\ttabbed\n"),
+        (["m@example.org"], "s" * 69, "x" * 78),  # both at 78 columns: still on one line
+        (["m@example.org"], "From lines", "From here\n.\n..dots\n" * 50),
+    ],
+)
+def test_a_plain_alert_is_written_straight_to_the_same_bytes(
+    tmp_path: Path, files: list[Path], to: list[str], subject: str, body: str
+) -> None:
+    config = BuiltinConfig(outbox_dir=tmp_path / "outbox", attachment_dirs=[tmp_path])
+    plain_files = [f for f in files if " " not in f.name]  # the runner's names: no quoting needed
+    for attached in (plain_files, plain_files[:1], []):
+        pairs = [(f.name, f.read_bytes()) for f in attached]
+        quick = plain_message(config.smtp_from, to, subject, body, pairs, date=DATE, message_id=MESSAGE_ID)
+        assert quick is not None
+        built = build_message(config, to, subject, body, attached)
+        built.replace_header("Date", DATE)
+        built.replace_header("Message-ID", MESSAGE_ID)
+        boundary = re.search(rb'boundary="([^"]+)"', quick)
+        if attached:
+            assert boundary is not None
+            built.set_boundary(boundary.group(1).decode())
+        assert quick == message_bytes(built) == built.as_bytes()
+
+
+@pytest.mark.parametrize(
+    ("to", "subject", "body", "name"),
+    [
+        (["m@example.org"], "Kollaps über Rampe 3", "help", "a.png"),  # a subject to encode
+        (["m@example.org"], "s", "Hilfe: Person liegt still, Rampe 3 – bitte", "a.png"),  # 8-bit text
+        (['"Doe, Jane" <j@example.org>'], "s", "b", "a.png"),  # a name to quote
+        (["m@example.org"], "s" * 70, "b", "a.png"),  # a subject to fold
+        (["m@example.org"], "s", "x" * 79, "a.png"),  # a line too long for 7 bits
+        (["m@example.org"], "=?utf-8?q?x?=", "b", "a.png"),  # looks like an encoded word
+        (["m@example.org"], "s", "b", "a b.png"),  # a file name to quote
+    ],
+)
+def test_anything_not_plain_is_left_to_the_standard_library(
+    tmp_path: Path, to: list[str], subject: str, body: str, name: str
+) -> None:
+    assert plain_message("uav@example.org", to, subject, body, [(name, b"x")], date=DATE, message_id=MESSAGE_ID) is None
+    config = BuiltinConfig(outbox_dir=tmp_path / "outbox", attachment_dirs=[tmp_path])
+    (tmp_path / name).write_bytes(b"x")
+    data, message_id = encode_message(config, to, subject, body, [tmp_path / name])
+    parsed = email.message_from_bytes(data, policy=email.policy.default)
+    assert isinstance(parsed, EmailMessage) and parsed["Message-ID"] == message_id
+    assert parsed["Subject"] is not None  # as the standard library writes it (folded, encoded)
+    text = parsed.get_body(("plain",))
+    assert text is not None and text.get_content().splitlines() == body.splitlines()
+    assert [p.get_filename() for p in parsed.iter_attachments()] == [name]
