@@ -223,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="3 runs (for the smoke test)")
     args = parser.parse_args(argv)
     runs = 3 if args.quick else args.runs
+    if runs < 1:
+        parser.error("--runs must be at least 1")
 
     print(TABLE_HEADER)
     samples: dict[str, list[dict[str, float]]] = {}
@@ -256,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"not counted: {', '.join(NOT_OURS)} (stand-ins for the world, YOLO's inference and a model server)")
     for name, got in samples.items():
         totals = sorted(1000 * sum(v for stage, v in s.items() if stage not in NOT_OURS) for s in got[1:])  # no warm-up
-        low, median, high = statistics.quantiles(totals, n=4) if len(totals) > 1 else (totals[0],) * 3
+        low, median, high = statistics.quantiles(totals, n=4, method="inclusive") if len(totals) > 1 else totals * 3
         verdict = "PASS" if median < TARGET_MS else "MISS"
         print(f"total, {name}: {median:.2f} ms median, {low:.2f}–{high:.2f} ms interquartile "
               f"(target < {TARGET_MS:.0f} ms): {verdict}")  # fmt: skip

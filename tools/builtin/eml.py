@@ -24,7 +24,7 @@ MAX_LINE = 78
 """The line length of the messages (``email.policy.SMTP``'s ``max_line_length``)."""
 PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9._-]*\Z")
 PLAIN_TYPE = re.compile(r"[a-z0-9][a-z0-9.+-]*\Z")
-_ADDRESS = r"[A-Za-z0-9._%+-]+@[A-Za-z0-9.-]+"
+_ADDRESS = r"[A-Za-z0-9_%+-]+(?:\.[A-Za-z0-9_%+-]+)*@[A-Za-z0-9-]+(?:\.[A-Za-z0-9-]+)*"  # dot-atoms only
 _PLAIN_ADDRESS = re.compile(rf"(?:[A-Za-z0-9]+(?: [A-Za-z0-9]+)* <{_ADDRESS}>|{_ADDRESS})\Z")
 _PLAIN_ID = re.compile(rf"<{_ADDRESS}>\Z")
 _BOUNDARY_DIGITS = len(repr(sys.maxsize - 1))
@@ -80,6 +80,7 @@ def plain_message(
         and all(value.isascii() and value.isprintable() and "=?" not in value for _, value in headers)
         and all(len(name) + 2 + len(value) <= MAX_LINE for name, value in headers)
         and body.isascii()
+        and headers[-3][1] != ""  # an empty Subject is written without its space
     )
     lines = body.encode("ascii", "replace").splitlines()  # as the content manager splits a text
     if not plain or any(len(line) > MAX_LINE for line in lines):
@@ -94,6 +95,8 @@ def plain_message(
         maintype, subtype = attachment_type(name)
         disposition = f'Content-Disposition: attachment; filename="{name}"'
         if not (PLAIN_NAME.match(name) and PLAIN_TYPE.match(maintype) and PLAIN_TYPE.match(subtype)):
+            return None
+        if maintype in ("message", "multipart"):  # not a leaf part: the generator writes it its own way
             return None
         if len(disposition) > MAX_LINE:
             return None

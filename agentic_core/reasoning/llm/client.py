@@ -206,11 +206,16 @@ class HTTPChatClient:
         try:
             body = next(exchange)
             while True:
-                body = exchange.send(await self._endpoint.post(body, progress.count))
-        except StopIteration as done:
-            result: LLMResult = done.value
+                answer = await self._endpoint.post(body, progress.count)
+                try:
+                    body = exchange.send(answer)
+                except StopIteration as done:  # the exchange's own end, not a StopIteration from below
+                    result: LLMResult = done.value
+                    break
         except Exception as exc:
             result = self._failed(progress, exc)
+        finally:
+            exchange.close()
         return self._settled(result, started)
 
     def chat_sync(self, request: ChatRequest) -> LLMResult:
@@ -223,11 +228,16 @@ class HTTPChatClient:
         try:
             body = next(exchange)
             while True:
-                body = exchange.send(self._endpoint.post_sync(body, progress.count))
-        except StopIteration as done:
-            result: LLMResult = done.value
+                answer = self._endpoint.post_sync(body, progress.count)
+                try:
+                    body = exchange.send(answer)
+                except StopIteration as done:  # the exchange's own end, not a StopIteration from below
+                    result: LLMResult = done.value
+                    break
         except Exception as exc:
             result = self._failed(progress, exc)
+        finally:
+            exchange.close()
         return self._settled(result, started)
 
     async def chat_structured(

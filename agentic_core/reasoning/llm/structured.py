@@ -119,13 +119,14 @@ async def chat_structured(
     ('ok', {'persons': 2}, True, 2)
     """
     exchange = _structured(request, output, name, repairs)
-    try:
-        current = next(exchange)
-        while True:
-            current = exchange.send(await client.chat(current))
-    except StopIteration as done:
-        result: LLMResult = done.value
-        return result
+    current = next(exchange)
+    while True:
+        answer = await client.chat(current)
+        try:
+            current = exchange.send(answer)
+        except StopIteration as done:  # the exchange's own end, not a StopIteration from the client
+            result: LLMResult = done.value
+            return result
 
 
 class SyncChat(Protocol):
@@ -144,13 +145,14 @@ def chat_structured_sync(
 ) -> LLMResult:
     """:func:`chat_structured` for synchronous callers, through ``client.chat_sync``."""
     exchange = _structured(request, output, name, repairs)
-    try:
-        current = next(exchange)
-        while True:
-            current = exchange.send(client.chat_sync(current))
-    except StopIteration as done:
-        result: LLMResult = done.value
-        return result
+    current = next(exchange)
+    while True:
+        answer = client.chat_sync(current)
+        try:
+            current = exchange.send(answer)
+        except StopIteration as done:  # the exchange's own end, not a StopIteration from the client
+            result: LLMResult = done.value
+            return result
 
 
 def _structured(

@@ -349,7 +349,9 @@ class JSONEndpoint:
         loop = asyncio.get_running_loop()
         client = self._by_loop.get(loop)
         if client is None or client.is_closed:
-            transport = self._transport if isinstance(self._transport, httpx.AsyncBaseTransport) else None
+            transport = self._transport
+            if transport is not None and not isinstance(transport, httpx.AsyncBaseTransport):
+                raise TypeError("this client's transport serves synchronous calls only: use chat_sync")
             client = httpx.AsyncClient(
                 timeout=self.timeout, transport=transport, trust_env=self._trust_env, verify=self._verify
             )
@@ -360,7 +362,9 @@ class JSONEndpoint:
         """The httpx client of synchronous calls, shared by every thread (its connection pool is thread-safe)."""
         with self._sync_lock:
             if self._sync is None or self._sync.is_closed:
-                transport = self._transport if isinstance(self._transport, httpx.BaseTransport) else None
+                transport = self._transport
+                if transport is not None and not isinstance(transport, httpx.BaseTransport):
+                    raise TypeError("this client's transport serves async calls only")  # chat_sync hands them over
                 self._sync = httpx.Client(
                     timeout=self.timeout, transport=transport, trust_env=self._trust_env, verify=self._verify
                 )

@@ -199,3 +199,16 @@ def test_anything_not_plain_is_left_to_the_standard_library(
     text = parsed.get_body(("plain",))
     assert text is not None and text.get_content().splitlines() == body.splitlines()
     assert [p.get_filename() for p in parsed.iter_attachments()] == [name]
+
+
+@pytest.mark.parametrize(
+    ("to", "subject", "name"),
+    [
+        (["m@example.org"], "", "a.png"),  # an empty Subject: the header classes write it without its space
+        (["m@example.org"], "s", "x.eml"),  # message/rfc822: not a leaf part for the generator
+        ([".b@example.org"], "s", "a.png"),  # not a dot-atom: left to the header classes (which refuse it)
+        (["m@example.org."], "s", "a.png"),
+    ],
+)
+def test_the_edges_of_plain(to: list[str], subject: str, name: str) -> None:
+    assert plain_message("uav@example.org", to, subject, "b", [(name, b"x")], date=DATE, message_id=MESSAGE_ID) is None

@@ -75,3 +75,36 @@ def test_an_async_only_transport_is_served_from_the_clients_event_loop() -> None
     finally:
         client.close()
     assert not any(t.name == "llm-client-loop" and t.is_alive() for t in threading.enumerate())
+
+
+def test_a_transport_that_breaks_oddly_is_a_result_both_ways() -> None:
+    def handler(request: httpx.Request) -> httpx.Response:
+        raise StopIteration  # e.g. a scripted transport that ran out of replies
+
+    transport = httpx.MockTransport(handler)
+    client = OpenAICompatibleClient("m", "http://model.test/v1", transport=transport, trust_env=False)
+    try:
+        results = [client.chat_sync(REQUEST), asyncio.run(client.chat(REQUEST))]
+    finally:
+        client.close()
+    assert [r.status for r in results] == ["http_error", "http_error"]
+    assert all(r.error is not None and r.error.startswith("internal error") for r in results)
+    assert client.totals.calls == 2 and client.totals.failures == 2
+
+
+class SyncOnly(httpx.BaseTransport):
+    """A transport that serves synchronous calls only (as ``httpx.HTTPTransport`` does)."""
+
+    def handle_request(self, request: httpx.Request) -> httpx.Response:
+        body = openai_completion("from this thread").body
+        return httpx.Response(200, content=json.dumps(body), headers={"Content-Type": "application/json"})
+
+
+def test_a_sync_only_transport_serves_chat_sync_and_refuses_chat() -> None:
+    client = OpenAICompatibleClient("m", "http://127.0.0.1:9/v1", transport=SyncOnly(), trust_env=False)
+    try:
+        assert client.chat_sync(REQUEST).content == "from this thread"
+        refused = asyncio.run(client.chat(REQUEST))  # never sent to the network instead
+    finally:
+        client.close()
+    assert refused.status == "http_error" and "synchronous calls only" in (refused.error or "")
