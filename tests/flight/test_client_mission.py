@@ -135,8 +135,8 @@ def test_a_mission_is_flown_from_the_client(vehicle):
             landed = await client._wait(lambda _m: True if not client._state.armed else None, 20.0)
             assert landed and abs(client.telemetry.alt_m or 0.0) < 0.3  # touched down and disarmed, as PX4
             for n, e, alt in waypoints:  # each waypoint was passed close by, at its height
-                closest = min(positions, key=lambda p: math.hypot(p[0] - n, p[1] - e))
-                assert math.hypot(closest[0] - n, closest[1] - e) < 3.0 and abs(closest[2] - alt) < 1.5
+                near = [p for p in positions if math.hypot(p[0] - n, p[1] - e) < 3.0]  # (the landing is near one)
+                assert any(abs(p[2] - alt) < 1.5 for p in near), (n, e, alt, near[:5])
             assert vehicle.sim.payload_released
             assert vehicle.navigator.cruise_speed_mps == 8.0
 
