@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from datetime import UTC, datetime
 from email.headerregistry import BaseHeader, HeaderRegistry
 from email.message import EmailMessage
-from email.utils import format_datetime, formatdate, make_msgid, parseaddr
+from email.utils import format_datetime, make_msgid, parseaddr
 from pathlib import Path
 from typing import Literal
 
@@ -107,20 +107,27 @@ def check_recipients(to: Sequence[str]) -> list[str]:
 
 
 def build_message(
-    config: BuiltinConfig, to: Sequence[str], subject: str, body: str, files: Sequence[Path]
+    config: BuiltinConfig,
+    to: Sequence[str],
+    subject: str,
+    body: str,
+    files: Sequence[Path],
+    *,
+    date: str | None = None,
+    message_id: str | None = None,
 ) -> EmailMessage:
-    """The message: From, To (when any), Subject (on one line), Date, Message-ID, a text body, the files.
+    """The message: From, To (when any), Subject (on one line), Date, Message-ID (made now unless given), a text
+    body, the files.
 
     Each file is attached exactly as ``add_attachment`` attaches bytes (base64, its name as the filename), only
     quicker (:func:`attach_bytes`): this is on the way from the frame that confirms a casualty to the alert."""
     message = EmailMessage(policy=MESSAGE_POLICY)
-    domain = parseaddr(config.smtp_from)[1].rpartition("@")[2] or "localhost"
     message["From"] = config.smtp_from
     if to:
         message["To"] = ", ".join(to)
     message["Subject"] = " ".join(subject.split())
-    message["Date"] = formatdate(usegmt=True)
-    message["Message-ID"] = make_msgid(domain=domain)
+    message["Date"] = date or format_datetime(datetime.now(UTC))
+    message["Message-ID"] = message_id or _new_message_id(config)
     message.set_content(body)
     for file in files:
         attach_bytes(message, file.read_bytes(), *attachment_type(file.name), file.name)
@@ -265,15 +272,19 @@ def encode_message(
 ) -> tuple[bytes, str]:
     """The message's bytes and its Message-ID: written straight (:func:`.eml.plain_message`) when everything in it
     is plain, else :func:`build_message` and :func:`message_bytes`; the same bytes either way."""
-    domain = parseaddr(config.smtp_from)[1].rpartition("@")[2] or "localhost"
-    message_id = make_msgid(domain=domain)
-    date = format_datetime(datetime.now(UTC).replace(microsecond=0))
+    message_id = _new_message_id(config)
+    date = format_datetime(datetime.now(UTC))
     attachments = [(file.name, file.read_bytes()) for file in files]
     data = plain_message(config.smtp_from, to, subject, body, attachments, date=date, message_id=message_id)
     if data is not None:
         return data, message_id
-    message = build_message(config, to, subject, body, files)
+    message = build_message(config, to, subject, body, files, date=date, message_id=message_id)
     return message_bytes(message), str(message["Message-ID"])
+
+
+def _new_message_id(config: BuiltinConfig) -> str:
+    """A new Message-ID in the sender's domain (``localhost`` when the sender has none)."""
+    return make_msgid(domain=parseaddr(config.smtp_from)[1].rpartition("@")[2] or "localhost")
 
 
 def _send(
