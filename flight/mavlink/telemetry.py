@@ -43,9 +43,11 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_TYPE_QUADROTOR,
 )
 
+from agentic_core.contracts.telemetry import TelemetrySample
+from flight.client.telemetry import LANDED_STATES, PX4_MODES
 from flight.mavlink.navigator import MIN_GPS_SATELLITES, Navigator
 from flight.mavlink.params import ParamStore
-from flight.px4 import base_mode
+from flight.px4 import FlightMode, base_mode
 from flight.sim import Simulator
 
 PX4_VERSION = (1, 14, 0)
@@ -162,6 +164,11 @@ EXTENDED_SYS_STATE = WireCodec(mavlink2.MAVLink_extended_sys_state_message)
 HOME_POSITION = WireCodec(mavlink2.MAVLink_home_position_message)
 AUTOPILOT_VERSION = WireCodec(mavlink2.MAVLink_autopilot_version_message)
 MISSION_CURRENT = WireCodec(mavlink2.MAVLink_mission_current_message)
+
+
+MODE_NAMES: dict[FlightMode, str] = {mode: PX4_MODES[(mode.main_mode, mode.sub_mode)] for mode in FlightMode}
+"""Each mode by the name a client decodes from HEARTBEAT (:data:`flight.client.telemetry.PX4_MODES`)."""
+_new_sample = TelemetrySample.model_construct
 
 
 def _clamp_int(x: float, lo: int, hi: int) -> int:
@@ -330,3 +337,31 @@ class TelemetryBuilders:
         major, minor, patch = PX4_VERSION
         version = major << 24 | minor << 16 | patch << 8 | FIRMWARE_VERSION_TYPE_OFFICIAL
         return (CAPABILITIES, version, version, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.system_id)
+
+    def telemetry_sample(self) -> TelemetrySample:
+        """The state this vehicle reports now, as one :class:`TelemetrySample`: the values its GLOBAL_POSITION_INT,
+        LOCAL_POSITION_NED, ATTITUDE, SYS_STATUS, HEARTBEAT and EXTENDED_SYS_STATE builders put on the wire (before
+        the wire's integer rounding), on the vehicle's clock. Built unvalidated (``model_construct``): every value
+        comes from the builders' own sources, and it is built every tick while someone listens."""
+        s = self.sim.truth()
+        sim = self.sim
+        return _new_sample(
+            time_s=sim.time_s,
+            lat_deg=s.lat_deg,
+            lon_deg=s.lon_deg,
+            alt_m=-s.down_m,
+            alt_msl_m=s.alt_msl_m,
+            north_m=s.north_m,
+            east_m=s.east_m,
+            down_m=s.down_m,
+            vn_mps=s.vn_mps,
+            ve_mps=s.ve_mps,
+            vd_mps=s.vd_mps,
+            roll_deg=math.degrees(s.roll_rad),
+            pitch_deg=math.degrees(s.pitch_rad),
+            yaw_deg=math.degrees(s.yaw_rad) % 360.0,
+            battery_pct=sim.battery.percent,
+            mode=MODE_NAMES[self.navigator.mode],
+            armed=sim.armed,
+            landed_state=LANDED_STATES.get(self.navigator.landed_state(), "unknown"),
+        )

@@ -66,6 +66,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_TYPE_QUADROTOR,
 )
 
+from agentic_core.contracts.telemetry import TelemetrySample
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
 from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
@@ -148,6 +149,20 @@ __all__ = [
 ]
 
 
+Pace = Callable[[], float | None]
+"""Asked every tick for the speed to run at now: a multiple of real time, or None for as fast as possible."""
+Speed = float | None | Pace
+
+
+def _as_pace(speed: Speed) -> Pace | None:
+    """None for a fixed speed (checked here), else the pace itself."""
+    if callable(speed):
+        return speed
+    if speed is not None and not (speed > 0 and math.isfinite(speed)):
+        raise ValueError("speed must be positive or None")
+    return None
+
+
 def _readiness(sock: socket.socket) -> Callable[[int], object]:
     """``check(0)``, true when ``sock`` has a datagram (or an error) to read, without waiting.
 
@@ -198,8 +213,11 @@ class MavlinkVehicle(TelemetryBuilders):
         self.tick_steps = tick_steps
         self.on_tick: list[Callable[[VehicleState], None]] = []
         """Called after every tick with the simulator's state, in the vehicle's thread (e.g. a camera)."""
+        self.on_telemetry: list[Callable[[TelemetrySample], None]] = []
+        """Called after every tick with what the vehicle reports (:meth:`telemetry_sample`), in the vehicle's thread;
+        the sample is only built while there is a hook."""
         self.tick_errors: deque[str] = deque(maxlen=100)
-        """What the ``on_tick`` hooks raised (they are kept running; the vehicle flies on)."""
+        """What the ``on_tick`` and ``on_telemetry`` hooks (and a pace) raised; the vehicle flies on."""
         self._mav = mavlink2.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self._targets: list[Address] = [a for a in (gcs, api) if a is not None]
         self._peers: dict[Address, float] = {}
@@ -299,17 +317,31 @@ class MavlinkVehicle(TelemetryBuilders):
                     try:
                         hook(state)
                     except Exception as exc:  # an observer's bug must not stop the aircraft
-                        self.tick_errors.append(f"{getattr(hook, '__qualname__', hook)}: {type(exc).__name__}: {exc}")
+                        self._hook_failed(hook, exc)
+            if self.on_telemetry:
+                sample = self.telemetry_sample()
+                for listener in self.on_telemetry:
+                    try:
+                        listener(sample)
+                    except Exception as exc:
+                        self._hook_failed(listener, exc)
+
+    def _hook_failed(self, hook: object, exc: Exception) -> None:
+        self.tick_errors.append(f"{getattr(hook, '__qualname__', hook)}: {type(exc).__name__}: {exc}")
 
     def run_for(self, seconds: float) -> None:
         """Lockstep: ``seconds`` of simulated time, as fast as possible, in the caller's thread."""
         for _ in range(max(0, round(seconds / self.tick_s))):
             self.step()
 
-    def run(self, speed: float | None = 1.0) -> None:
-        """Tick until :meth:`stop`, at ``speed`` × real time (None: as fast as possible), answering promptly."""
-        if speed is not None and not speed > 0:
-            raise ValueError("speed must be positive or None")
+    def run(self, speed: Speed = 1.0) -> None:
+        """Tick until :meth:`stop`, at ``speed`` × real time (None: as fast as possible), answering promptly.
+
+        ``speed`` may be a *pace*: a callable asked before every tick (and while waiting for the next) for the
+        speed to keep now. When its answer changes, the wall/sim reference is re-based, so switching from "as fast
+        as possible" to real time brings no catch-up burst. A pace that raises or answers something other than a
+        positive number or None is recorded in :attr:`tick_errors` and its last good answer kept."""
+        pace = _as_pace(speed)
         self._stop.clear()
         # Clients send heartbeats on their own clock, at real-time rates: faster than real time, simulated time
         # would make a healthy link look lost, so link loss is judged on the wall clock while running free.
@@ -318,23 +350,47 @@ class MavlinkVehicle(TelemetryBuilders):
             self.last_rx_s = time.monotonic()
         if self.navigator.offboard_time_s is not None:
             self.navigator.offboard_time_s = time.monotonic()
+        current = self._ask_pace(pace, 1.0) if pace is not None else speed if not callable(speed) else None
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while not self._stop.is_set():
             self.step()
-            if speed is None:
+            asked = current if pace is None else self._ask_pace(pace, current)
+            if asked != current:
+                current = asked
+                wall0, sim0 = time.monotonic(), self.sim.time_s
+            if current is None:
                 continue
-            target = wall0 + (self.sim.time_s - sim0) / speed
+            target = wall0 + (self.sim.time_s - sim0) / current
             while not self._stop.is_set() and (delay := target - time.monotonic()) > 0:
                 readable, _, _ = select.select([self._sock], [], [], min(delay, 0.05))
                 if readable:
                     with self._lock:
                         if not self._closed:
                             self._poll()
+                if pace is not None and self._ask_pace(pace, current) != current:
+                    break  # the next tick re-bases on the new answer
 
-    def start(self, speed: float | None = 1.0) -> threading.Thread:
-        """Run :meth:`run` on a daemon thread."""
+    def _ask_pace(self, pace: Pace | None, last: float | None) -> float | None:
+        """The pace's answer now, or ``last`` if it raised or answered nonsense (recorded in tick_errors)."""
+        if pace is None:
+            return last
+        try:
+            answer = pace()
+            if answer is None:
+                return None
+            value = float(answer)
+            if not (value > 0 and math.isfinite(value)):
+                raise ValueError(f"pace must be positive or None, not {answer!r}")
+            return value
+        except Exception as exc:  # a pacing bug must not stop the aircraft
+            self.tick_errors.append(f"pace {getattr(pace, '__qualname__', pace)}: {type(exc).__name__}: {exc}")
+            return last
+
+    def start(self, speed: Speed = 1.0) -> threading.Thread:
+        """Run :meth:`run` on a daemon thread (``speed``: a multiple of real time, None, or a pace)."""
         if self._thread is not None and self._thread.is_alive():
             raise RuntimeError("already running")
+        _as_pace(speed)
         self._stop.clear()
         self._thread = threading.Thread(target=self.run, args=(speed,), name="mavlink-vehicle", daemon=True)
         self._thread.start()
