@@ -14,62 +14,33 @@
 
 from __future__ import annotations
 
-import operator
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Annotated, Any, TypedDict
+from typing import Any
 
 from pydantic import TypeAdapter, ValidationError
 
 from ..graph import END, START, Command, CompiledStateGraph, Send, StateGraph
 from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
-from .functions import MISSING, get_field
 from .model import PolicyGraph, RepeatStep, Step, Trigger
-from .steps import Environment, StepFailed, evaluate, run_iteration, run_with_retries, scope
+from .state import FINISHED, MissionState
+from .steps import (
+    Environment,
+    Interrupted,
+    StepFailed,
+    StepInterrupted,
+    run_iteration,
+    run_with_retries,
+    step_call,
+)
 from .tool_check import ToolCatalog
+from .triggers import identity, may_fire, trigger_events
 from .validate import check_revision, iter_steps
 
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
 DONE = frozenset({"ok", "skipped"})
-FINISHED = frozenset({*DONE, "failed", "replaced", "preempted", "cancelled"})
 STEPS_ADAPTER: TypeAdapter[list[Step]] = TypeAdapter(list[Step])
-
-
-def merge(left: dict[str, Any], right: dict[str, Any]) -> dict[str, Any]:
-    return {**left, **right}
-
-
-def merge_status(left: dict[str, str], right: dict[str, str]) -> dict[str, str]:
-    """A finished step stays finished: a 'scheduled' or 'blocked' written in the same superstep as its end
-    (whatever the order writes are applied in) does not bring it back."""
-    out = dict(left)
-    for step_id, status in right.items():
-        if out.get(step_id) in FINISHED and status not in FINISHED:
-            continue
-        out[step_id] = status
-    return out
-
-
-def worst(left: str | None, right: str | None) -> str | None:
-    """Two halts in one superstep: returning home beats stopping in place."""
-    return "rtl" if "rtl" in (left, right) else left or right
-
-
-class MissionState(TypedDict, total=False):
-    params: dict[str, Any]
-    outputs: Annotated[dict[str, Any], merge]  # step id -> what its action returned
-    status: Annotated[dict[str, str], merge_status]  # ok | skipped | failed | blocked | scheduled | replaced ...
-    errors: Annotated[dict[str, str], merge]
-    attempts: Annotated[dict[str, int], merge]
-    spliced: Annotated[dict[str, dict[str, Any]], merge]  # id -> {"step": ..., "deps": [...], "origin": ...}
-    waits_for: Annotated[dict[str, list[str]], merge]  # step id -> replaced dependencies
-    fired: Annotated[list[str], operator.add]
-    events: Annotated[dict[str, Any], merge]  # trigger id -> the event it last fired for
-    reflections: int
-    halt: Annotated[str | None, worst]
-    preempted_by: str | None  # a trigger that took over: the rest of the plan is cancelled
-    log: Annotated[list[dict[str, Any]], operator.add]
 
 
 @dataclass
@@ -140,18 +111,33 @@ class MissionRuntime:
         if waiting:
             return {"status": {step_id: "blocked"}}
         step = self.step(step_id, state)
-        if isinstance(step, RepeatStep):
-            return self.iterate(step, state)
+        origin = (state.get("spliced") or {}).get(step_id, {}).get("origin")
         try:
-            output, attempts = run_with_retries(step, state, self.env)
+            with step_call(step_id, origin, state):
+                if isinstance(step, RepeatStep):
+                    return self.iterate(step, state)
+                output, attempts = run_with_retries(step, state, self.env)
         except StepFailed as failed:
             return {**self.failure(step, failed.reason), "attempts": {step_id: step.max_retries + 1}}
+        except StepInterrupted as stopped:
+            return self.interrupted(step, stopped.outcome, "repeating" if isinstance(step, RepeatStep) else "blocked")
         return {
             "status": {step_id: "ok"},
             "outputs": {step_id: output},
             "attempts": {step_id: attempts},
             "log": [{"step": step_id, "status": "ok", "attempts": attempts}],
         }
+
+    def interrupted(self, step: Step, outcome: Interrupted, status: str) -> dict[str, Any]:
+        """A step whose action was stopped before its end runs again once the scheduler lets it (a repeat starts its
+        pass again); a trigger that stopped it stays latched on its event until it fires."""
+        update: dict[str, Any] = {
+            "status": {step.id: status},
+            "log": [{"step": step.id, "status": "interrupted", "error": outcome.reason, "trigger": outcome.trigger}],
+        }
+        if outcome.trigger is not None:
+            update["latched"] = {outcome.trigger: outcome.event}
+        return update
 
     def iterate(self, step: RepeatStep, state: Mapping[str, Any]) -> dict[str, Any]:
         done = int(((state.get("outputs") or {}).get(step.id) or {}).get("iterations", 0))
@@ -229,6 +215,7 @@ class MissionRuntime:
             update.setdefault("spliced", {}).update(new)
             update.setdefault("fired", []).append(trigger.id)
             update.setdefault("events", {})[trigger.id] = event
+            update.setdefault("latched", {})[trigger.id] = None
             update.setdefault("log", []).append({"step": trigger.id, "status": "fired", "event": event})
             if trigger.preempt:
                 preempted = update["preempted_by"] = trigger.id
@@ -266,27 +253,14 @@ class MissionRuntime:
         return sorted(routes)
 
     def fires(self, trigger: Trigger, state: Mapping[str, Any]) -> Any:
-        """The event a trigger fires for now, or None. A trigger that may fire again does so for a new event
-        only, once the sub-plan of its last firing has finished."""
-        fired = trigger.id in (state.get("fired") or [])
-        if fired and trigger.once:
+        """The event a trigger fires for now, or None: the event it was latched on while a flight action flew, else
+        the first event its rule finds (:func:`trigger_events`) that the gate lets act."""
+        if not may_fire(trigger, state):
             return None
-        if fired:
-            status = state.get("status") or {}
-            origin = f"trigger:{trigger.id}"
-            running = [s for s, i in (state.get("spliced") or {}).items() if i.get("origin") == origin]
-            if any(status.get(s) not in FINISHED for s in running):
-                return None
-        try:
-            value = evaluate(trigger.when, scope(state, self.env))
-        except StepFailed:
-            return None
-        if not value:
-            return None
-        last = _identity((state.get("events") or {}).get(trigger.id)) if fired else None
-        for event in value if isinstance(value, list) else [value]:
-            if fired and _identity(event) == last:
-                continue
+        latched = (state.get("latched") or {}).get(trigger.id)
+        if latched is not None:  # let act while a flight action flew: it fires for that event, in view or not
+            return latched
+        for event in trigger_events(trigger, state, self.env):
             if self.approved(trigger, event):
                 return event
         return None
@@ -295,7 +269,7 @@ class MissionRuntime:
         """The gate's verdict on an event (asked once per trigger and object); no gate approves everything."""
         if self.env.gate is None:
             return True
-        key = (trigger.id, _identity(event))
+        key = (trigger.id, identity(event))
         if key not in self.verdicts:
             self.verdicts[key] = bool(self.env.gate(trigger, event))
             if not self.verdicts[key]:
@@ -480,12 +454,6 @@ def compile_mission(
             step.id, rt.on_fail_route(step.id), {"next": END, REFLECT: REFLECT, ABORT: ABORT, RTL: RTL}
         )
     return g.compile(checkpointer=checkpointer)
-
-
-def _identity(event: Any) -> Any:
-    """What makes two events the same: a world-model object's id (its pose and timers change every frame)."""
-    found = get_field(event, "id")
-    return event if found is MISSING else found
 
 
 def _step_node(rt: MissionRuntime, step_id: str) -> Callable[[MissionState], dict[str, Any]]:

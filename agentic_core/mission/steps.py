@@ -9,10 +9,13 @@ as ``flight.fly_to`` calls.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
+from ..contracts import AgenticUAVError
 from ..graph import GraphInterrupt, interrupt
 from .expressions import Expression, ExpressionError, render
 from .geometry import lawnmower
@@ -49,12 +52,86 @@ class Environment:
     sleep: Callable[[float], None] = time.sleep
 
 
-class StepFailed(Exception):
+class StepFailed(AgenticUAVError):
     """The step did not achieve its action; ``reason`` is what the agent (and the log) see."""
 
     def __init__(self, reason: str) -> None:
         super().__init__(reason)
         self.reason = reason
+
+
+@dataclass(frozen=True)
+class Interrupted:
+    """What a dispatcher returns for an action it stopped before the end, not a failure: a trigger took over the
+    aircraft (``trigger`` fired for ``event``) or the operator paused or stopped the run. The step runs again later."""
+
+    reason: str
+    trigger: str | None = None
+    event: Any = None
+    status: str = "interrupted"
+    error: str | None = None
+
+    @property
+    def output(self) -> dict[str, Any]:
+        return {"interrupted": self.reason, "trigger": self.trigger}
+
+
+class StepInterrupted(AgenticUAVError):
+    """Raised out of a step whose action was :class:`Interrupted`; the mission runtime reschedules the step."""
+
+    def __init__(self, outcome: Interrupted) -> None:
+        super().__init__(outcome.reason)
+        self.outcome = outcome
+
+
+@dataclass(frozen=True)
+class StepCall:
+    """Which step (and where in it) a dispatch belongs to: its path (``patrol/leg_north``), the repeat's pass, the
+    attempt and the dispatch's number within the attempt. :meth:`key` names the call uniquely and the same way when
+    a resumed run does it again, so a side effect done before a crash can be recognised (an idempotency key)."""
+
+    path: str
+    origin: str | None = None
+    iteration: int | None = None
+    attempt: int = 1
+    number: int = 0
+    state: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
+    """The mission state the step started from (what a trigger watch evaluates against)."""
+
+    def key(self) -> str:
+        where = self.path if self.iteration is None else f"{self.path}#{self.iteration}"
+        return f"{where}:{self.attempt}.{self.number}"
+
+
+_CALL: ContextVar[StepCall | None] = ContextVar("agentic_uav_step_call", default=None)
+
+
+def current_call() -> StepCall | None:
+    """The step call being dispatched in this thread (None outside a mission step)."""
+    return _CALL.get()
+
+
+@contextmanager
+def step_call(path: str, origin: str | None = None, state: Mapping[str, Any] | None = None) -> Iterator[None]:
+    """Run the block as the mission step ``path`` (the runtime's node for one step), started from ``state``."""
+    token = _CALL.set(StepCall(path=path, origin=origin, state=state))
+    try:
+        yield
+    finally:
+        _CALL.reset(token)
+
+
+@contextmanager
+def within(*, child: str | None = None, **changes: Any) -> Iterator[None]:
+    """Run the block as part of the current step call, changed: a nested step (``child``), a pass, an attempt."""
+    now = _CALL.get() or StepCall(path="?")
+    if child is not None:
+        changes = {"path": f"{now.path}/{child}", "attempt": 1, "number": 0, **changes}
+    token = _CALL.set(replace(now, **changes))
+    try:
+        yield
+    finally:
+        _CALL.reset(token)
 
 
 SCOPE_ROOTS = ("params", "steps", "vehicle", "world", "event", "mission")
@@ -94,13 +171,19 @@ MAX_SURVEY_LEGS = 2_000
 
 def _call(env: Environment, tool: str, args: dict[str, Any], timeout_s: float | None) -> Any:
     """One dispatch. A dispatcher that raises, or answers with something that is not a result, fails the step:
-    the mission's on_fail decides what happens, it never crashes."""
+    the mission's on_fail decides what happens, it never crashes. An :class:`Interrupted` action raises
+    :class:`StepInterrupted`."""
+    now = _CALL.get()
+    if now is not None:
+        _CALL.set(replace(now, number=now.number + 1))
     try:
         result = env.dispatch(tool, args, timeout_s)
     except GraphInterrupt:
         raise
     except Exception as exc:
         raise StepFailed(f"{tool} raised {type(exc).__name__}: {exc}") from None
+    if isinstance(result, Interrupted):
+        raise StepInterrupted(result)
     status = getattr(result, "status", None)
     if not isinstance(status, str):
         raise StepFailed(f"{tool}: the dispatcher answered {type(result).__name__}, not a result with a status")
@@ -177,7 +260,8 @@ def run_with_retries(step: Step, state: Mapping[str, Any], env: Environment) -> 
     while True:
         attempts += 1
         try:
-            return perform(step, args, state, env), attempts
+            with within(attempt=attempts, number=0):
+                return perform(step, args, state, env), attempts
         except StepFailed as failed:
             if attempts > step.max_retries:
                 failed.reason += f" (after {attempts} attempt{'s' if attempts > 1 else ''})"
@@ -191,7 +275,8 @@ def run_sequence(steps: list[Step], state: Mapping[str, Any], env: Environment) 
     for step in steps:
         local = {**state, "outputs": outputs}
         try:
-            outputs[step.id], _ = run_with_retries(step, local, env)
+            with within(child=step.id):
+                outputs[step.id], _ = run_with_retries(step, local, env)
         except StepFailed as failed:
             if step.on_fail != "skip":
                 raise StepFailed(f"{step.id}: {failed.reason}") from None
@@ -205,7 +290,8 @@ def run_iteration(
     The repeat's own preconditions and approval are checked before its first pass."""
     if done == 0:
         prepare(step, state, env)
-    body = run_sequence(step.steps, state, env)
+    with within(iteration=done + 1):
+        body = run_sequence(step.steps, state, env)
     output = {"iterations": done + 1, "last": body}
     outputs = {**(state.get("outputs") or {}), **body, step.id: output}
     finished = check(step.until, scope({**state, "outputs": outputs}, env)) or done + 1 >= step.max_iterations

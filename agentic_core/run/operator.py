@@ -15,17 +15,9 @@ from __future__ import annotations
 
 import queue
 import threading
-from dataclasses import dataclass
 from typing import Any, TextIO
 
-
-@dataclass(frozen=True)
-class OperatorAnswer:
-    """What the operator said, and how the run reads it."""
-
-    approved: bool
-    said: str | None
-    why: str
+from ..agent.control import OperatorAnswer
 
 
 class TerminalOperator:

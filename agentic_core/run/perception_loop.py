@@ -1,31 +1,39 @@
-"""Perception alongside the flight: at every vehicle tick, a camera frame when one is due, its detections, and the
-World Model brought up to date.
+"""Perception alongside the flight: at every telemetry sample, a camera frame when one is due, its detections,
+and the World Model brought up to date.
 
-The loop runs in the simulated vehicle's thread (it is the vehicle's tick hook), so frames are taken at the
-camera's rate in *simulated* time whatever the speed of the run; the mission reads :attr:`PerceptionLoop.world`,
-the latest model, from its own thread. The scene moves with the frames (the detector advances it).
+The camera's pose is the one the vehicle reports in its telemetry (:class:`~agentic_core.contracts.TelemetrySample`),
+not simulator truth, so the same loop serves the in-process simulator (samples in lockstep, in the vehicle's
+thread: frames at the camera's rate in *simulated* time whatever the speed) and a vehicle over a MAVLink link
+(samples as they arrive, in the client's thread). The mission reads :attr:`PerceptionLoop.world`, the latest
+model, from its own thread. The scene moves with the frames (the detector advances it).
 
 >>> from flight.sim.scene_file import load_scene
 >>> loop = PerceptionLoop(load_scene("scenes/hajj_normal.yaml"), seed=1)
 >>> loop.frames, loop.world.objects  # before the first tick: an empty world at home
 (0, [])
 
-``vehicle.on_tick.append(loop.on_tick)`` runs it with the simulated vehicle.
+``vehicle.on_telemetry.append(loop.on_sample)`` runs it with the simulated vehicle.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from pathlib import Path
 
 from flight.camera import CameraPose, Frame
+from flight.geodesy import local_offset
 from flight.sim.detector import SimulatedCamera, SimulatedDetector
 from flight.sim.scene_model import Scene
 from flight.sim.simulator import VehicleState
 
+from ..contracts import TelemetrySample
 from ..perception.pipeline import Perception, PerceptionConfig
 from ..perception.world_model import WorldModel
+
+REID_RADIUS_M = 8.0
+"""How far from where a dropped track was last seen a new track may be taken for the same object."""
 
 
 class PerceptionLoop:
@@ -58,6 +66,60 @@ class PerceptionLoop:
         """Simulated time each ground-truth actor was first detected (for time-to-intervention)."""
         self._lock = threading.Lock()
         self._world: WorldModel | None = None
+        self.restored: WorldModel | None = None
+        self._last_seen: dict[str, tuple[float, float, str, float]] = {}
+        """Every object id seen: where it was last, its class, and when (for targets and re-identification)."""
+
+    def on_sample(self, sample: TelemetrySample) -> None:
+        """A telemetry sample arrived: take a frame from the pose it reports, if one is due at its time."""
+        if self.camera.due(sample.time_s):
+            pose = CameraPose(
+                north_m=sample.north_m, east_m=sample.east_m, down_m=sample.down_m,
+                roll_rad=math.radians(sample.roll_deg), pitch_rad=math.radians(sample.pitch_deg),
+                yaw_rad=math.radians(sample.yaw_deg),
+            )  # fmt: skip
+            self.observe(pose, sample.time_s)
+
+    def restore(self, world: WorldModel) -> None:
+        """Start from a World Model saved before (a resumed run): it stands until the first new frame, and the
+        objects it knows can still be found as targets after that."""
+        with self._lock:
+            self._world = world
+            self.restored = world
+
+    def target(self, object_id: str) -> tuple[float, float] | None:
+        """Where an object is (latitude, longitude): in the World Model now, else where it was last seen (a track
+        dropped a moment ago, or one only a restored model knows)."""
+        found = self.world.get(object_id)
+        if found is not None:
+            return found.pose.lat, found.pose.lon
+        last = self._last_seen.get(object_id)
+        if last is not None:
+            return last[0], last[1]
+        old = self.restored.get(object_id) if self.restored is not None else None
+        return (old.pose.lat, old.pose.lon) if old is not None else None
+
+    def resolve(self, object_id: str, within_m: float = REID_RADIUS_M) -> str | None:
+        """The id an object has in the World Model now: its own while it is tracked; when its track was dropped,
+        the object of its class nearest to where it was last seen (within ``within_m``) whose track began after
+        that (the tracker gave it a new id); None when there is none."""
+        world = self.world
+        if world.get(object_id) is not None:
+            return object_id
+        last = self._last_seen.get(object_id)
+        if last is None:
+            return None
+        lat, lon, class_name, seen_s = last
+        best: tuple[float, str] | None = None
+        for obj in world.objects:
+            born_s = world.timestamp - obj.track_age_frames * self.camera.spec.frame_period_s
+            if obj.class_name != class_name or born_s < seen_s - 1.0:
+                continue
+            north, east = local_offset(lat, lon, obj.pose.lat, obj.pose.lon)
+            gap = math.hypot(north, east)
+            if gap <= within_m and (best is None or gap < best[0]):
+                best = (gap, obj.id)
+        return best[1] if best is not None else None
 
     def on_tick(self, state: VehicleState) -> None:
         """The vehicle's tick hook: take a frame if one is due at the vehicle's time."""
@@ -76,6 +138,9 @@ class PerceptionLoop:
         for detection in detections:
             if detection.truth_id is not None:
                 self.first_detected.setdefault(detection.truth_id, frame.time_s)
+        seen = self._last_seen
+        for obj in world.objects:
+            seen[obj.id] = (obj.pose.lat, obj.pose.lon, obj.class_name, frame.time_s)
         with self._lock:
             self._world = world
             self.frames += 1

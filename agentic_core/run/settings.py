@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from tools import Caller
 
+from ..contracts import InputError
 from .report import RunSummary, TrackPoint
 
 AGENT = Caller(
@@ -44,9 +45,13 @@ class RunSettings(BaseModel):
     seed: int = 0
     camera_hz: float = Field(default=30.0, gt=0, le=120, description="frames per second of the simulated camera")
     max_wall_s: float = Field(default=900.0, gt=0, description="give up (and land) after this much wall time")
+    connect: str | None = Field(
+        default=None, description="fly the vehicle at this MAVLink address (udp://HOST:PORT) instead of the simulator"
+    )
+    telemetry_hz: float = Field(default=10.0, gt=0, le=100, description="rate of telemetry.jsonl, Hz of vehicle time")
 
 
-class RunError(Exception):
+class RunError(InputError):
     """A run that cannot start: a bad mission, scene or option. The message names the file and field."""
 
 

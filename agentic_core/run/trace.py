@@ -1,56 +1,48 @@
-"""A run's trace: one JSON object per line for everything that happened — graph nodes, tool calls, model calls,
-decisions, triggers, approvals — each stamped with wall and simulated time.
+"""A run's records on disk: ``trace.jsonl`` (every :class:`~agentic_core.contracts.RunEvent` of the bus, one per
+line) and ``telemetry.jsonl`` (the vehicle's telemetry samples at a fixed rate of its clock, 10 Hz by default).
 
-Thread-safe (the vehicle thread, the mission and the tools all write to it) and flushed line by line, so a crashed
-run leaves its trace up to the crash.
+Both are flushed line by line, so a killed run leaves them up to the kill; a resumed run appends.
 
 >>> import io, json
+>>> from agentic_core.agent.bus import EventBus
 >>> out = io.StringIO()
->>> trace = TraceWriter(out, sim_clock=lambda: 12.5)
->>> trace.write("tool", name="flight.takeoff", status="ok")
+>>> bus = EventBus(clock=lambda: 12.5)
+>>> trace = TraceWriter(out)
+>>> _ = bus.subscribe(trace)
+>>> _ = bus.publish("tool", name="flight.takeoff", status="ok")
 >>> record = json.loads(out.getvalue())
->>> record["kind"], record["sim_t"], record["name"]
-('tool', 12.5, 'flight.takeoff')
+>>> record["kind"], record["sim_t"], record["name"], record["seq"]
+('tool', 12.5, 'flight.takeoff', 1)
 """
 
 from __future__ import annotations
 
 import json
+import math
 import threading
-import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
+from ..contracts import RunEvent, TelemetrySample
+
 
 class TraceWriter:
-    """Appends trace records to a file (or any text stream) and keeps them for the report."""
+    """A bus subscriber that appends each event to a file (or a text stream) and keeps them for the report."""
 
-    def __init__(
-        self,
-        out: Path | TextIO,
-        *,
-        sim_clock: Callable[[], float] | None = None,
-        clock: Callable[[], float] = time.time,
-    ) -> None:
+    def __init__(self, out: Path | TextIO) -> None:
         self._own = isinstance(out, Path)
         self._out: TextIO = out.open("a", encoding="utf-8") if isinstance(out, Path) else out
-        self._sim_clock = sim_clock
-        self._clock = clock
         self._lock = threading.Lock()
         self.records: list[dict[str, Any]] = []
 
-    def write(self, kind: str, **fields: Any) -> None:
-        """One record: ``kind`` (run, node, tool, llm, decision, trigger, approval, log, ...) and its fields."""
-        record: dict[str, Any] = {"t": round(self._clock(), 6), "kind": kind}
-        if self._sim_clock is not None:
-            record["sim_t"] = round(self._sim_clock(), 3)
-        record.update(fields)
-        line = json.dumps(record, ensure_ascii=False, default=str)
+    def __call__(self, event: RunEvent) -> None:
+        line = event.model_dump_json(exclude_none=False)
+        record = json.loads(line)
         with self._lock:
-            self.records.append(json.loads(line))
-            self._out.write(line + "\n")
-            self._out.flush()
+            self.records.append(record)
+            if not self._out.closed:
+                self._out.write(line + "\n")
+                self._out.flush()
 
     def of_kind(self, kind: str) -> list[dict[str, Any]]:
         with self._lock:
@@ -62,4 +54,35 @@ class TraceWriter:
                 self._out.close()
 
 
-__all__ = ["TraceWriter"]
+class TelemetryLog:
+    """A sample hook that writes one JSON line per ``1 / hz`` seconds of the vehicle's clock (10 Hz by default)."""
+
+    def __init__(self, path: Path, hz: float = 10.0) -> None:
+        if not hz > 0:
+            raise ValueError("hz must be positive")
+        self.period_s = 1.0 / hz
+        self._out = path.open("a", encoding="utf-8")
+        self._next_s = -1.0
+        self._lock = threading.Lock()
+        self.last: TelemetrySample | None = None
+        self.lines = 0
+
+    def __call__(self, sample: TelemetrySample) -> None:
+        self.last = sample
+        if sample.time_s + 1e-9 < self._next_s:
+            return
+        with self._lock:
+            if self._out.closed:
+                return
+            self._next_s = (math.floor(sample.time_s / self.period_s) + 1) * self.period_s
+            self._out.write(sample.model_dump_json() + "\n")
+            self._out.flush()
+            self.lines += 1
+
+    def close(self) -> None:
+        with self._lock:
+            if not self._out.closed:
+                self._out.close()
+
+
+__all__ = ["TelemetryLog", "TraceWriter"]

@@ -1,0 +1,32 @@
+"""The agent loop and its ports (the paper's Reasoning layer, as it runs): typed ports to the vehicle, the world,
+the reasoner and the operator; one trigger evaluation (``agentic_core.mission.triggers``) used at the scheduler's
+barriers and while a long action flies; the tier-2 gate; the dispatcher every action goes through; the control
+port; the event bus; pacing of simulated time.
+"""
+
+from .bus import EventBus
+from .control import ControlPort, OperatorAnswer, Question
+from .dispatch import WATCHED_TOOLS, Dispatcher
+from .gate import ACT_AT, Gate, acts
+from .loop import AgentLoop, LoopResult, policy_approval
+from .pacing import Pace
+from .ports import ReasonerPort, VehicleView, WorldSource
+
+__all__ = [
+    "ACT_AT",
+    "WATCHED_TOOLS",
+    "AgentLoop",
+    "ControlPort",
+    "Dispatcher",
+    "EventBus",
+    "Gate",
+    "LoopResult",
+    "OperatorAnswer",
+    "Pace",
+    "Question",
+    "ReasonerPort",
+    "VehicleView",
+    "WorldSource",
+    "acts",
+    "policy_approval",
+]

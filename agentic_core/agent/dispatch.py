@@ -1,0 +1,175 @@
+"""The mission's one way to act (``Environment.dispatch``): every step's tool call goes through the tools executor
+from here, with
+
+* an idempotency key made of the run, the step (its path, pass, attempt and call number) so a resumed run does not
+  repeat a side effect (the executor replays the recorded result);
+* pacing: the simulation runs at full speed while a flight action flies and at real time while anything else is
+  awaited;
+* the watch during a long flight action (``flight.fly_to``, ``orbit``, ``hover``): the control port (pause, abort,
+  rtl, land) and the triggers' rules, evaluated on the mission state the step started from. When a rule holds for an
+  object the reasoner has not judged, the aircraft goes to hold over it (``hold_over`` names where; else it holds
+  where it is) while the reasoner thinks, so the object stays in view however slow the model; if the reasoner lets
+  the trigger act the action ends :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the
+  object, else the action is sent again and flies on.
+
+Every call and every interruption is published as a ``tool`` event.
+"""
+
+from __future__ import annotations
+
+import inspect
+import threading
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from tools import ToolExecutor, ToolResult
+
+from ..mission.model import Trigger
+from ..mission.steps import Interrupted, current_call
+from .control import ControlPort
+from .gate import Gate
+from .pacing import Pace
+from .ports import Publish
+
+WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
+"""Long flight actions during which the control port and the triggers are watched."""
+
+HOLD = "flight.hold"
+
+Watch = Callable[[Mapping[str, Any]], list[tuple[Trigger, Any]]]
+"""The (trigger, event) pairs whose rule holds now, evaluated on a mission state."""
+
+Prepare = Callable[[dict[str, Any]], dict[str, Any]]
+
+
+class Dispatcher:
+    """``Environment.dispatch`` for one run."""
+
+    def __init__(
+        self,
+        executor: ToolExecutor,
+        *,
+        run_id: str,
+        gate: Gate,
+        control: ControlPort,
+        pace: Pace,
+        publish: Publish,
+        watch: Watch | None = None,
+        prepare: Mapping[str, Prepare] | None = None,
+        hold_over: Callable[[Any], dict[str, Any] | None] | None = None,
+        poll_s: float = 0.05,
+    ) -> None:
+        self.executor = executor
+        self.run_id = run_id
+        self.gate = gate
+        self.control = control
+        self.pace = pace
+        self.publish = publish
+        self.watch = watch
+        self.prepare = dict(prepare or {})
+        self.hold_over = hold_over
+        self.poll_s = poll_s
+        self._keyed = "idempotency_key" in inspect.signature(executor.call).parameters
+
+    def __call__(self, tool: str, args: dict[str, Any], timeout_s: float | None) -> ToolResult | Interrupted:
+        if tool in self.prepare:
+            args = self.prepare[tool](args)
+        call = current_call()
+        key = f"{self.run_id}:{call.key()}" if call is not None else None
+        state = call.state if call is not None else None
+        if tool in WATCHED_TOOLS and state is not None and not state.get("preempted_by"):
+            return self._watched(tool, args, timeout_s, state, key)
+        return self.call(tool, args, timeout_s, key=key)
+
+    def call(
+        self, tool: str, args: dict[str, Any], timeout_s: float | None = None, *, key: str | None = None
+    ) -> ToolResult:
+        """One tool call through the executor, paced, published, and keyed with ``key`` (an idempotency key)."""
+        options: dict[str, Any] = {"timeout_s": timeout_s}
+        if key is not None and self._keyed:
+            options["idempotency_key"] = key
+        with self.pace.waiting("vehicle" if tool.startswith("flight.") else "tool"):
+            result = self.executor.call(tool, args, **options)
+        replayed = bool(getattr(result, "replayed", False))
+        self.publish(
+            "tool", name=tool, args=args, status=result.status, error=result.error, latency_s=result.latency_s,
+            key=key, replayed=replayed,
+            summary=f"{tool} {result.status}" + (" (replayed)" if replayed else "")
+            + (f": {result.error}" if result.error else ""),
+        )  # fmt: skip
+        return result
+
+    def _watched(
+        self, tool: str, args: dict[str, Any], timeout_s: float | None, state: Mapping[str, Any], key: str | None
+    ) -> ToolResult | Interrupted:
+        while True:
+            box: dict[str, ToolResult] = {}
+
+            def fly(into: dict[str, ToolResult] = box) -> None:
+                into["result"] = self.call(tool, args, timeout_s, key=key)
+
+            worker = threading.Thread(target=fly, name=f"agent-{tool}", daemon=True)
+            worker.start()
+            found: tuple[Trigger, Any] | None = None
+            stop: str | None = None
+            while worker.is_alive():
+                worker.join(self.poll_s)
+                if not worker.is_alive():
+                    break
+                stop = self._control_stop()
+                if stop is not None:
+                    break
+                found = self._new_event(state)
+                if found is not None:
+                    break
+            if stop is None and found is None:
+                return box["result"]
+            hold = self.executor.call(HOLD, {})
+            worker.join()
+            if stop is not None:
+                return self._interrupted(tool, hold, Interrupted(stop))
+            assert found is not None
+            trigger, event = found
+            self._go_over(event)
+            if self.gate(trigger, event):  # the aircraft holds over the object while the reasoner thinks
+                reason = f"{trigger.id} acts on {_name(event)}"
+                return self._interrupted(tool, hold, Interrupted(reason, trigger=trigger.id, event=event))
+            self.publish("tool", name=tool, status="resumed", summary=f"{tool} flies on: {trigger.id} declined")
+
+    def _go_over(self, event: Any) -> None:
+        """Send the aircraft to hold over the event's object, without waiting: the reasoner thinks meanwhile, and
+        the next command (the sub-plan's, or the leg sent again) supersedes it."""
+        args = self.hold_over(event) if self.hold_over is not None else None
+        if args is None:
+            return
+        threading.Thread(target=self.call, args=("flight.fly_to", args), name="agent-hold-over", daemon=True).start()
+
+    def _control_stop(self) -> str | None:
+        command = self.control.stop_requested()
+        if command is not None:
+            return f"the operator asked to {command}"
+        if self.control.paused:
+            return "paused by the operator"
+        return None
+
+    def _new_event(self, state: Mapping[str, Any]) -> tuple[Trigger, Any] | None:
+        """The first (trigger, event) the watch finds that the reasoner has not judged yet."""
+        if self.watch is None:
+            return None
+        for trigger, event in self.watch(state):
+            if not self.gate.known(trigger.id, event):
+                return trigger, event
+        return None
+
+    def _interrupted(self, tool: str, hold: ToolResult, outcome: Interrupted) -> Interrupted:
+        self.publish("tool", name=tool, status="interrupted", trigger=outcome.trigger, hold=hold.status,
+                     summary=f"{tool} stopped: {outcome.reason}")  # fmt: skip
+        return outcome
+
+
+def _name(event: Any) -> str:
+    found = event.get("id") if isinstance(event, Mapping) else getattr(event, "id", None)
+    return str(found) if found is not None else "the event"
+
+
+__all__ = ["HOLD", "WATCHED_TOOLS", "Dispatcher", "Prepare", "Watch"]

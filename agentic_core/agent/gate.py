@@ -1,0 +1,135 @@
+"""Tier 2: the reasoner's say on an event a trigger's rule found, asked once per trigger and object. Only a
+``high`` or ``critical`` assessment lets the trigger act.
+
+An object whose track was lost just now (a person lying still is missed for a few frames) is looked at again for
+up to ``look_again_s`` of the vehicle's clock before it is judged, rather than judged on a stale track. While the
+reasoner thinks, simulated time runs at real time (:class:`~agentic_core.agent.pacing.Pace`), so a slow model
+costs the flight what it would cost a real one.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from ..mission.model import Trigger
+from ..mission.triggers import object_id
+from ..perception.world_model import WorldModel
+from ..reasoning.assessment import Assessment, Decision
+from .pacing import Pace
+from .ports import Publish, ReasonerPort, VehicleView, WorldSource
+
+ACT_AT = ("high", "critical")
+"""Assessments that let a trigger's sub-plan run."""
+
+
+def acts(assessment: Assessment | None) -> bool:
+    """Whether an assessment lets a trigger's sub-plan run (:data:`ACT_AT`); a failed one does not."""
+    return assessment is not None and assessment.severity in ACT_AT
+
+
+class Gate:
+    """The reasoner as the trigger gate and as the ``analyze_scene`` tool; remembers every verdict it gave."""
+
+    def __init__(
+        self,
+        reasoner: ReasonerPort,
+        world: WorldSource,
+        vehicle: VehicleView,
+        publish: Publish,
+        pace: Pace,
+        *,
+        look_again_s: float = 2.0,
+        on_decision: Callable[[WorldModel, Decision], None] | None = None,
+    ) -> None:
+        self.reasoner = reasoner
+        self.world = world
+        self.vehicle = vehicle
+        self.publish = publish
+        self.pace = pace
+        self.look_again_s = look_again_s
+        self.on_decision = on_decision
+        self.last: Decision | None = None
+        self.decisions = 0
+        self._lock = threading.Lock()
+        self._verdicts: dict[tuple[str, str | None], Assessment | None] = {}
+
+    # ---- verdicts ----
+
+    def known(self, trigger: str, event: Any) -> bool:
+        """Whether the reasoner was already asked about this trigger's event."""
+        with self._lock:
+            return (trigger, object_id(event)) in self._verdicts
+
+    def assessment(self, trigger: str, event: Any) -> Assessment | None:
+        with self._lock:
+            return self._verdicts.get((trigger, object_id(event)))
+
+    def __call__(self, trigger: Trigger, event: Any) -> bool:
+        """The gate (``Environment.gate``): whether ``trigger`` may act on ``event``; asks the reasoner once."""
+        key = (trigger.id, object_id(event))
+        with self._lock:
+            if key in self._verdicts:
+                return acts(self._verdicts[key])
+        decision = self.decide(key[1], f"trigger {trigger.id}")
+        with self._lock:
+            self._verdicts[key] = decision.assessment
+        act = acts(decision.assessment)
+        self.publish("trigger", trigger=trigger.id, event=key[1], act=act,
+                     summary=f"{trigger.id} on {key[1]}: {'act' if act else 'no action'}")  # fmt: skip
+        return act
+
+    # ---- asking the reasoner ----
+
+    def decide(self, focus: str | None, why: str) -> Decision:
+        """Assess the scene (or one object of it), publish the decision and remember it as the last one."""
+        if focus is not None:
+            focus, world = self._look_again(focus)
+        else:
+            world = self.world.world
+        with self.pace.waiting("model"):
+            decision = self.reasoner.assess(world, focus)
+        with self._lock:
+            self.last = decision
+            self.decisions += 1
+        if self.on_decision is not None:
+            self.on_decision(world, decision)
+        verdict = decision.assessment.severity if decision.assessment else f"failed ({decision.error})"
+        self.publish("decision", why=why, focus=focus, **decision.model_dump(mode="json"),
+                     summary=f"{decision.reasoner} on {focus or 'the scene'}: {verdict}")  # fmt: skip
+        return decision
+
+    def _reidentified(self, focus: str) -> str:
+        """``focus``, or the id its object is tracked under now (published when it changed)."""
+        now = self.world.resolve(focus)
+        if now is not None and now != focus:
+            self.publish("log", level="info", focus=focus, now=now, summary=f"{focus} is tracked again as {now}")
+            return now
+        return focus
+
+    def _look_again(self, focus: str) -> tuple[str, WorldModel]:
+        """The object to judge and the World Model to judge it on: ``focus`` (or the id it is tracked under now);
+        when its track is lost just now, look again for up to ``look_again_s`` of the vehicle's clock (and at most
+        that plus a second of wall time)."""
+        focus = self._reidentified(focus)
+        world = self.world.world
+        found = world.get(focus)
+        if found is None or found.state != "lost":
+            return focus, world
+        until_sim = self.vehicle.clock() + self.look_again_s
+        until_wall = time.monotonic() + self.look_again_s + 1.0
+        with self.pace.waiting("vehicle"):  # waiting on frames: the simulation may run at full speed
+            while self.vehicle.clock() < until_sim and time.monotonic() < until_wall:
+                time.sleep(0.005)  # frames come from the vehicle's thread; a short poll is the wait
+                world = self.world.world
+                found = world.get(focus)
+                if found is None or found.state != "lost":
+                    break
+        seen = found is not None and found.state != "lost"
+        self.publish("log", level="info", summary=f"looked again at {focus}: {'seen' if seen else 'still not seen'}")
+        return focus, world
+
+
+__all__ = ["ACT_AT", "Gate", "acts"]

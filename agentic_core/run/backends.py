@@ -1,0 +1,165 @@
+"""Vehicle backends: where a run's aircraft is. The agent reaches either one only through its MAVLink client (the
+``flight.*`` tools) and the telemetry samples the backend hands out.
+
+* :class:`SimBackend` — the embedded default: the JSBSim F450 behind our PX4-like MAVLink vehicle on 127.0.0.1, in
+  this process. Its telemetry samples come in lockstep from the vehicle's own thread, and its speed follows the
+  agent (:class:`~agentic_core.agent.pacing.Pace`). It can be snapshotted and restored, so a killed run resumes
+  with the aircraft where it was.
+* :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
+  process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable
+from typing import Any, Protocol
+from urllib.parse import urlsplit
+
+from flight.mavlink import MavlinkVehicle
+from flight.sim import Environment as SimEnvironment
+from flight.sim import Simulator
+from flight.sim.environment import Home
+from flight.sim.simulator import VehicleState
+from flight.vehicle import VehicleClient
+
+from ..agent.pacing import Pace
+from ..contracts import InputError, TelemetrySample
+
+SampleHook = Callable[[TelemetrySample], None]
+
+
+class Backend(Protocol):
+    """What a run needs of its vehicle backend."""
+
+    kind: str
+
+    @property
+    def address(self) -> tuple[str, int]: ...
+
+    def on_sample(self, hook: SampleHook) -> None: ...
+
+    def attach(self, client: VehicleClient) -> None: ...
+
+    def start(self) -> None: ...
+
+    def snapshot(self) -> dict[str, Any] | None: ...
+
+    def close(self) -> None: ...
+
+
+class SimBackend:
+    """The in-process simulated vehicle (see the module docstring)."""
+
+    kind = "sim"
+
+    def __init__(self, *, home: Home | None, seed: int, pace: Pace, restore: dict[str, Any] | None = None) -> None:
+        self.pace = pace
+        self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed)
+        self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
+        if restore is not None:
+            try:
+                self.vehicle.restore(restore)
+            except Exception:
+                self.vehicle.close()
+                raise
+        self._hooks: list[SampleHook] = []
+        self.vehicle.on_telemetry.append(self._sample)
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self.vehicle.address
+
+    def on_sample(self, hook: SampleHook) -> None:
+        self._hooks.append(hook)
+
+    def _sample(self, sample: TelemetrySample) -> None:
+        for hook in self._hooks:
+            hook(sample)
+
+    def attach(self, client: VehicleClient) -> None:
+        """Nothing to do: the samples come from the vehicle itself, in lockstep."""
+
+    def start(self) -> None:
+        self.vehicle.start(self.pace.speed)
+
+    def snapshot(self) -> dict[str, Any] | None:
+        """The vehicle's whole state (pose, velocity, battery, payload, clock, navigator) as JSON data."""
+        if not hasattr(self.vehicle, "snapshot"):  # TEMP until the flight branch lands
+            return None
+        snap = self.vehicle.snapshot()
+        data: dict[str, Any] = snap.model_dump(mode="json")
+        return data
+
+    def close(self) -> None:
+        self.vehicle.close()
+
+
+class LinkBackend:
+    """A vehicle reached over MAVLink (see the module docstring)."""
+
+    kind = "link"
+
+    def __init__(self, url: str) -> None:
+        self.url = url
+        self._address = parse_link(url)
+        self._hooks: list[SampleHook] = []
+        self._attached: VehicleClient | None = None
+        self._lock = threading.Lock()
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self._address
+
+    def on_sample(self, hook: SampleHook) -> None:
+        self._hooks.append(hook)
+
+    def attach(self, client: VehicleClient) -> None:
+        """Feed this client's telemetry to the hooks (once per client)."""
+        with self._lock:
+            if self._attached is client:
+                return
+            self._attached = client
+        client.on_sample(self._sample)
+
+    def _sample(self, sample: TelemetrySample) -> None:
+        for hook in self._hooks:
+            hook(sample)
+
+    def start(self) -> None:
+        """Nothing to start: the vehicle runs on its own."""
+
+    def snapshot(self) -> dict[str, Any] | None:
+        """None: a vehicle of its own keeps its state; a resumed run re-attaches to it."""
+        return None
+
+    def close(self) -> None:
+        """Nothing to close: the agent's client is closed with the tools."""
+
+
+def parse_link(url: str) -> tuple[str, int]:
+    """``udp://HOST:PORT`` (or ``HOST:PORT``) as an address; :class:`InputError` for anything else.
+
+    >>> parse_link("udp://127.0.0.1:14540")
+    ('127.0.0.1', 14540)
+    """
+    parts = urlsplit(url if "://" in url else f"udp://{url}")
+    if parts.scheme not in ("udp", "udpout") or not parts.hostname or parts.port is None:
+        raise InputError(f"--connect {url!r}: expected udp://HOST:PORT")
+    return parts.hostname, parts.port
+
+
+def sample_of(state: VehicleState, mode: str = "unknown") -> TelemetrySample:
+    """A telemetry sample from a simulated vehicle's state (for tests and tools that hold a state)."""
+    return TelemetrySample(
+        time_s=state.time_s, lat_deg=state.lat_deg, lon_deg=state.lon_deg, alt_m=-state.down_m,
+        alt_msl_m=state.alt_msl_m, north_m=state.north_m, east_m=state.east_m, down_m=state.down_m,
+        vn_mps=state.vn_mps, ve_mps=state.ve_mps, vd_mps=state.vd_mps, roll_deg=math.degrees(state.roll_rad),
+        pitch_deg=math.degrees(state.pitch_rad), yaw_deg=math.degrees(state.yaw_rad) % 360.0,
+        battery_pct=state.battery_pct, mode=mode, armed=state.armed,
+        landed_state="on_ground" if state.landed else "in_air",
+    )  # fmt: skip
+
+
+__all__ = ["Backend", "LinkBackend", "SampleHook", "SimBackend", "parse_link", "sample_of"]

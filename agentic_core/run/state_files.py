@@ -1,0 +1,117 @@
+"""What a run keeps on disk to be resumed: ``run.json`` (its settings and id, written at the start) and
+``snapshot.json`` (the simulated vehicle and the World Model, rewritten atomically after every superstep and every
+completed tool call). A killed run is continued from these and its graph checkpoint (``checkpoints.db``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from ..contracts import InputError
+from .settings import RunSettings
+
+RUN_FILE = "run.json"
+SNAPSHOT_FILE = "snapshot.json"
+
+
+class RunRecord(BaseModel):
+    """``run.json``: what a run was started with."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    run_id: str
+    settings: RunSettings
+
+
+class Snapshot(BaseModel):
+    """``snapshot.json``: the state outside the graph that a resumed run needs."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    vehicle: dict[str, Any] | None = None
+    world: dict[str, Any] | None = None
+    sim_t: float | None = None
+
+
+def write_record(run_dir: Path, record: RunRecord) -> None:
+    _atomic_write(run_dir / RUN_FILE, record.model_dump_json(indent=2))
+
+
+def read_record(runs_dir: Path, run_id: str) -> RunRecord:
+    """The record of a run to resume; :class:`InputError` naming what is missing or broken."""
+    if not run_id or "/" in run_id or run_id in (".", ".."):
+        raise InputError(f"--resume {run_id!r}: not a run id")
+    path = runs_dir / run_id / RUN_FILE
+    if not path.is_file():
+        raise InputError(f"--resume {run_id}: {path} does not exist (is --runs-dir right?)")
+    try:
+        return RunRecord.model_validate_json(path.read_bytes())
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        raise InputError(f"{path}: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}") from None
+
+
+def read_snapshot(run_dir: Path) -> Snapshot | None:
+    """The last snapshot, or None when the run never wrote one (killed before its first step)."""
+    path = run_dir / SNAPSHOT_FILE
+    if not path.is_file():
+        return None
+    try:
+        return Snapshot.model_validate_json(path.read_bytes())
+    except ValidationError as exc:
+        raise InputError(f"{path}: not a snapshot: {exc.errors()[0]['msg']}") from None
+
+
+class SnapshotWriter:
+    """Writes ``snapshot.json`` atomically (a kill mid-write leaves the previous one); thread-safe."""
+
+    def __init__(self, run_dir: Path) -> None:
+        self.path = run_dir / SNAPSHOT_FILE
+        self._lock = threading.Lock()
+        self.written = 0
+
+    def write(self, snapshot: Snapshot) -> None:
+        with self._lock:
+            _atomic_write(self.path, snapshot.model_dump_json())
+            self.written += 1
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    with tmp.open("w", encoding="utf-8") as out:
+        out.write(text)
+        out.flush()
+        os.fsync(out.fileno())
+    os.replace(tmp, path)
+
+
+def read_jsonl(path: Path) -> list[dict[str, Any]]:
+    """The records of a JSON-lines file; a last line cut short by a kill is passed over."""
+    if not path.is_file():
+        return []
+    out: list[dict[str, Any]] = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if isinstance(record, dict):
+            out.append(record)
+    return out
+
+
+__all__ = [
+    "RunRecord",
+    "Snapshot",
+    "SnapshotWriter",
+    "read_jsonl",
+    "read_record",
+    "read_snapshot",
+    "write_record",
+]
