@@ -122,14 +122,16 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     MSG_SYS_STATUS: 1.0,
     MSG_BATTERY_STATUS: 0.5,
     MSG_ATTITUDE: 10.0,
-    MSG_GLOBAL_POSITION_INT: 5.0,
     MSG_LOCAL_POSITION_NED: 5.0,
+    MSG_GLOBAL_POSITION_INT: 5.0,
     MSG_GPS_RAW_INT: 1.0,
     MSG_EXTENDED_SYS_STATE: 1.0,
     MSG_HOME_POSITION: 0.5,
     MSG_MISSION_CURRENT: 1.0,
 }
-"""Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link."""
+"""Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link. Streams due in
+the same tick go out in this order: attitude and local position before GLOBAL_POSITION_INT, which completes a
+client's sample (:meth:`flight.client.streams.StreamsClient.on_sample`)."""
 
 MAX_PEERS = 16
 MAX_DATAGRAMS_PER_POLL = 1000
