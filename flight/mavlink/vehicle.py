@@ -67,6 +67,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from agentic_core.contracts.telemetry import TelemetrySample
+from flight.mavlink import snapshot as vehicle_snapshot
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
 from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
@@ -74,6 +75,7 @@ from flight.mavlink.mission_service import MISSION_COMMANDS, MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
 from flight.mavlink.params import ParamStore, decode_value, encode_value
+from flight.mavlink.snapshot import VehicleSnapshot
 from flight.mavlink.telemetry import (
     ATTITUDE,
     AUTOPILOT_VERSION,
@@ -295,6 +297,19 @@ class MavlinkVehicle(TelemetryBuilders):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    # -- snapshots ------------------------------------------------------------------------------------------
+
+    def snapshot(self) -> VehicleSnapshot:
+        """The vehicle's state, simulator included, to resume it elsewhere (:mod:`flight.mavlink.snapshot`)."""
+        with self._lock:
+            return vehicle_snapshot.take(self)
+
+    def restore(self, snap: VehicleSnapshot) -> None:
+        """Put this vehicle into ``snap``'s state (a bad snapshot raises
+        :class:`~flight.sim.snapshot.SnapshotError` before anything changes)."""
+        with self._lock:
+            vehicle_snapshot.apply(self, snap)
 
     # -- time -------------------------------------------------------------------------------------------------
 
