@@ -5,7 +5,13 @@ import importlib
 
 import pytest
 
-MODULES = ["flight.cli", "flight.client.streams", "flight.client.telemetry", "flight.sim.snapshot"]
+MODULES = [
+    "flight.cli",
+    "flight.client.streams",
+    "flight.client.telemetry",
+    "flight.mavlink.pacing",
+    "flight.sim.snapshot",
+]
 
 
 @pytest.mark.parametrize("name", MODULES)
