@@ -1,5 +1,9 @@
 """``agentic-uav sim``: the simulated F450 as a PX4-like MAVLink vehicle on UDP, until Ctrl-C or SIGTERM.
 
+Home is ``--home LAT,LON[,ALT]``, or a scene file's (``--scene FILE``), or the vehicle resumes a snapshot
+(``--resume FILE``, what :meth:`flight.mavlink.MavlinkVehicle.snapshot` wrote). A bad home, scene or snapshot is
+reported naming the file and the field, exit status 2.
+
 It binds one UDP socket (``--bind``, by default 127.0.0.1:18570, the port PX4 SITL's ground-station link listens
 on, from memory of PX4's ``px4-rc.mavlink``), streams to the ground-station and API addresses (``--gcs``
 127.0.0.1:14550 and ``--api`` 127.0.0.1:14540, as PX4 SITL; ``none`` turns one off) and answers whoever talks
@@ -10,23 +14,35 @@ listens, then runs until interrupted, and stops cleanly (the socket closed, exit
 (4.0, None)
 >>> parse_address("127.0.0.1:14550"), parse_address("none")
 (('127.0.0.1', 14550), None)
+
+The first line on standard output says where it listens: ``agentic-uav sim: listening on HOST:PORT; ...``.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import signal
 import sys
 import threading
 from collections.abc import Sequence
+from pathlib import Path
 from types import FrameType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from flight.mavlink import VehicleSnapshot
+    from flight.sim import Simulator
 
 Address = tuple[str, int]
 
 DEFAULT_BIND = "127.0.0.1:18570"
 DEFAULT_GCS = "127.0.0.1:14550"
 DEFAULT_API = "127.0.0.1:14540"
+DEFAULT_HOME_ALT_MSL_M = 300.0
+"""The simulator's default home elevation (:data:`flight.sim.environment.DEFAULT_HOME_ALT_MSL_M`), restated so
+that parsing arguments does not import the simulator."""
 
 
 def parse_speed(text: str) -> float | None:
@@ -53,12 +69,19 @@ def parse_address(text: str) -> Address | None:
 
 
 def parse_home(text: str) -> tuple[float, float, float]:
-    """``LAT,LON,ALT`` (degrees, degrees, metres above mean sea level)."""
+    """``LAT,LON[,ALT]`` (degrees, degrees, metres above mean sea level; 300 m when left out).
+
+    >>> parse_home("21.42,39.89"), parse_home("48.1, 11.5, 520")
+    ((21.42, 39.89, 300.0), (48.1, 11.5, 520.0))
+    """
     parts = text.split(",")
     try:
-        lat, lon, alt = (float(p) for p in parts)
+        values = [float(p) for p in parts]
+        if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+            raise ValueError
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected LAT,LON,ALT, not {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected LAT,LON[,ALT] in degrees and metres, not {text!r}") from None
+    lat, lon, alt = (*values, DEFAULT_HOME_ALT_MSL_M) if len(values) == 2 else values
     return lat, lon, alt
 
 
@@ -79,12 +102,40 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--gcs", type=parse_address, default=DEFAULT_GCS, help=f"ground station ({DEFAULT_GCS})")
     parser.add_argument("--api", type=parse_address, default=DEFAULT_API, help=f"API address ({DEFAULT_API})")
     parser.add_argument("--bind", type=parse_address, default=DEFAULT_BIND, help=f"listen here ({DEFAULT_BIND})")
-    parser.add_argument("--home", type=parse_home, default=None, help="LAT,LON,ALT of home (default: Mina, 300 m)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument(
+        "--home", type=parse_home, default=None, help="LAT,LON[,ALT] of home (default: Mina, 300 m above sea level)"
+    )
+    where.add_argument("--scene", default=None, metavar="FILE", help="take home from this scene file (scenes/*.yaml)")
+    where.add_argument(
+        "--resume", default=None, metavar="FILE", help="start from a vehicle snapshot (JSON, MavlinkVehicle.snapshot)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the wind gusts and GPS noise")
     parser.add_argument(
         "--param", type=parse_param, action="append", default=[], metavar="NAME=VALUE", help="a vehicle parameter"
     )
     return parser
+
+
+def _simulator(args: argparse.Namespace) -> tuple[Simulator, VehicleSnapshot | None]:
+    """The simulator the arguments ask for, and the snapshot to resume (ValueError naming what is wrong)."""
+    from flight.mavlink import VehicleSnapshot
+    from flight.sim import Environment, Home, Simulator
+    from flight.sim.scene_file import load_scene
+
+    if args.resume is not None:
+        try:
+            text = Path(args.resume).read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ValueError(f"cannot read the snapshot {args.resume}: {exc.strerror or exc}") from None
+        return Simulator(seed=args.seed), VehicleSnapshot.from_json(text, file=args.resume)
+    if args.scene is not None:
+        if not Path(args.scene).is_file():
+            raise ValueError(f"no scene file {args.scene}")
+        home = load_scene(args.scene).home.to_home()
+    else:
+        home = Home(*args.home) if args.home else Home()
+    return Simulator(Environment(home=home), seed=args.seed), None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -95,15 +146,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     from flight.mavlink import MavlinkVehicle
-    from flight.sim import Environment, Home, Simulator
 
     try:
-        environment = Environment(home=Home(*args.home)) if args.home else Environment()
-        sim = Simulator(environment, seed=args.seed)
+        sim, snapshot = _simulator(args)
+    except ValueError as exc:  # a bad home, scene or snapshot: the user's input
+        print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
+        return 2
+    try:
         vehicle = MavlinkVehicle(sim, gcs=args.gcs, api=args.api, bind=args.bind, params=dict(args.param))
     except (OSError, ValueError) as exc:
         print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
         return 1
+    if snapshot is not None:
+        try:
+            vehicle.restore(snapshot)
+        except ValueError as exc:
+            vehicle.close()
+            print(f"agentic-uav sim: error: {args.resume}: {exc}", file=sys.stderr)
+            return 2
 
     stop = threading.Event()
 

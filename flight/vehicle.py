@@ -8,8 +8,10 @@ offers what a mission needs: :meth:`~VehicleClient.arm`, :meth:`~VehicleClient.t
 the COMMAND_ACK *and* the state observed afterwards), and the mission protocol:
 :meth:`~VehicleClient.upload_mission`, :meth:`~VehicleClient.download_mission`, :meth:`~VehicleClient.clear_mission`
 (each returning a :class:`MissionResult`), :meth:`~VehicleClient.start_mission` and
-:meth:`~VehicleClient.wait_mission`. Refusals and silences are results, never exceptions; every wait has a
-wall-clock timeout, so no call hangs when the vehicle stops answering.
+:meth:`~VehicleClient.wait_mission`; for a consumer on another thread, :meth:`~VehicleClient.set_stream_rates` and
+:meth:`~VehicleClient.on_sample` (a callback per :class:`~agentic_core.contracts.telemetry.TelemetrySample`).
+Refusals and silences are results, never exceptions; every wait has a wall-clock timeout, so no call hangs when the
+vehicle stops answering.
 
 This module is the public face; the parts live in :mod:`flight.client` (link and reader thread, telemetry, waiting,
 commands, operations, flight actions, missions, results), each saying which MAVLink facts it relies on.
@@ -32,6 +34,7 @@ from flight.client.results import (
     MissionResult,
     TransferStatus,
 )
+from flight.client.streams import CAMERA_STREAMS, StreamsClient
 from flight.client.telemetry import (
     LANDED_STATES,
     LINK_TIMEOUT_S,
@@ -45,7 +48,7 @@ from flight.client.telemetry import (
 )
 
 
-class VehicleClient(FlightActions, MissionClient):
+class VehicleClient(FlightActions, MissionClient, StreamsClient):
     """A MAVLink client for one vehicle. Make it with :meth:`connect`; close it (or ``async with``) when done.
 
     Addresses: ``"HOST:PORT"``, ``"udpout:HOST:PORT"`` or ``(host, port)`` send to the vehicle; ``"udpin:HOST:PORT"``
@@ -55,6 +58,7 @@ class VehicleClient(FlightActions, MissionClient):
 __all__ = [
     "ACK_ATTEMPTS",
     "ACK_TIMEOUT_S",
+    "CAMERA_STREAMS",
     "COMMAND_NAMES",
     "DENIAL_TEXT_WAIT_S",
     "FLYING_MODES",

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import threading
+from collections import deque
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from typing import Any, Self
@@ -25,11 +26,14 @@ from typing import Any, Self
 from pymavlink.dialects.v20 import common as mavlink2
 from pymavlink.dialects.v20.common import MAV_CMD_GET_HOME_POSITION  # MAVLink's own constant
 
+from agentic_core.contracts.telemetry import TelemetrySample
 from flight.client.link import Address, Link, VehicleConnectionError
-from flight.client.telemetry import Telemetry, TelemetryState, TelemetryStore, TelemetrySubscription
+from flight.client.telemetry import Telemetry, TelemetryState, TelemetryStore, TelemetrySubscription, sample_of
 
 ACK_TIMEOUT_S = 1.5
 ACK_ATTEMPTS = 3
+SAMPLE_MESSAGE = "GLOBAL_POSITION_INT"
+"""Each of these makes a new sample for ``on_sample`` listeners: it carries the vehicle's clock and position."""
 
 
 @dataclass(eq=False, slots=True)
@@ -101,6 +105,9 @@ class ClientBase:
         self._waiters: list[_Waiter] = []
         self._inboxes: list[Inbox] = []
         self._subscriptions: list[TelemetrySubscription] = []
+        self._sample_listeners: list[Callable[[TelemetrySample], None]] = []
+        self.sample_errors: deque[str] = deque(maxlen=100)
+        """What ``on_sample`` callbacks raised (the reader carries on)."""
         self._link = Link(
             address,
             mav=self._mav,
@@ -250,6 +257,18 @@ class ClientBase:
             if changed:
                 for sub in self._subscriptions:
                     sub.notify()
+            if self._sample_listeners and msg.get_type() == SAMPLE_MESSAGE:
+                self._emit_sample()
+
+    def _emit_sample(self) -> None:
+        sample = sample_of(self._store.state)
+        if sample is None:
+            return
+        for listener in list(self._sample_listeners):
+            try:
+                listener(sample)
+            except Exception as exc:  # a subscriber's bug must not stop the reader
+                self.sample_errors.append(f"{getattr(listener, '__qualname__', listener)}: {type(exc).__name__}: {exc}")
 
     def _settle_waiters(self, msg: Any) -> None:
         for waiter in list(self._waiters):

@@ -35,6 +35,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_MODE_FLAG_SAFETY_ARMED,
 )
 
+from agentic_core.contracts.telemetry import TelemetrySample
 from flight.px4 import decode_custom_mode, mavlink_text
 
 LandedState = Literal["unknown", "on_ground", "in_air", "takeoff", "landing"]
@@ -88,6 +89,8 @@ class Heard(BaseModel):
     ve_mps: float | None = None
     vd_mps: float | None = None
     heading_deg: float | None = None
+    roll_deg: float | None = Field(default=None, description="ATTITUDE")
+    pitch_deg: float | None = Field(default=None, description="ATTITUDE")
     battery_pct: float | None = None
     battery_voltage_v: float | None = None
     armed: bool = False
@@ -115,6 +118,46 @@ class Telemetry(Heard):
         if self.vn_mps is None or self.ve_mps is None:
             return None
         return math.hypot(self.vn_mps, self.ve_mps)
+
+    def sample(self) -> TelemetrySample | None:
+        """This telemetry as a :class:`TelemetrySample` (None until a position has been heard).
+
+        >>> Telemetry(connected=True).sample() is None
+        True
+        >>> t = Telemetry(connected=True, time_boot_s=2.0, lat_deg=21.4, lon_deg=39.9, alt_m=10.0, north_m=1.0,
+        ...               east_m=2.0, down_m=-10.0, mode="hold", armed=True)
+        >>> t.sample().alt_m, t.sample().mode
+        (10.0, 'hold')
+        """
+        return sample_of(self)
+
+
+def sample_of(h: Heard) -> TelemetrySample | None:
+    """A :class:`TelemetrySample` of what has been heard; None until GLOBAL_POSITION_INT and LOCAL_POSITION_NED
+    have both arrived. Fields not heard yet (attitude, battery) take the sample's defaults."""
+    lat, lon, alt, north, east, down = h.lat_deg, h.lon_deg, h.alt_m, h.north_m, h.east_m, h.down_m
+    if lat is None or lon is None or alt is None or north is None or east is None or down is None:
+        return None
+    return TelemetrySample.model_construct(
+        time_s=h.time_boot_s if h.time_boot_s is not None else 0.0,
+        lat_deg=lat,
+        lon_deg=lon,
+        alt_m=alt,
+        alt_msl_m=h.alt_msl_m,
+        north_m=north,
+        east_m=east,
+        down_m=down,
+        vn_mps=h.vn_mps or 0.0,
+        ve_mps=h.ve_mps or 0.0,
+        vd_mps=h.vd_mps or 0.0,
+        roll_deg=h.roll_deg or 0.0,
+        pitch_deg=h.pitch_deg or 0.0,
+        yaw_deg=h.heading_deg or 0.0,
+        battery_pct=h.battery_pct,
+        mode=h.mode,
+        armed=h.armed,
+        landed_state=h.landed_state,
+    )
 
 
 class TelemetryState(Heard):
@@ -157,6 +200,10 @@ class TelemetryStore:
             s.alt_msl_m, s.alt_m = msg.alt / 1000.0, msg.relative_alt / 1000.0
             s.vn_mps, s.ve_mps, s.vd_mps = msg.vx / 100.0, msg.vy / 100.0, msg.vz / 100.0
             s.heading_deg = None if msg.hdg == UINT16_MAX else msg.hdg / 100.0
+        elif kind == "ATTITUDE":
+            s.roll_deg, s.pitch_deg = math.degrees(msg.roll), math.degrees(msg.pitch)
+            if s.heading_deg is None:  # GLOBAL_POSITION_INT's heading when it has one, else the attitude's yaw
+                s.heading_deg = math.degrees(msg.yaw) % 360.0
         elif kind == "LOCAL_POSITION_NED":
             s.north_m, s.east_m, s.down_m = float(msg.x), float(msg.y), float(msg.z)
         elif kind == "SYS_STATUS":

@@ -9,7 +9,8 @@ data-link failsafes, with :mod:`flight.mavlink.geofence` (the parameters' cylind
 messages. Missions: :mod:`flight.mavlink.mission` (plan store, upload/download state machines),
 :mod:`flight.mavlink.mission_items` (what an item may be, on the wire and stored),
 :mod:`flight.mavlink.mission_runner` (Mission mode, MISSION_START, DO_SET_MISSION_CURRENT) and
-:mod:`flight.mavlink.mission_service` (the three wired to the link). Each module's docstring names the MAVLink facts
+:mod:`flight.mavlink.mission_service` (the three wired to the link); :mod:`flight.mavlink.snapshot` saves and
+restores the vehicle's state. Each module's docstring names the MAVLink facts
 it relies on.
 """
 
@@ -23,6 +24,7 @@ from flight.mavlink.mission_service import MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator, RtlPhase
 from flight.mavlink.offboard import OffboardSetpoint, SetpointRejected
 from flight.mavlink.params import PARAMS, ParamSpec, ParamStore, decode_value, encode_value
+from flight.mavlink.snapshot import VehicleSnapshot
 from flight.mavlink.vehicle import DEFAULT_RATES_HZ, LinkStats, MavlinkVehicle
 from flight.px4 import AutoSubMode, FlightMode, MainMode, base_mode, decode_custom_mode, encode_custom_mode
 
@@ -50,6 +52,7 @@ __all__ = [
     "RtlPhase",
     "SetpointRejected",
     "StoredItem",
+    "VehicleSnapshot",
     "base_mode",
     "decode_custom_mode",
     "decode_value",

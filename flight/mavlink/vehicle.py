@@ -67,13 +67,16 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from agentic_core.contracts.telemetry import TelemetrySample
+from flight.mavlink import snapshot as vehicle_snapshot
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
 from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
 from flight.mavlink.mission_service import MISSION_COMMANDS, MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
+from flight.mavlink.pacing import Pacer, Speed
 from flight.mavlink.params import ParamStore, decode_value, encode_value
+from flight.mavlink.snapshot import VehicleSnapshot
 from flight.mavlink.telemetry import (
     ATTITUDE,
     AUTOPILOT_VERSION,
@@ -122,14 +125,16 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     MSG_SYS_STATUS: 1.0,
     MSG_BATTERY_STATUS: 0.5,
     MSG_ATTITUDE: 10.0,
-    MSG_GLOBAL_POSITION_INT: 5.0,
     MSG_LOCAL_POSITION_NED: 5.0,
+    MSG_GLOBAL_POSITION_INT: 5.0,
     MSG_GPS_RAW_INT: 1.0,
     MSG_EXTENDED_SYS_STATE: 1.0,
     MSG_HOME_POSITION: 0.5,
     MSG_MISSION_CURRENT: 1.0,
 }
-"""Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link."""
+"""Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link. Streams due in
+the same tick go out in this order: attitude and local position before GLOBAL_POSITION_INT, which completes a
+client's sample (:meth:`flight.client.streams.StreamsClient.on_sample`)."""
 
 MAX_PEERS = 16
 MAX_DATAGRAMS_PER_POLL = 1000
@@ -147,20 +152,6 @@ __all__ = [
     "LinkStats",
     "MavlinkVehicle",
 ]
-
-
-Pace = Callable[[], float | None]
-"""Asked every tick for the speed to run at now: a multiple of real time, or None for as fast as possible."""
-Speed = float | None | Pace
-
-
-def _as_pace(speed: Speed) -> Pace | None:
-    """None for a fixed speed (checked here), else the pace itself."""
-    if callable(speed):
-        return speed
-    if speed is not None and not (speed > 0 and math.isfinite(speed)):
-        raise ValueError("speed must be positive or None")
-    return None
 
 
 def _readiness(sock: socket.socket) -> Callable[[int], object]:
@@ -294,6 +285,19 @@ class MavlinkVehicle(TelemetryBuilders):
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    # -- snapshots ------------------------------------------------------------------------------------------
+
+    def snapshot(self) -> VehicleSnapshot:
+        """The vehicle's state, simulator included, to resume it elsewhere (:mod:`flight.mavlink.snapshot`)."""
+        with self._lock:
+            return vehicle_snapshot.take(self)
+
+    def restore(self, snap: VehicleSnapshot) -> None:
+        """Put this vehicle into ``snap``'s state (a bad snapshot raises
+        :class:`~flight.sim.snapshot.SnapshotError` before anything changes)."""
+        with self._lock:
+            vehicle_snapshot.apply(self, snap)
+
     # -- time -------------------------------------------------------------------------------------------------
 
     @property
@@ -337,11 +341,10 @@ class MavlinkVehicle(TelemetryBuilders):
     def run(self, speed: Speed = 1.0) -> None:
         """Tick until :meth:`stop`, at ``speed`` × real time (None: as fast as possible), answering promptly.
 
-        ``speed`` may be a *pace*: a callable asked before every tick (and while waiting for the next) for the
-        speed to keep now. When its answer changes, the wall/sim reference is re-based, so switching from "as fast
-        as possible" to real time brings no catch-up burst. A pace that raises or answers something other than a
-        positive number or None is recorded in :attr:`tick_errors` and its last good answer kept."""
-        pace = _as_pace(speed)
+        ``speed`` may be a *pace* (:mod:`flight.mavlink.pacing`), asked before every tick (and while waiting for
+        the next) for the speed to keep now; the wall/sim reference is re-based when its answer changes. What a
+        pace raises is recorded in :attr:`tick_errors`."""
+        pacer = Pacer(speed, self.tick_errors)
         self._stop.clear()
         # Clients send heartbeats on their own clock, at real-time rates: faster than real time, simulated time
         # would make a healthy link look lost, so link loss is judged on the wall clock while running free.
@@ -350,13 +353,12 @@ class MavlinkVehicle(TelemetryBuilders):
             self.last_rx_s = time.monotonic()
         if self.navigator.offboard_time_s is not None:
             self.navigator.offboard_time_s = time.monotonic()
-        current = self._ask_pace(pace, 1.0) if pace is not None else speed if not callable(speed) else None
+        current = pacer.speed
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while not self._stop.is_set():
             self.step()
-            asked = current if pace is None else self._ask_pace(pace, current)
-            if asked != current:
-                current = asked
+            if pacer.ask() != current:
+                current = pacer.speed
                 wall0, sim0 = time.monotonic(), self.sim.time_s
             if current is None:
                 continue
@@ -367,30 +369,15 @@ class MavlinkVehicle(TelemetryBuilders):
                     with self._lock:
                         if not self._closed:
                             self._poll()
-                if pace is not None and self._ask_pace(pace, current) != current:
+                if pacer.changed():
                     break  # the next tick re-bases on the new answer
-
-    def _ask_pace(self, pace: Pace | None, last: float | None) -> float | None:
-        """The pace's answer now, or ``last`` if it raised or answered nonsense (recorded in tick_errors)."""
-        if pace is None:
-            return last
-        try:
-            answer = pace()
-            if answer is None:
-                return None
-            value = float(answer)
-            if not (value > 0 and math.isfinite(value)):
-                raise ValueError(f"pace must be positive or None, not {answer!r}")
-            return value
-        except Exception as exc:  # a pacing bug must not stop the aircraft
-            self.tick_errors.append(f"pace {getattr(pace, '__qualname__', pace)}: {type(exc).__name__}: {exc}")
-            return last
 
     def start(self, speed: Speed = 1.0) -> threading.Thread:
         """Run :meth:`run` on a daemon thread (``speed``: a multiple of real time, None, or a pace)."""
         if self._thread is not None and self._thread.is_alive():
             raise RuntimeError("already running")
-        _as_pace(speed)
+        if not callable(speed):
+            Pacer(speed, [])  # a bad speed raises here, in the caller's thread
         self._stop.clear()
         self._thread = threading.Thread(target=self.run, args=(speed,), name="mavlink-vehicle", daemon=True)
         self._thread.start()

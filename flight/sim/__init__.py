@@ -20,6 +20,7 @@ from flight.sim.controller import (
 from flight.sim.environment import Environment, GpsNoise, GpsNoiseSettings, Home, WindSettings
 from flight.sim.jsbsim_model import DT, F450Model, ModelState
 from flight.sim.simulator import GpsFix, Simulator, VehicleState
+from flight.sim.snapshot import SimSnapshot, SnapshotError
 
 __all__ = [
     "DT",
@@ -40,7 +41,9 @@ __all__ = [
     "Limits",
     "ModelState",
     "Setpoint",
+    "SimSnapshot",
     "Simulator",
+    "SnapshotError",
     "VehicleState",
     "VelocitySetpoint",
     "WindSettings",

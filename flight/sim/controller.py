@@ -24,9 +24,10 @@ reads True.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol
 
 G = 9.80665
 """Standard gravity (m/s²)."""
@@ -252,6 +253,24 @@ class FlightController:
         """The NED position being held or flown to, or None in velocity mode."""
         t = self._target
         return (t.north, t.east, t.down) if t.position_mode else None
+
+    def memory(self) -> dict[str, Any]:
+        """What the controller remembers between updates, besides its gains and limits (for a snapshot): the
+        setpoint, the resolved target, the loop state (integrators, last velocities) and whether it has landed."""
+        return {
+            "setpoint": self._setpoint,
+            "target": dataclasses.asdict(self._target),
+            "loop": dataclasses.asdict(self._loop),
+            "landed": self._landed,
+        }
+
+    def recall(self, setpoint: Setpoint, target: dict[str, Any], loop: dict[str, Any], landed: bool) -> None:
+        """Take up :meth:`memory`'s values again (on resuming a snapshot)."""
+        self._setpoint = setpoint
+        self._landing = isinstance(setpoint, Land)
+        self._target = _Target(**target)
+        self._loop = _LoopState(**loop)
+        self._landed = landed
 
     def reset(self) -> None:
         """Clear integrators and touchdown state (on arming)."""

@@ -54,6 +54,9 @@ GEAR_HEIGHT_M = 0.1524
 """Distance from the centre of gravity down to the contact points (``Gear.xml``): the CG's height when landed."""
 HOVER_THROTTLE = 0.41
 """Collective throttle that holds the 1.4 kg F450 in a hover (measured)."""
+SPIN_UP_STEPS = 125
+"""Half a second held in place (``forces/hold-down``) brings the propellers from rest to within 1 % of their
+hover speed (measured: about 4950 of 4980 rpm)."""
 
 
 class ModelState(NamedTuple):
@@ -188,6 +191,52 @@ class F450Model:
         self._time_offset = fdm["simulation/sim-time-sec"]
         # Let the gear springs settle so the first state the caller sees is at rest.
         self.step(125)
+        self._time_offset = fdm["simulation/sim-time-sec"]
+
+    def place(self, state: ModelState, controls: tuple[float, float, float, float] | None) -> None:
+        """Put the aircraft in ``state`` (position, velocity, attitude, body rates), as when resuming a snapshot.
+
+        ``controls`` (throttle and body rates, as :meth:`set_controls`) are those of an armed vehicle, None when
+        disarmed. JSBSim starts every propeller at rest, and a hovering aircraft whose propellers must first spin
+        up sinks for a moment; so an armed aircraft is first held in place (``forces/hold-down``), level and still,
+        for :data:`SPIN_UP_STEPS` at the snapshot's throttle, and only then released into its state
+        (``run_ic`` keeps the propellers' speed). A landed aircraft is set on its gear and left to settle."""
+        fdm = self._fdm
+
+        def initial(moving: bool) -> None:
+            fdm["ic/lat-geod-deg"] = state.lat_deg
+            fdm["ic/long-gc-deg"] = state.lon_deg
+            fdm["ic/terrain-elevation-ft"] = self.home_alt_msl_m / FT
+            fdm["ic/h-agl-ft"] = (max(0.0, state.alt_agl_m) + GEAR_HEIGHT_M) / FT
+            fdm["ic/psi-true-rad"] = state.yaw_rad % _TWO_PI
+            fdm["ic/phi-rad"] = state.roll_rad if moving else 0.0
+            fdm["ic/theta-rad"] = state.pitch_rad if moving else 0.0
+            fdm["ic/vn-fps"] = state.vn_mps / FT if moving else 0.0
+            fdm["ic/ve-fps"] = state.ve_mps / FT if moving else 0.0
+            fdm["ic/vd-fps"] = state.vd_mps / FT if moving else 0.0
+            fdm["ic/p-rad_sec"] = state.p_rps if moving else 0.0
+            fdm["ic/q-rad_sec"] = state.q_rps if moving else 0.0
+            fdm["ic/r-rad_sec"] = state.r_rps if moving else 0.0
+            with _quiet_stdio():
+                if not fdm.run_ic():  # pragma: no cover
+                    raise RuntimeError("JSBSim rejected the initial conditions")
+
+        self.set_wind(0.0, 0.0, 0.0)
+        self.set_gust(0.0, 0.0, 0.0)
+        self.set_engaged(controls is not None)
+        if state.on_ground:
+            initial(False)
+            self.set_controls(*(controls or (0.0, 0.0, 0.0, 0.0)))
+            self.step(125)  # the gear springs settle, as in :meth:`reset`
+        else:
+            initial(False)
+            if controls is not None:
+                self.set_controls(controls[0], 0.0, 0.0, 0.0)
+                fdm["forces/hold-down"] = 1.0
+                self.step(SPIN_UP_STEPS)
+                fdm["forces/hold-down"] = 0.0
+            initial(True)
+            self.set_controls(*(controls or (0.0, 0.0, 0.0, 0.0)))
         self._time_offset = fdm["simulation/sim-time-sec"]
 
     def set_engaged(self, engaged: bool) -> None:

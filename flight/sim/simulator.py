@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from flight.geodesy import geodetic_to_ned, ned_to_geodetic
+from flight.sim import snapshot
 from flight.sim.battery import Battery, BatteryConfig
 from flight.sim.controller import (
     IDLE,
@@ -36,6 +37,7 @@ from flight.sim.controller import (
 )
 from flight.sim.environment import Environment, GpsNoise, Gusts, NormalStream, WindSettings
 from flight.sim.jsbsim_model import DT, HOVER_THROTTLE, F450Model, ModelState
+from flight.sim.snapshot import SimSnapshot
 
 STEPS_PER_SECOND = round(1.0 / DT)
 
@@ -303,6 +305,30 @@ class Simulator:
     @property
     def wind(self) -> WindSettings:
         return self._wind
+
+    # -- snapshots -------------------------------------------------------------------------------------------
+
+    def snapshot(self) -> SimSnapshot:
+        """Everything needed to carry this flight on in a fresh simulator (JSON with ``model_dump_json``), e.g.
+        ``Simulator.from_snapshot(SimSnapshot.from_json(text))`` in another process (the examples are in
+        :mod:`flight.sim.snapshot`)."""
+        return snapshot.take(self)
+
+    def restore(self, snap: SimSnapshot) -> None:
+        """Become the simulator ``snap`` was taken from, in its state (its settings replace this one's); in the
+        air or on the ground. A bad snapshot raises :class:`~flight.sim.snapshot.SnapshotError`, leaving this
+        simulator as it was."""
+        snap = snapshot.checked(snap)
+        self.__init__(**snapshot.settings(snap))  # type: ignore[misc]
+        snapshot.apply(self, snap)
+
+    @classmethod
+    def from_snapshot(cls, snap: SimSnapshot) -> Simulator:
+        """A new simulator in the snapshot's state (see :meth:`restore`)."""
+        snap = snapshot.checked(snap)
+        sim = cls(**snapshot.settings(snap))
+        snapshot.apply(sim, snap)
+        return sim
 
     # -- observation -----------------------------------------------------------------------------------------
 
