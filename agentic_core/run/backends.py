@@ -12,12 +12,15 @@
 from __future__ import annotations
 
 import math
+import queue
 import threading
 from collections.abc import Callable
 from typing import Any, Protocol
 from urllib.parse import urlsplit
 
+from flight.client.streams import CAMERA_STREAMS
 from flight.mavlink import MavlinkVehicle
+from flight.mavlink.snapshot import VehicleSnapshot
 from flight.sim import Environment as SimEnvironment
 from flight.sim import Simulator
 from flight.sim.environment import Home
@@ -42,6 +45,8 @@ class Backend(Protocol):
 
     def attach(self, client: VehicleClient) -> None: ...
 
+    async def raise_rates(self, client: VehicleClient) -> None: ...
+
     def start(self) -> None: ...
 
     def snapshot(self) -> dict[str, Any] | None: ...
@@ -60,7 +65,7 @@ class SimBackend:
         self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
         if restore is not None:
             try:
-                self.vehicle.restore(restore)
+                self.vehicle.restore(VehicleSnapshot.model_validate(restore))
             except Exception:
                 self.vehicle.close()
                 raise
@@ -81,13 +86,14 @@ class SimBackend:
     def attach(self, client: VehicleClient) -> None:
         """Nothing to do: the samples come from the vehicle itself, in lockstep."""
 
+    async def raise_rates(self, client: VehicleClient) -> None:
+        """Nothing to do: the samples come from the vehicle itself, every tick."""
+
     def start(self) -> None:
         self.vehicle.start(self.pace.speed)
 
     def snapshot(self) -> dict[str, Any] | None:
         """The vehicle's whole state (pose, velocity, battery, payload, clock, navigator) as JSON data."""
-        if not hasattr(self.vehicle, "snapshot"):  # TEMP until the flight branch lands
-            return None
         snap = self.vehicle.snapshot()
         data: dict[str, Any] = snap.model_dump(mode="json")
         return data
@@ -97,16 +103,22 @@ class SimBackend:
 
 
 class LinkBackend:
-    """A vehicle reached over MAVLink (see the module docstring)."""
+    """A vehicle reached over MAVLink (see the module docstring). The client's reader thread hands each sample to a
+    queue; one thread of this backend (``link-samples``, started by :meth:`attach`, ended by :meth:`close`) feeds
+    them to the hooks, so perception never holds up the link."""
 
     kind = "link"
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, *, camera_hz: float = 30.0) -> None:
         self.url = url
+        self.camera_hz = camera_hz
         self._address = parse_link(url)
         self._hooks: list[SampleHook] = []
         self._attached: VehicleClient | None = None
         self._lock = threading.Lock()
+        self._queue: queue.Queue[TelemetrySample | None] = queue.Queue(maxsize=1000)
+        self._worker: threading.Thread | None = None
+        self.dropped = 0
 
     @property
     def address(self) -> tuple[str, int]:
@@ -121,11 +133,25 @@ class LinkBackend:
             if self._attached is client:
                 return
             self._attached = client
-        client.on_sample(self._sample)
+            if self._worker is None:
+                self._worker = threading.Thread(target=self._feed, name="link-samples", daemon=True)
+                self._worker.start()
+        client.on_sample(self._offer)
 
-    def _sample(self, sample: TelemetrySample) -> None:
-        for hook in self._hooks:
-            hook(sample)
+    async def raise_rates(self, client: VehicleClient) -> None:
+        """Ask the vehicle for the poses a camera at ``camera_hz`` needs (a vehicle may refuse: then fewer frames)."""
+        await client.set_stream_rates(dict.fromkeys(CAMERA_STREAMS, self.camera_hz))
+
+    def _offer(self, sample: TelemetrySample) -> None:
+        try:
+            self._queue.put_nowait(sample)
+        except queue.Full:  # perception cannot keep up: the oldest poses are the ones to lose
+            self.dropped += 1
+
+    def _feed(self) -> None:
+        while (sample := self._queue.get()) is not None:
+            for hook in self._hooks:
+                hook(sample)
 
     def start(self) -> None:
         """Nothing to start: the vehicle runs on its own."""
@@ -135,7 +161,11 @@ class LinkBackend:
         return None
 
     def close(self) -> None:
-        """Nothing to close: the agent's client is closed with the tools."""
+        """End the sample thread (the agent's client is closed with the tools)."""
+        worker = self._worker
+        if worker is not None:
+            self._queue.put(None)
+            worker.join(timeout=5.0)
 
 
 def parse_link(url: str) -> tuple[str, int]:

@@ -17,6 +17,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from pydantic import ValidationError
 
@@ -77,7 +78,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{PROG}: error: --resume takes the run's own mission, scene, vehicle and parameters", file=sys.stderr
             )
             return 2
-        overrides: dict[str, object] = {}
+        overrides: dict[str, Any] = {}
         if args.approval is not None or args.decline:
             overrides["approval"] = args.approval or "decline"
         if "speed" in vars(args):

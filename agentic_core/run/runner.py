@@ -93,7 +93,7 @@ class MissionRun:
         self.scene: Scene | None = _load_scene(scene_path) if scene_path else None
         self.pace = Pace(settings.speed)
         self.backend: Backend = (
-            LinkBackend(settings.connect)
+            LinkBackend(settings.connect, camera_hz=settings.camera_hz)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
@@ -113,6 +113,7 @@ class MissionRun:
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
             self.loop.restore(WorldModel.model_validate(snapshot.world))
         self.last_sample: TelemetrySample | None = None
+        self._clock0 = snapshot.sim_t or 0.0 if snapshot is not None else 0.0
         self._client: VehicleClient | None = None
         self.backend.on_sample(self._on_sample)
         if self.loop is not None:
@@ -190,7 +191,7 @@ class MissionRun:
     def clock(self) -> float:
         """The vehicle's clock, from its last telemetry sample (0 before the first)."""
         sample = self.last_sample
-        return sample.time_s if sample is not None else 0.0
+        return sample.time_s if sample is not None else self._clock0
 
     def view(self) -> dict[str, Any]:
         """The latest telemetry as the agent's client heard it (``vehicle`` in mission expressions)."""
@@ -210,6 +211,7 @@ class MissionRun:
         host, port = self.backend.address
         client = await VehicleClient.connect(f"{host}:{port}", timeout_s=10.0)
         self.backend.attach(client)
+        await self.backend.raise_rates(client)
         self._client = client
         return client
 
