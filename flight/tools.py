@@ -305,7 +305,13 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
         spec(land, "flight.land", SCOPE_COMMAND),
         spec(rtl, "flight.rtl", SCOPE_COMMAND),
         spec(hold, "flight.hold", SCOPE_COMMAND),
-        spec(deploy_payload, "flight.deploy_payload", SCOPE_PAYLOAD),
+        spec_from_function(
+            deploy_payload,
+            name="flight.deploy_payload",
+            scopes=[SCOPE_PAYLOAD],
+            timeout_s=TIMEOUTS_S["flight.deploy_payload"],
+            side_effects=True,  # a release must never repeat on a resumed run: replayed by idempotency key
+        ),
         spec(upload_mission, "flight.upload_mission", SCOPE_COMMAND),
         spec(start_mission, "flight.start_mission", SCOPE_COMMAND),
         spec(status, "flight.status", SCOPE_READ),

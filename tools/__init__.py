@@ -15,7 +15,16 @@ True
 'denied'
 """
 
-from .audit import AuditLog, AuditRecord, JsonlAuditLog, MemoryAuditLog, SqliteAuditLog, open_audit_log, read_audit_log
+from .audit import (
+    AuditLog,
+    AuditLogWarning,
+    AuditRecord,
+    JsonlAuditLog,
+    MemoryAuditLog,
+    SqliteAuditLog,
+    open_audit_log,
+    read_audit_log,
+)
 from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority
 from .breaker import BreakerPolicy, CircuitBreaker
 from .errors import ToolDefinitionError, ToolError, TransientToolError, UnknownToolError
@@ -29,6 +38,7 @@ from .spec import RetrySpec, ToolContext, ToolSpec, is_transient
 __all__ = [
     "ANONYMOUS",
     "AuditLog",
+    "AuditLogWarning",
     "AuditRecord",
     "BreakerPolicy",
     "Caller",

@@ -19,6 +19,7 @@ import tenacity
 
 from .auth import ANONYMOUS, Caller
 from .errors import CallTimeout, DeadlinePassed
+from .idempotency import Flight, GateKey
 from .registry import RegisteredTool
 from .result import Stage, StageName, StageOutcome
 from .spec import RetrySpec, ToolContext
@@ -36,7 +37,9 @@ class CallState:
         "caller",
         "deadline",
         "entry",
+        "flight",
         "is_probe",
+        "key",
         "name",
         "stages",
         "started",
@@ -56,6 +59,8 @@ class CallState:
         self.token: str | None = None
         self.awaits_verdict = False  # the breaker let it through and awaits a verdict
         self.is_probe = False  # ... as the half-open probe
+        self.key: str | None = None  # the caller's idempotency key
+        self.flight: tuple[GateKey, Flight] | None = None  # the key this call holds in the executor's gate
 
     def stage(self, name: StageName, outcome: StageOutcome, detail: str | None = None) -> None:
         self.stages.append(Stage(name, outcome, detail))
@@ -142,7 +147,8 @@ class AttemptRunner:
                 raise DeadlinePassed("the call's deadline passed before the tool could run")
             limit = remaining if limit is None else min(limit, remaining)
         call.attempts += 1
-        return ToolContext(call.call_id, call.entry.spec.name, call.caller, call.attempts, call.deadline), limit
+        context = ToolContext(call.call_id, call.entry.spec.name, call.caller, call.attempts, call.deadline, call.key)
+        return context, limit
 
     def _retrying(self, call: CallState, sleep: Callable[[float], Any]) -> dict[str, Any]:
         assert call.entry is not None

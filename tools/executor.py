@@ -1,10 +1,12 @@
-"""One executor for every tool: lookup, argument validation, authorization, rate limits, cache, circuit breaker,
-retries with backoff, timeouts, output validation, the injection guard and the audit log, in that order.
+"""One executor for every tool: lookup, argument validation, authorization, the idempotency key, rate limits,
+cache, circuit breaker, retries with backoff, timeouts, output validation, the injection guard and the audit log,
+in that order.
 
 Every call returns a :class:`ToolResult`; nothing raises across this boundary (but an ``acall`` cancelled by its
 caller: the cancellation goes on, after the call is audited). The cache is consulted before the breaker, so a
 cached answer is still served while a tool's breaker is open. The breaker counts one failure per call, after its
-retries; a :class:`ToolError` is the tool's answer, not a sign of ill health.
+retries; a :class:`ToolError` is the tool's answer, not a sign of ill health. A side-effect tool called with an
+``idempotency_key`` that its audit log records as ended ok is not run again: that result is replayed.
 """
 
 from __future__ import annotations
@@ -18,9 +20,10 @@ from datetime import UTC, datetime
 from typing import Any, Literal
 
 from .attempts import AttemptRunner, CallState
-from .audit import AuditLog, AuditRecord, MemoryAuditLog, redact, secret_values
+from .audit import AuditLog, AuditRecord, MemoryAuditLog, completes, redact, secret_values
 from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority
 from .errors import DeadlinePassed, ToolError
+from .idempotency import KEPT_OUTPUT_LIMIT_BYTES, Flight, GateKey, KeyGate, kept_output, key_problem
 from .registry import ToolRegistry, is_available
 from .result import ToolResult, ToolStatus, construct
 from .security import DEFAULT_THRESHOLD, InjectionReport, scan_value
@@ -51,6 +54,18 @@ class ToolExecutor:
     ('error', "invalid arguments: $.a: 'two' is not of type 'integer'")
     >>> executor.call("math.ad", {}).error
     "unknown tool 'math.ad'; did you mean 'math.add'?"
+
+    A side-effect tool acts once per idempotency key; a re-run with the key gets the recorded result:
+
+    >>> sent = []
+    >>> @registry.tool(name="alerts.ping", side_effects=True)
+    ... def ping(text: str) -> int:
+    ...     sent.append(text)
+    ...     return len(sent)
+    >>> first = executor.call("alerts.ping", {"text": "hi"}, idempotency_key="run-1:ping:0")
+    >>> again = executor.call("alerts.ping", {"text": "hi"}, idempotency_key="run-1:ping:0")
+    >>> (first.output, first.replayed), (again.output, again.replayed), sent
+    ((1, False), (1, True), ['hi'])
     """
 
     def __init__(
@@ -75,6 +90,7 @@ class ToolExecutor:
         self.on_injection = on_injection
         self.clock = clock
         self._runner = AttemptRunner(clock, sleep, async_sleep)
+        self._gate = KeyGate()
         self._closed = False
 
     # public -------------------------------------------------------------------------------------------------------
@@ -87,12 +103,20 @@ class ToolExecutor:
         token: str | None = None,
         timeout_s: float | None = None,
         call_id: str | None = None,
+        idempotency_key: str | None = None,
     ) -> ToolResult:
         """Run a tool and wait for its result. ``timeout_s`` bounds the whole call, retries included (each
-        attempt is also bounded by the tool's own ``timeout_s``); ``token`` is a scope token to verify."""
-        call = self._start(name, args, caller, token, timeout_s, call_id)
+        attempt is also bounded by the tool's own ``timeout_s``); ``token`` is a scope token to verify.
+        ``idempotency_key`` names the action (the same on a re-run): it is recorded, handed to the tool in its
+        :class:`ToolContext`, and for a side-effect tool a recorded ok call with it is replayed, not run again;
+        a second call with the key waits while the first runs (at most until its own deadline)."""
+        call = self._start(name, args, caller, token, timeout_s, call_id, idempotency_key)
         try:
             refused = self._admit(call)
+            if refused is None and self._keyed(call):
+                refused = self._hold_key(call)
+            if refused is None:
+                refused = self._guard(call)
             if refused is not None:
                 return refused
             try:
@@ -116,11 +140,16 @@ class ToolExecutor:
         token: str | None = None,
         timeout_s: float | None = None,
         call_id: str | None = None,
+        idempotency_key: str | None = None,
     ) -> ToolResult:
         """:meth:`call` for callers on an event loop: async tools run on that loop, sync tools on worker threads."""
-        call = self._start(name, args, caller, token, timeout_s, call_id)
+        call = self._start(name, args, caller, token, timeout_s, call_id, idempotency_key)
         try:
             refused = self._admit(call)
+            if refused is None and self._keyed(call):
+                refused = await self._ahold_key(call)
+            if refused is None:
+                refused = self._guard(call)
             if refused is not None:
                 return refused
             try:
@@ -174,15 +203,17 @@ class ToolExecutor:
         token: str | None,
         timeout_s: float | None,
         call_id: str | None,
+        idempotency_key: str | None,
     ) -> CallState:
         deadline = None if timeout_s is None else self.clock() + timeout_s
         call = CallState(str(name), {} if args is None else args, call_id or os.urandom(8).hex(), deadline)
         call.caller = caller if caller is not None else self.default_caller
         call.token = token
+        call.key = idempotency_key
         return call
 
     def _admit(self, call: CallState) -> ToolResult | None:
-        """Lookup to breaker: a finished result when the call stops before the tool runs, else None."""
+        """Lookup to authorization: a finished result when the call stops there, else None."""
         if self._closed:
             call.stage("lookup", "failed", "closed")
             return self._finish(call, "error", error="the tool executor is closed")
@@ -211,6 +242,12 @@ class ToolExecutor:
             more = f" (and {len(errors) - 3} more)" if len(errors) > 3 else ""
             call.stage("validate_args", "failed", detail)
             return self._finish(call, "error", error=f"invalid arguments: {detail}{more}")
+        if call.key is not None:
+            problem = key_problem(call.key)
+            if problem is not None:
+                call.key = None  # not a key: not recorded as one
+                call.stage("validate_args", "failed", problem)
+                return self._finish(call, "error", error=f"invalid call: {problem}")
         call.stage("validate_args", "passed")
 
         denial = self._authenticate(call)
@@ -221,7 +258,13 @@ class ToolExecutor:
             call.stage("authorize", "failed", denial)
             return self._finish(call, "denied", error=denial)
         call.stage("authorize", "passed")
+        return None
 
+    def _guard(self, call: CallState) -> ToolResult | None:
+        """Rate limit to breaker: a finished result when the call stops before the tool runs, else None."""
+        entry = call.entry
+        assert entry is not None
+        spec = entry.spec
         if entry.limiter is not None:
             admitted, wait = entry.limiter.acquire(call.caller.id)
             if not admitted:
@@ -244,6 +287,63 @@ class ToolExecutor:
         call.awaits_verdict = True
         call.stage("circuit_breaker", "passed")
         return None
+
+    # the idempotency key ---------------------------------------------------------------------------------------------
+    def _keyed(self, call: CallState) -> bool:
+        """Whether the call's key guards it: a side-effect tool called with a key."""
+        return call.key is not None and call.entry is not None and call.entry.spec.side_effects
+
+    def _hold_key(self, call: CallState) -> ToolResult | None:
+        """Take the call's key (waiting while another call with it runs), then replay a recorded ok result."""
+        assert call.key is not None
+        return self._replay(call, self._gate.hold((call.name, call.key), lambda: self._remaining(call)))
+
+    async def _ahold_key(self, call: CallState) -> ToolResult | None:
+        assert call.key is not None
+        return self._replay(call, await self._gate.ahold((call.name, call.key), lambda: self._remaining(call)))
+
+    def _remaining(self, call: CallState) -> float | None:
+        return None if call.deadline is None else call.deadline - self.clock()
+
+    def _replay(self, call: CallState, held: tuple[GateKey, Flight] | None) -> ToolResult | None:
+        """The recorded result of the key's ok call, without running the tool; None when there is none (the tool
+        runs, holding the key). ``held`` is None when another call with the key ran past this one's deadline."""
+        assert call.key is not None
+        if held is None:
+            call.stage("idempotency", "failed", "a call with this key is still running")
+            return self._finish(
+                call,
+                "timeout",
+                error=f"a call with idempotency key {call.key!r} was still running at this call's deadline; "
+                "the tool was not run again",
+            )
+        call.flight = held
+        try:
+            found = self.audit.find(call.key, call.name)
+        except Exception as exc:  # unknown is not "never ran": refuse rather than risk acting twice
+            call.stage("idempotency", "failed", _describe(exc))
+            return self._finish(
+                call,
+                "error",
+                error=f"cannot look up idempotency key {call.key!r} in the audit log ({_describe(exc)}); "
+                "the tool was not run, so it cannot act twice",
+            )
+        if found is None:
+            call.stage("idempotency", "miss")
+            return None
+        if not completes(found):
+            call.stage("idempotency", "miss", f"call {found.call_id} with this key ended {found.status}: runs again")
+            return None
+        detail = f"replayed call {found.call_id} of {found.time}"
+        if not found.output_kept:
+            detail += f"; its output was not kept (over {KEPT_OUTPUT_LIMIT_BYTES} bytes, or not recorded)"
+        call.stage("idempotency", "hit", detail)
+        output = copy.deepcopy(found.output)
+        report = scan_value(output, threshold=self.injection_threshold)
+        flagged = report if report.flagged else None
+        if flagged is not None and self.on_injection == "withhold":
+            return self._finish(call, "error", error="output withheld: it looks like instructions", injection=flagged)
+        return self._finish(call, "ok", output=output, injection=flagged, replay_of=found.call_id)
 
     def _authenticate(self, call: CallState) -> str | None:
         """Why a call's token is refused, or None (no token, or a valid one: then it names the caller)."""
@@ -273,6 +373,10 @@ class ToolExecutor:
     def _settle(self, call: CallState) -> None:
         if call.awaits_verdict and call.entry is not None:
             self._verdict(call, None)
+        if call.flight is not None:  # after the call's record is written: a waiter finds it
+            gate_key, flight = call.flight
+            call.flight = None
+            self._gate.release(gate_key, flight)
 
     def _failed(self, call: CallState, exc: BaseException) -> ToolResult:
         never_ran = isinstance(exc, DeadlinePassed) and call.attempts == 0
@@ -326,9 +430,14 @@ class ToolExecutor:
         retry: float | None = None,
         cached: bool = False,
         injection: InjectionReport | None = None,
+        replay_of: str | None = None,
     ) -> ToolResult:
         latency = time.perf_counter() - call.started
         sensitive = call.entry.spec.sensitive_args if call.entry is not None else frozenset()
+        side_effects = call.entry is not None and call.entry.spec.side_effects
+        kept, output_kept = None, False
+        if side_effects and status == "ok" and replay_of is None:
+            kept, output_kept, _ = kept_output(output, sensitive)
         if call.args and error is not None:
             for secret in secret_values(call.args, sensitive):  # an error quoting a password must not spread it
                 error = error.replace(secret, "[redacted]")
@@ -348,6 +457,11 @@ class ToolExecutor:
                 cached=cached,
                 error=error,
                 stages=[f"{s.name}:{s.outcome}" for s in call.stages],
+                idempotency_key=call.key,
+                side_effects=side_effects,
+                output=kept,
+                output_kept=output_kept,
+                replay_of=replay_of,
             ),
         )
         try:
@@ -367,6 +481,7 @@ class ToolExecutor:
                 tool=call.name,
                 caller=call.caller.id,
                 cached=cached,
+                replayed=replay_of is not None,
                 retry_after_s=retry,
                 stages=call.stages,
                 untrusted=injection is not None or (call.entry is not None and call.entry.spec.untrusted_output),

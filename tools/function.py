@@ -177,9 +177,11 @@ def tool(*, name: str | None = None, description: str | None = None, **options: 
 def tool(fn: Any = None, /, *, name: str | None = None, description: str | None = None, **options: Any) -> Any:
     """Make a typed function a tool. Options: ``scopes``, ``rate_limit`` ("10/s"), ``caller_rate_limit``,
     ``burst``, ``timeout_s`` (default 30; per attempt), ``retry`` (attempts or a RetrySpec), ``cache_ttl_s``,
-    ``idempotent``, ``breaker`` (a BreakerPolicy), ``untrusted_output``, ``sensitive_args``, ``available``.
-    ``idempotent`` promises that calling twice does no harm and that equal arguments give the same answer for
-    every caller: such a tool may be cached (one cache per tool, shared by callers) and retried after a timeout.
+    ``idempotent``, ``breaker`` (a BreakerPolicy), ``untrusted_output``, ``side_effects``, ``sensitive_args``,
+    ``available``. ``idempotent`` promises that calling twice does no harm and that equal arguments give the same
+    answer for every caller: such a tool may be cached (one cache per tool, shared by callers) and retried after a
+    timeout. ``side_effects`` says the tool acts outside the run (sends, writes, releases): a call with an
+    ``idempotency_key`` that already ended ok is then replayed from the audit log instead of run again.
 
     >>> @tool(name="weather.wind", scopes=["weather:read"], idempotent=True, cache_ttl_s=60)
     ... def wind(lat: float, lon: float) -> float:

@@ -14,6 +14,7 @@ from urllib.parse import quote, quote_plus, urlsplit
 import httpx
 
 from .errors import ToolError, TransientToolError
+from .idempotency import header_value
 
 if TYPE_CHECKING:
     from .http_endpoint import HttpEndpoint
@@ -86,10 +87,12 @@ class EndpointCall:
                 query[name] = _query_value(value)
         return url, query, body
 
-    async def __call__(self, args: dict[str, Any]) -> Any:
+    async def __call__(self, args: dict[str, Any], idempotency_key: str | None = None) -> Any:
         endpoint = self.endpoint
         url, query, body = self.request_parts(args)
         headers = dict(endpoint.headers)
+        if idempotency_key is not None:
+            headers["Idempotency-Key"] = header_value(idempotency_key)
         secret = self._secret()
         if secret is not None and endpoint.auth is not None:
             if endpoint.auth.query is not None:

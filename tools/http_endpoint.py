@@ -19,6 +19,7 @@ A file holds a ``tools`` list; each entry is one :class:`HttpEndpoint`::
         rate_limit: 5/s                    # also caller_rate_limit
         scopes: [traffic:read]
         idempotent: true                   # default false; needed for cache_ttl_s
+        side_effects: false                # true: it acts (creates, sends); a call with a key acts once
         cache_ttl_s: 60
         retry: 3                           # attempts in all (default 1)
 
@@ -28,7 +29,8 @@ secret is read from the environment at each call (a missing variable is an error
 crash) and never appears in a message. A JSON answer is returned parsed; any other is ``{"status",
 "content_type", "text", "truncated", "bytes"}`` with the text cut at 100 kB. Idempotent endpoints retry
 transport failures and HTTP 408/425/429/5xx; others retry only what cannot have been acted on (no connection,
-HTTP 429 or 503). Every other status from 300 up is an error quoting it and the start of the body. A bad file
+HTTP 429 or 503). Every other status from 300 up is an error quoting it and the start of the body. A call
+with an idempotency key sends it as the ``Idempotency-Key`` header. A bad file
 raises :class:`ToolDefinitionError` listing every problem as ``file:line:column: field: message``.
 
 >>> from tools import ToolExecutor, ToolRegistry
@@ -115,6 +117,7 @@ class HttpEndpoint(BaseModel):
     caller_rate_limit: str | None = None
     scopes: list[str] = Field(default_factory=list)
     idempotent: bool = False
+    side_effects: bool = False
     cache_ttl_s: float | None = Field(default=None, gt=0)
     retry: int = Field(default=1, ge=1, le=10)
     sensitive_args: list[str] = Field(default_factory=list)
@@ -218,7 +221,7 @@ def http_tool(endpoint: HttpEndpoint, *, transport: httpx.AsyncBaseTransport | N
     call = EndpointCall(endpoint, transport)
 
     async def handler(args: dict[str, Any], context: ToolContext) -> Any:
-        return await call(args)
+        return await call(args, context.idempotency_key)
 
     return ToolSpec.from_schema(
         endpoint.name,
@@ -235,6 +238,7 @@ def http_tool(endpoint: HttpEndpoint, *, transport: httpx.AsyncBaseTransport | N
         retry=RetrySpec(attempts=endpoint.retry, retry_if=is_transient if endpoint.idempotent else declared_transient),
         cache_ttl_s=endpoint.cache_ttl_s,
         idempotent=endpoint.idempotent,
+        side_effects=endpoint.side_effects,
         sensitive_args=endpoint.sensitive_args,
     )
 

@@ -57,6 +57,7 @@ class ToolDescription(BaseModel):
     timeout_s: float | None
     retry_attempts: int
     idempotent: bool
+    side_effects: bool  # acts outside the run: replayed by idempotency key, never run twice
     cache_ttl_s: float | None
     source: str
     breaker: BreakerState
@@ -234,6 +235,7 @@ class ToolRegistry:
             timeout_s=spec.timeout_s,
             retry_attempts=spec.retry.attempts,
             idempotent=spec.idempotent,
+            side_effects=spec.side_effects,
             cache_ttl_s=spec.cache_ttl_s,
             source=spec.source,
             breaker=entry.breaker.state,

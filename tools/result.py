@@ -20,6 +20,7 @@ StageName = Literal[
     "lookup",
     "validate_args",
     "authorize",
+    "idempotency",
     "rate_limit",
     "cache",
     "circuit_breaker",
@@ -61,6 +62,9 @@ class ToolResult(BaseModel):
     tool: str
     caller: str | None = None
     cached: bool = False
+    replayed: bool = Field(
+        default=False, description="the tool did not run again: this is the recorded result of the call with its key"
+    )
     retry_after_s: float | None = Field(default=None, description="for rate_limited and circuit_open: when to retry")
     stages: list[Stage] = Field(default_factory=list)
     untrusted: bool = Field(

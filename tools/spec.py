@@ -39,6 +39,7 @@ class ToolContext:
     caller: Caller
     attempt: int
     deadline: float | None  # time.monotonic() value after which the caller stops waiting, if any
+    idempotency_key: str | None = None  # the caller's name for this action, the same on a resumed run's re-run
 
 
 Handler = Callable[[dict[str, Any], ToolContext], Any]
@@ -139,6 +140,7 @@ class ToolSpec:
     idempotent: bool = False
     breaker: BreakerPolicy = field(default_factory=BreakerPolicy)
     untrusted_output: bool = False
+    side_effects: bool = False  # acts outside the run (sends, writes, releases): replayed, never re-run, by key
     source: ToolSource = "schema"
     sensitive_args: frozenset[str] = frozenset()
     available: Callable[[], bool] | None = None
@@ -219,12 +221,15 @@ def spec_options(
     idempotent: bool = False,
     breaker: BreakerPolicy | None = None,
     untrusted_output: bool = False,
+    side_effects: bool = False,
     sensitive_args: tuple[str, ...] | list[str] | frozenset[str] = (),
     available: Callable[[], bool] | None = None,
 ) -> dict[str, Any]:
     """The keyword options every registration path accepts, turned into :class:`ToolSpec` fields."""
     if isinstance(scopes, str):  # a lone string would be read as its letters
         raise ToolDefinitionError(f"tool {name!r}: scopes must be a list, e.g. scopes=[{scopes!r}]")
+    if not isinstance(side_effects, bool):
+        raise ToolDefinitionError(f"tool {name!r}: side_effects must be True or False, not {side_effects!r}")
 
     def limit(value: str | RateLimit | None, size: float | None, which: str) -> RateLimit | None:
         if value is not None and not isinstance(value, str | RateLimit):
@@ -247,6 +252,7 @@ def spec_options(
         "idempotent": idempotent,
         "breaker": breaker or BreakerPolicy(),
         "untrusted_output": untrusted_output,
+        "side_effects": side_effects,
         "sensitive_args": frozenset(sensitive_args),
         "available": available,
     }

@@ -350,6 +350,8 @@ def test_the_example_file_loads_and_registers(tools: Tools) -> None:
     assert names == ["traffic.road_status", "airquality.current", "dispatch.create_ticket"]
     assert tools.registry.describe("traffic.road_status").cache_ttl_s == 60
     assert not tools.registry.describe("dispatch.create_ticket").idempotent
+    assert tools.registry.describe("dispatch.create_ticket").side_effects
+    assert not tools.registry.describe("traffic.road_status").side_effects
     with pytest.raises(ToolDefinitionError, match=r"already registered: traffic\.road_status"):
         tools.load(EXAMPLE)
     assert register_http_tools(tools.registry, EXAMPLE, replace=True) == names

@@ -327,6 +327,7 @@ def test_describe_shows_guards_breaker_and_availability(clock: FakeClock) -> Non
         "timeout_s": 2.5,
         "retry_attempts": 3,
         "idempotent": True,
+        "side_effects": False,
         "cache_ttl_s": 60,
         "source": "python",
         "breaker": "closed",

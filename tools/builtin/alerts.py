@@ -25,11 +25,12 @@ from pydantic import BaseModel, Field
 from ..function import spec_from_function
 from ..spec import RetrySpec, ToolContext, ToolSpec, declared_transient
 from .config import BuiltinConfig, may_attach
-from .mail import EmailReceipt, send_email, send_files
+from .mail import EmailReceipt, keyed_message_id, send_email, send_files
 from .outbox import append_line, now_iso
 from .webhook import WebhookReceipt, post_webhook
 
 Channel = Literal["email", "webhook", "log"]
+NOTIFY = "alerts.notify"
 
 
 class NotifyReceipt(BaseModel):
@@ -62,15 +63,19 @@ def notify(
     attach: Sequence[str] = (),
     reported_by: str | None = None,
     keep_as: str | None = None,
+    idempotency_key: str | None = None,
 ) -> NotifyReceipt:
     """Send one alert on ``channel``; see the module docstring. ``keep_as`` names the outbox copy kept when
-    delivery fails (the call id)."""
+    delivery fails (the call id). ``idempotency_key`` makes the e-mail's Message-ID (the same for every re-run)
+    and the webhook's ``Idempotency-Key`` header, so a receiver that dedupes sees one alert."""
     files = [item for item in attach if Path(item).expanduser().is_file() and may_attach(config, item)]
     unavailable = [item for item in attach if item not in files]
     recipients = recipients_of(to) or list(config.alert_recipients)
     if channel == "email":
         text = body + (f"\n\nNot available: {', '.join(unavailable)}" if unavailable else "")
-        mail = send_files(config, recipients, subject, text, [Path(f).expanduser() for f in files], keep_as=keep_as)
+        message_id = None if idempotency_key is None else keyed_message_id(config, NOTIFY, idempotency_key)
+        paths = [Path(f).expanduser() for f in files]
+        mail = send_files(config, recipients, subject, text, paths, keep_as=keep_as, message_id=message_id)
         return NotifyReceipt(
             channel=channel,
             delivered_via=mail.delivered_via,
@@ -90,7 +95,7 @@ def notify(
         "reported_by": reported_by,
     }
     if channel == "webhook":
-        hook = post_webhook(config, record, keep_as=keep_as)
+        hook = post_webhook(config, record, keep_as=keep_as, idempotency_key=idempotency_key)
         return NotifyReceipt(
             channel=channel,
             delivered_via=hook.delivered_via,
@@ -119,6 +124,7 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
         "rate_limit": "5/s",
         "retry": retry,
         "timeout_s": config.http_timeout_s * 6 + 5,  # SMTP takes several round trips, each bounded by the timeout
+        "side_effects": True,
     }
 
     def email(
@@ -137,7 +143,9 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
             body: the plain-text message
             attachments: paths of files to attach, e.g. an annotated PNG
         """
-        return send_email(config, to, subject, body, attachments, keep_as=context.call_id)
+        key = context.idempotency_key
+        message_id = None if key is None else keyed_message_id(config, "alerts.send_email", key)
+        return send_email(config, to, subject, body, attachments, keep_as=context.call_id, message_id=message_id)
 
     def webhook(payload: dict[str, Any], url: str | None = None, *, context: ToolContext) -> WebhookReceipt:
         """POST a JSON payload to a webhook (the configured one when no URL is given, else into the outbox).
@@ -146,7 +154,7 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
             payload: the JSON object to send
             url: an http(s) URL; defaults to the configured webhook
         """
-        return post_webhook(config, payload, url, keep_as=context.call_id)
+        return post_webhook(config, payload, url, keep_as=context.call_id, idempotency_key=context.idempotency_key)
 
     def notify_tool(
         subject: str,
@@ -167,13 +175,21 @@ def alert_tools(config: BuiltinConfig) -> list[ToolSpec]:
             attach: file paths, or artefact names such as snapshot, position, world_model
         """
         return notify(
-            config, subject, body, channel, to, attach, reported_by=context.caller.id, keep_as=context.call_id
+            config,
+            subject,
+            body,
+            channel,
+            to,
+            attach,
+            reported_by=context.caller.id,
+            keep_as=context.call_id,
+            idempotency_key=context.idempotency_key,
         )
 
     return [
         spec_from_function(email, name="alerts.send_email", **options),
         spec_from_function(webhook, name="alerts.webhook", untrusted_output=True, **options),
-        spec_from_function(notify_tool, name="alerts.notify", **options),
+        spec_from_function(notify_tool, name=NOTIFY, **options),
     ]
 
 

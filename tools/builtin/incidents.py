@@ -258,6 +258,7 @@ def incident_tools(config: BuiltinConfig) -> list[ToolSpec]:
             name="incidents.log",
             scopes=["incidents:write"],
             retry=RetrySpec(attempts=3, retry_if=declared_transient),  # a locked database committed nothing
+            side_effects=True,
             timeout_s=BUSY_TIMEOUT_S + 5,
         ),
         spec_from_function(

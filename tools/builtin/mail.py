@@ -15,6 +15,7 @@ while the server receives the message is a :class:`ToolError` too: it may have b
 from __future__ import annotations
 
 import email.policy
+import hashlib
 import re
 import smtplib
 import ssl
@@ -244,12 +245,14 @@ def send_email(
     body: str,
     attachments: Sequence[str | Path] = (),
     keep_as: str | None = None,
+    message_id: str | None = None,
 ) -> EmailReceipt:
     """Send over SMTP when ``config.smtp_host`` is set, else write an ``.eml`` to the outbox. With no recipients
     the message still goes to the outbox (someone may forward it), but SMTP refuses. When sending fails in any way
     (server down, refused, no recipients), a copy goes to the outbox too and the error says where; ``keep_as`` (the
-    call id) names that copy, so the retries of one call keep one copy, removed once a retry delivers."""
-    return _send(config, to, subject, body, check_attachments(config, attachments), keep_as)
+    call id) names that copy, so the retries of one call keep one copy, removed once a retry delivers.
+    ``message_id`` (see :func:`keyed_message_id`) replaces a new random Message-ID."""
+    return _send(config, to, subject, body, check_attachments(config, attachments), keep_as, message_id)
 
 
 def send_files(
@@ -259,20 +262,27 @@ def send_files(
     body: str,
     files: Sequence[Path],
     keep_as: str | None = None,
+    message_id: str | None = None,
 ) -> EmailReceipt:
     """:func:`send_email` for files the caller has already found inside the attachment folders (``alerts.notify``
     sorts what it is given into files and names that are not): only their total size is checked again, so the
     paths are not resolved twice on the way to an alert."""
     check_size(files)
-    return _send(config, to, subject, body, files, keep_as)
+    return _send(config, to, subject, body, files, keep_as, message_id)
 
 
 def encode_message(
-    config: BuiltinConfig, to: Sequence[str], subject: str, body: str, files: Sequence[Path]
+    config: BuiltinConfig,
+    to: Sequence[str],
+    subject: str,
+    body: str,
+    files: Sequence[Path],
+    message_id: str | None = None,
 ) -> tuple[bytes, str]:
-    """The message's bytes and its Message-ID: written straight (:func:`.eml.plain_message`) when everything in it
-    is plain, else :func:`build_message` and :func:`message_bytes`; the same bytes either way."""
-    message_id = _new_message_id(config)
+    """The message's bytes and its Message-ID (``message_id``, else a new one): written straight
+    (:func:`.eml.plain_message`) when everything in it is plain, else :func:`build_message` and
+    :func:`message_bytes`; the same bytes either way."""
+    message_id = message_id or _new_message_id(config)
     date = format_datetime(datetime.now(UTC))
     attachments = [(file.name, file.read_bytes()) for file in files]
     data = plain_message(config.smtp_from, to, subject, body, attachments, date=date, message_id=message_id)
@@ -282,16 +292,39 @@ def encode_message(
     return message_bytes(message), str(message["Message-ID"])
 
 
+def _domain(config: BuiltinConfig) -> str:
+    return parseaddr(config.smtp_from)[1].rpartition("@")[2] or "localhost"
+
+
 def _new_message_id(config: BuiltinConfig) -> str:
     """A new Message-ID in the sender's domain (``localhost`` when the sender has none)."""
-    return make_msgid(domain=parseaddr(config.smtp_from)[1].rpartition("@")[2] or "localhost")
+    return make_msgid(domain=_domain(config))
+
+
+def keyed_message_id(config: BuiltinConfig, tool: str, idempotency_key: str) -> str:
+    """The Message-ID of the mail a tool sends for an idempotency key: the same for every re-run of the action, so
+    a mail server or client that drops repeated Message-IDs sees one message.
+
+    >>> config = BuiltinConfig(smtp_from="UAV <uav@ops.example>")
+    >>> first = keyed_message_id(config, "alerts.notify", "run-1:alert:0")
+    >>> first == keyed_message_id(config, "alerts.notify", "run-1:alert:0"), first.endswith("@ops.example>")
+    (True, True)
+    """
+    digest = hashlib.sha256(f"{tool}\n{idempotency_key}".encode()).hexdigest()[:40]
+    return f"<{digest}.idem@{_domain(config)}>"
 
 
 def _send(
-    config: BuiltinConfig, to: Sequence[str], subject: str, body: str, files: Sequence[Path], keep_as: str | None
+    config: BuiltinConfig,
+    to: Sequence[str],
+    subject: str,
+    body: str,
+    files: Sequence[Path],
+    keep_as: str | None,
+    message_id: str | None = None,
 ) -> EmailReceipt:
     recipients = check_recipients(to)
-    data, message_id = encode_message(config, to, subject, body, files)
+    data, message_id = encode_message(config, to, subject, body, files, message_id)
     names = [f.name for f in files]
     if not config.smtp_host:
         path = write_file(config.outbox_dir, ".eml", data)
@@ -408,6 +441,7 @@ __all__ = [
     "check_recipients",
     "check_size",
     "encode_message",
+    "keyed_message_id",
     "message_bytes",
     "send_email",
     "send_files",

@@ -23,6 +23,7 @@ import httpx
 from pydantic import BaseModel, Field
 
 from ..errors import ToolError, TransientToolError
+from ..idempotency import header_value
 from .config import BuiltinConfig
 from .outbox import discard_undelivered, keep_undelivered, now_iso, write_file
 
@@ -46,11 +47,16 @@ def endpoint_of(url: str) -> str:
 
 
 def post_webhook(
-    config: BuiltinConfig, payload: Mapping[str, Any], url: str | None = None, keep_as: str | None = None
+    config: BuiltinConfig,
+    payload: Mapping[str, Any],
+    url: str | None = None,
+    keep_as: str | None = None,
+    idempotency_key: str | None = None,
 ) -> WebhookReceipt:
     """POST ``payload`` as JSON to ``url`` or ``config.webhook_url``; with neither, write it to the outbox. When the
     POST fails in any way, a copy goes to the outbox too (named by ``keep_as``, the call id, so the retries of one
-    call keep one copy, removed once a retry delivers) and the error says where."""
+    call keep one copy, removed once a retry delivers) and the error says where. ``idempotency_key`` is sent as the
+    ``Idempotency-Key`` header, so an endpoint that honours it acts once for every re-run of the action."""
     body = json.dumps(payload, ensure_ascii=False, default=str)
     target = url or config.webhook_url
     record = {"time": now_iso(), "url": None, "payload": json.loads(body)}
@@ -58,7 +64,7 @@ def post_webhook(
         path = write_file(config.outbox_dir, ".json", json.dumps(record, ensure_ascii=False, indent=2).encode())
         return WebhookReceipt(delivered_via="outbox", path=str(path))
     try:
-        receipt = _post(config, target, body)
+        receipt = _post(config, target, body, idempotency_key)
     except Exception as exc:
         record["url"] = endpoint_of(target)  # not the full URL: it may carry a token
         data = json.dumps(record, ensure_ascii=False, indent=2).encode()
@@ -69,13 +75,16 @@ def post_webhook(
     return receipt
 
 
-def _post(config: BuiltinConfig, target: str, body: str) -> WebhookReceipt:
+def _post(config: BuiltinConfig, target: str, body: str, idempotency_key: str | None = None) -> WebhookReceipt:
     endpoint = endpoint_of(target)
     if urlsplit(target).scheme not in ("http", "https") or not urlsplit(target).hostname:
         raise ToolError(f"the webhook URL must be http(s)://host/...; got one starting {target[:12]!r}")
+    headers = {"Content-Type": "application/json"}
+    if idempotency_key is not None:
+        headers["Idempotency-Key"] = header_value(idempotency_key)
     try:
         with httpx.Client(timeout=config.http_timeout_s) as client:
-            response = client.post(target, content=body.encode(), headers={"Content-Type": "application/json"})
+            response = client.post(target, content=body.encode(), headers=headers)
     except (httpx.ConnectError, httpx.ConnectTimeout, httpx.PoolTimeout) as exc:
         raise TransientToolError(f"cannot reach the webhook {endpoint} (nothing was sent): {exc}") from None
     except httpx.TransportError as exc:
