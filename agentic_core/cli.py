@@ -15,6 +15,7 @@ from typing import Any, NoReturn
 from tools.cli import add_source_options
 
 from . import __version__
+from .contracts.errors import AgenticUAVError, report_error
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -178,8 +179,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; an error of ours is one line on stderr and exit 2 (bad input) or 1 (a failed run)."""
     try:
         return _main(list(sys.argv[1:] if argv is None else argv))
+    except AgenticUAVError as exc:
+        return report_error("agentic-uav", exc, sys.stderr)
     except BrokenPipeError:  # `agentic-uav tools list | head`: the reader left; not an error of ours
         sys.stderr.close()
         return 0

@@ -22,6 +22,8 @@ import threading
 from collections.abc import Sequence
 from types import FrameType
 
+from agentic_core.contracts.errors import AgenticUAVError, report_error
+
 Address = tuple[str, int]
 
 DEFAULT_BIND = "127.0.0.1:18570"
@@ -88,7 +90,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the vehicle until SIGINT or SIGTERM; 0 after a clean stop, 1 when it cannot start or fails."""
+    """Run the vehicle until SIGINT or SIGTERM; 0 after a clean stop, 1 when it cannot start or fails, 2 on bad
+    input."""
+    try:
+        return _main(argv)
+    except AgenticUAVError as exc:
+        return report_error("agentic-uav sim", exc, sys.stderr)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     if args.bind is None:
         print("agentic-uav sim: error: --bind needs an address", file=sys.stderr)

@@ -13,6 +13,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from agentic_core.contracts.errors import RunFailure
+
 from ..graph import GraphInterrupt, interrupt
 from .expressions import Expression, ExpressionError, render
 from .geometry import lawnmower
@@ -49,7 +51,7 @@ class Environment:
     sleep: Callable[[float], None] = time.sleep
 
 
-class StepFailed(Exception):
+class StepFailed(RunFailure):
     """The step did not achieve its action; ``reason`` is what the agent (and the log) see."""
 
     def __init__(self, reason: str) -> None:

@@ -9,6 +9,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts.errors import InputError
 from tools import Caller
 
 from .report import RunSummary, TrackPoint
@@ -46,7 +47,7 @@ class RunSettings(BaseModel):
     max_wall_s: float = Field(default=900.0, gt=0, description="give up (and land) after this much wall time")
 
 
-class RunError(Exception):
+class RunError(InputError):
     """A run that cannot start: a bad mission, scene or option. The message names the file and field."""
 
 
