@@ -18,8 +18,8 @@ from collections.abc import Mapping
 from typing import Protocol
 
 from agentic_core.contracts.errors import InputError
+from agentic_core.contracts.world_model import WorldModel
 
-from ..perception.world_model import WorldModel
 from .assessment import Decision
 from .llm import LLMSpecError, create_client
 from .model_reasoners import HybridReasoner, LLMReasoner, StructuredChat
