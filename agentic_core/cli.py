@@ -15,6 +15,7 @@ from typing import Any, NoReturn
 from tools.cli import add_source_options
 
 from . import __version__
+from .contracts.errors import AgenticUAVError, report_error
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -114,19 +115,33 @@ def _split_param(text: str) -> tuple[str, str]:
 
 
 SCHEMAS = {
-    "mission": ("agentic_core.mission.model", "mission_json_schema", "mission files (the PolicyGraph)"),
-    "assessment": ("agentic_core.reasoning.assessment", "assessment_json_schema", "a reasoner's Assessment"),
-    "plan": ("agentic_core.reasoning.proposal", "proposal_json_schema", "a reasoner's proposed steps"),
+    "policy-graph": ("agentic_core.contracts.policy_graph", "mission_json_schema", "mission files (the PolicyGraph)"),
+    "mission": ("agentic_core.contracts.policy_graph", "mission_json_schema", "the same as policy-graph"),
+    "world-model": ("agentic_core.contracts.world_model", "world_model_schema", "the World Model Contract"),
+    "detection": ("agentic_core.contracts.camera", "detection_json_schema", "one detection in a camera frame"),
+    "frame": ("agentic_core.contracts.camera", "frame_json_schema", "a camera frame's metadata"),
+    "assessment": ("agentic_core.contracts.assessment", "assessment_json_schema", "a reasoner's Assessment"),
+    "plan": ("agentic_core.contracts.plan", "proposal_json_schema", "a reasoner's proposed steps (the Plan)"),
+    "decision": ("agentic_core.contracts.assessment", "decision_json_schema", "a timed DecisionRecord"),
+    "tool-result": ("agentic_core.contracts.tool_result", "tool_result_json_schema", "what a tool call returns"),
+    "run-event": ("agentic_core.contracts.events", "run_event_json_schema", "one line of a run's trace.jsonl"),
+    "telemetry": ("agentic_core.contracts.telemetry", "telemetry_json_schema", "one telemetry sample"),
     "scene": ("flight.sim.scene_file", "scene_json_schema", "simulated scene files (scenes/*.yaml)"),
-    "world-model": ("agentic_core.perception.world_model", "world_model_schema", "the World Model Contract"),
 }
 """``agentic-uav schema NAME``: the module and function exporting each contract's JSON Schema."""
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
-    import importlib
     import json
 
+    names = "\n".join(f"  {name:<13} {text}" for name, (_, _, text) in SCHEMAS.items())
+    if args.list:
+        print(names)
+        return 0
+    if args.which not in SCHEMAS:
+        given = "no NAME given" if args.which is None else f"unknown schema {args.which!r}"
+        print(f"agentic-uav schema: error: {given}; the schemas are:\n{names}", file=sys.stderr)
+        return 2
     module, function, _ = SCHEMAS[args.which]
     print(json.dumps(getattr(importlib.import_module(module), function)(), indent=2))
     return 0
@@ -153,11 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     plan.set_defaults(func=_cmd_plan)
 
     schema = sub.add_parser("schema", help="print a JSON Schema (for editors: autocomplete and lint)")
-    schema.add_argument(
-        "which",
-        choices=list(SCHEMAS),
-        help="; ".join(f"{name}: {text}" for name, (_, _, text) in SCHEMAS.items()),
-    )
+    schema.add_argument("which", nargs="?", metavar="NAME", help=f"one of: {', '.join(SCHEMAS)}")
+    schema.add_argument("--list", action="store_true", help="list the schemas and what each describes")
     schema.set_defaults(func=_cmd_schema)
 
     evaluate = sub.add_parser("eval", help="statistics on results files; reproduce the paper's statistics")
@@ -178,8 +190,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; an error of ours is one line on stderr and exit 2 (bad input) or 1 (a failed run)."""
     try:
         return _main(list(sys.argv[1:] if argv is None else argv))
+    except AgenticUAVError as exc:
+        return report_error("agentic-uav", exc, sys.stderr)
     except BrokenPipeError:  # `agentic-uav tools list | head`: the reader left; not an error of ours
         sys.stderr.close()
         return 0

@@ -35,6 +35,8 @@ if TYPE_CHECKING:
     from flight.mavlink import VehicleSnapshot
     from flight.sim import Simulator
 
+from agentic_core.contracts.errors import AgenticUAVError, report_error
+
 Address = tuple[str, int]
 
 DEFAULT_BIND = "127.0.0.1:18570"
@@ -139,7 +141,15 @@ def _simulator(args: argparse.Namespace) -> tuple[Simulator, VehicleSnapshot | N
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the vehicle until SIGINT or SIGTERM; 0 after a clean stop, 1 when it cannot start or fails."""
+    """Run the vehicle until SIGINT or SIGTERM; 0 after a clean stop, 1 when it cannot start or fails, 2 on bad
+    input."""
+    try:
+        return _main(argv)
+    except AgenticUAVError as exc:
+        return report_error("agentic-uav sim", exc, sys.stderr)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     if args.bind is None:
         print("agentic-uav sim: error: --bind needs an address", file=sys.stderr)

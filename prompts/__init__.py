@@ -19,11 +19,13 @@ from importlib import resources
 from string import Template
 from typing import Any
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 TEMPLATES = ("system", "assess", "plan", "reflect")
 SCHEMAS = ("assessment", "plan")
 
 
-class PromptError(KeyError):
+class PromptError(AgenticUAVError, KeyError):
     """A template or schema that does not exist, or a placeholder given no value."""
 
     def __str__(self) -> str:

@@ -15,6 +15,8 @@ from typing import Any
 import jwt
 from pydantic import BaseModel, ConfigDict
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 MIN_SECRET_BYTES = 32
 SECRET_ENV = "AGENTIC_UAV_TOKEN_SECRET"
 
@@ -40,7 +42,7 @@ class Caller(BaseModel):
 ANONYMOUS = Caller(id="anonymous")
 
 
-class InvalidToken(Exception):
+class InvalidToken(AgenticUAVError):
     """A token that is malformed, forged, expired or for another issuer; the message says which."""
 
 

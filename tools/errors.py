@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from agentic_core.contracts.errors import AgenticUAVError, InputError, RunFailure
 
-class ToolDefinitionError(ValueError):
+
+class ToolDefinitionError(InputError):
     """A tool is defined wrongly: a bad name, schema, rate string or signature. Raised at registration."""
 
 
-class UnknownToolError(KeyError):
+class UnknownToolError(AgenticUAVError, KeyError):
     """No tool of that name; the message lists the closest names."""
 
     def __init__(self, name: str, closest: list[str]) -> None:
@@ -20,15 +22,15 @@ class UnknownToolError(KeyError):
         return self.message
 
 
-class TransientToolError(RuntimeError):
+class TransientToolError(RunFailure):
     """Raise from a tool for a failure worth retrying (a busy backend, a dropped link)."""
 
 
-class ToolError(RuntimeError):
+class ToolError(RunFailure):
     """Raise from a tool for a failure the agent should see as is, never retried."""
 
 
-class CallTimeout(TimeoutError):
+class CallTimeout(AgenticUAVError, TimeoutError):
     """The executor stopped waiting for a tool: its attempt ran past its timeout, or the call's deadline came."""
 
 

@@ -8,7 +8,7 @@ This package imports nothing of the project and nothing heavy (no jsbsim, scipy 
 'log'
 """
 
-from .errors import AgenticUAVError, InputError, RunFailure
+from .errors import AgenticUAVError, InputError, RunFailure, report_error
 from .events import EVENT_KINDS, RunEvent
 from .telemetry import LandedState, TelemetrySample
 
@@ -20,4 +20,5 @@ __all__ = [
     "RunEvent",
     "RunFailure",
     "TelemetrySample",
+    "report_error",
 ]

@@ -7,6 +7,8 @@ catch all of ours in one place; the CLI maps :class:`InputError` to exit status 
 
 from __future__ import annotations
 
+from typing import TextIO
+
 
 class AgenticUAVError(Exception):
     """Root of every error agentic-uavs raises on purpose."""
@@ -26,4 +28,17 @@ class RunFailure(AgenticUAVError, RuntimeError):
     exit_status = 1
 
 
-__all__ = ["AgenticUAVError", "InputError", "RunFailure"]
+def report_error(prog: str, error: AgenticUAVError, stream: TextIO) -> int:
+    """Print ``error`` as ``prog: error: message`` (no traceback) and return its exit status, for a CLI's ``main``.
+
+    >>> import io
+    >>> report_error("agentic-uav", InputError("a.yaml:3:5: no such field"), io.StringIO())
+    2
+    """
+    message = " ".join(str(error).split("\n")[:1]) or type(error).__name__
+    rest = str(error).split("\n")[1:]
+    print(f"{prog}: error: {message}", *rest, sep="\n", file=stream)
+    return error.exit_status
+
+
+__all__ = ["AgenticUAVError", "InputError", "RunFailure", "report_error"]

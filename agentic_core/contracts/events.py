@@ -54,4 +54,9 @@ class RunEvent(BaseModel):
         return dict(self.__pydantic_extra__ or {})
 
 
-__all__ = ["EVENT_KINDS", "RunEvent"]
+def run_event_json_schema() -> dict[str, Any]:
+    """The JSON Schema of :class:`RunEvent`."""
+    return RunEvent.model_json_schema()
+
+
+__all__ = ["EVENT_KINDS", "RunEvent", "run_event_json_schema"]

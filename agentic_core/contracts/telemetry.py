@@ -8,7 +8,7 @@ camera pose comes from it, not from simulator truth), the telemetry-based failsa
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -41,4 +41,9 @@ class TelemetrySample(BaseModel):
     landed_state: LandedState = "unknown"
 
 
-__all__ = ["LandedState", "TelemetrySample"]
+def telemetry_json_schema() -> dict[str, Any]:
+    """The JSON Schema of :class:`TelemetrySample`."""
+    return TelemetrySample.model_json_schema()
+
+
+__all__ = ["LandedState", "TelemetrySample", "telemetry_json_schema"]

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from agentic_core.contracts.errors import AgenticUAVError
 
-class GraphError(Exception):
+
+class GraphError(AgenticUAVError):
     """Base class of every error the graph runtime raises for bad use."""
 
 
@@ -55,7 +57,7 @@ def reject_unsupported(where: str, kwargs: dict[str, Any], harmless: tuple[str, 
         raise GraphError(f"{where}: {', '.join(unsupported)} not supported by agentic_core.graph; remove the argument")
 
 
-class GraphInterrupt(Exception):
+class GraphInterrupt(AgenticUAVError):
     """Raised inside a node by :func:`interrupt` to pause the run; the runtime catches it."""
 
     def __init__(self, interrupts: tuple[Any, ...]) -> None:

@@ -13,6 +13,8 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 from .checkpoint.base import TaskOutcome, TaskSpec
 from .context import _MISSING, TaskContext, _current
 from .errors import GraphError, GraphInterrupt, NodeTimeoutError
@@ -23,7 +25,7 @@ if TYPE_CHECKING:
     from .loop import Run
 
 
-class ParentCommand(Exception):
+class ParentCommand(AgenticUAVError):
     """A subgraph node returned ``Command(graph=Command.PARENT)``: the parent graph applies it."""
 
     def __init__(self, command: Command[Any]) -> None:

@@ -37,6 +37,8 @@ import operator
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
+from agentic_core.contracts.errors import InputError
+
 from .functions import ARITY as _ARITY
 from .functions import FUNCTIONS, count, distance_m, find
 from .functions import MISSING as _MISSING
@@ -54,7 +56,7 @@ MAX_REPEAT_CHARS = 10_000
 _ALIASES: dict[str, Any] = {"true": True, "false": False, "null": None}
 
 
-class ExpressionError(ValueError):
+class ExpressionError(InputError):
     """A bad expression: ``source`` (its text), ``col`` (0-based column of the fault, or None) and ``message``
     (the one-line text of ``str(error)``, which quotes the expression)."""
 

@@ -14,6 +14,7 @@ from typing import Any
 
 import yaml
 
+from agentic_core.contracts.errors import InputError
 from flight.yaml_positions import node_position, position_at
 
 Path = tuple[str | int, ...]
@@ -32,7 +33,7 @@ class Problem:
         return f"{self.file}:{self.line}:{self.col}: {self.message}"
 
 
-class MissionError(ValueError):
+class MissionError(InputError):
     """A mission that cannot be flown; ``problems`` holds every problem found in it, in file order."""
 
     def __init__(self, problems: Sequence[Problem]) -> None:

@@ -15,7 +15,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
-from ..contracts import AgenticUAVError
+from ..contracts import AgenticUAVError, RunFailure
 from ..graph import GraphInterrupt, interrupt
 from .expressions import Expression, ExpressionError, render
 from .geometry import lawnmower
@@ -52,7 +52,7 @@ class Environment:
     sleep: Callable[[float], None] = time.sleep
 
 
-class StepFailed(AgenticUAVError):
+class StepFailed(RunFailure):
     """The step did not achieve its action; ``reason`` is what the agent (and the log) see."""
 
     def __init__(self, reason: str) -> None:

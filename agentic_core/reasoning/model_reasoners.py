@@ -22,8 +22,8 @@ from typing import Any, Protocol
 from pydantic import BaseModel
 
 import prompts
+from agentic_core.contracts.world_model import WorldModel, WorldObject
 
-from ..perception.world_model import WorldModel, WorldObject
 from .assessment import Assessment, Decision, Severity
 from .llm import ChatRequest, LLMResult, Message
 from .rules import RuleReasoner

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 import prompts
+from agentic_core.contracts.policy_graph import ACTION_TOOLS, PolicyGraph
 
-from ..mission.model import ACTION_TOOLS, PolicyGraph
 from .assessment import Assessment
 from .llm import ChatRequest, Message
 from .model_reasoners import StructuredChat

@@ -1,4 +1,5 @@
-"""The Plan contract: the steps a reasoner proposes in answer to an event or a failure, in the mission language.
+"""Asking a model for a Plan (the contract, ``Proposal``, is in :mod:`agentic_core.contracts.plan`): the steps a
+reasoner proposes in answer to an event or a failure, in the mission language.
 
 A proposal is only words until the mission validator has passed it: the steps are the same ``Step`` models a
 mission file holds, so the same checks (actions, tools, geofence, altitude) apply to a model's plan as to a
@@ -16,22 +17,12 @@ import json
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from agentic_core.contracts.plan import Proposal, proposal_json_schema
 
-from ..mission.model import Step
 from .llm import ChatRequest
 
 if TYPE_CHECKING:
     from .model_reasoners import StructuredChat
-
-
-class Proposal(BaseModel):
-    """Steps to splice into the running mission (empty: nothing to do, or give up), and why."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    steps: list[Step] = Field(default_factory=list, description="mission steps, in the mission file's format")
-    rationale: str = Field(default="", description="why these steps")
 
 
 def ask(
@@ -62,11 +53,6 @@ def ask(
     if record is not None:
         record(entry)
     return steps or None
-
-
-def proposal_json_schema() -> dict[str, Any]:
-    """The JSON Schema of :class:`Proposal` (the structured output the planning and reflection prompts ask for)."""
-    return Proposal.model_json_schema(by_alias=True)
 
 
 def schema_text() -> str:

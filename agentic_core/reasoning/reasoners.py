@@ -17,7 +17,9 @@ import os
 from collections.abc import Mapping
 from typing import Protocol
 
-from ..perception.world_model import WorldModel
+from agentic_core.contracts.errors import InputError
+from agentic_core.contracts.world_model import WorldModel
+
 from .assessment import Decision
 from .llm import LLMSpecError, create_client
 from .model_reasoners import HybridReasoner, LLMReasoner, StructuredChat
@@ -34,7 +36,7 @@ class Reasoner(Protocol):
     def assess(self, world: WorldModel, focus: str | None = None) -> Decision: ...
 
 
-class ReasonerError(ValueError):
+class ReasonerError(InputError):
     """An unknown reasoner, or one that needs a model and has none: a usage error (exit status 2)."""
 
 

@@ -43,7 +43,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
-from ..perception.world_model import Landmark, WorldModel, WorldObject
+from agentic_core.contracts.world_model import Landmark, WorldModel, WorldObject
+
 from .assessment import SEVERITIES, Assessment, Decision, Severity
 
 CRITICAL_ACTIONS = ["land_nearby", "deploy_rescue_kit", "alert_medical_team"]

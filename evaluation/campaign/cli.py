@@ -19,6 +19,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
+from agentic_core.contracts.errors import AgenticUAVError, InputError, report_error
+
 if TYPE_CHECKING:
     from flight.sim.scene_model import Scene
 
@@ -68,12 +70,11 @@ def main(argv: Sequence[str] | None = None, stdout: TextIO | None = None, stderr
         return int(exc.code) if isinstance(exc.code, int) else 2
     try:
         return _run(args, out, err)
-    except _UsageError as exc:
-        print(f"{PROG}: error: {exc}", file=err)
-        return 2
+    except AgenticUAVError as exc:
+        return report_error(PROG, exc, err)
 
 
-class _UsageError(Exception):
+class _UsageError(InputError):
     pass
 
 

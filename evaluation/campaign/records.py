@@ -34,6 +34,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from agentic_core.contracts.errors import InputError
 from agentic_core.reasoning.assessment import Assessment, Severity
 
 TIMING_FIELDS = frozenset({"processing_time_s", "model_time_s", "perception_time_s"})
@@ -200,7 +201,7 @@ def iter_jsonl(path: Path) -> Iterator[dict[str, Any]]:
                 yield json.loads(line)
 
 
-class RecordFileError(ValueError):
+class RecordFileError(InputError):
     """A results file with a line that is not a DecisionRecord (other than a torn last line)."""
 
 

@@ -45,6 +45,7 @@ from typing import TextIO
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from agentic_core.contracts.errors import AgenticUAVError
 from flight.sim.scene_model import Scene
 
 from .episode import EpisodeSettings, run_episode
@@ -59,12 +60,13 @@ RESULTS_JSONL = "results.jsonl"
 RESULTS_CSV = "results.csv"
 
 
-class CampaignError(Exception):
+class CampaignError(AgenticUAVError):
     """A campaign that cannot start or go on; ``usage`` errors (exit 2) are the caller's to fix."""
 
     def __init__(self, message: str, *, usage: bool = True) -> None:
         super().__init__(message)
         self.usage = usage
+        self.exit_status = 2 if usage else 1
 
 
 class CampaignPlan(BaseModel):

@@ -29,6 +29,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
 
+from agentic_core.contracts.errors import InputError
 from agentic_core.reasoning.llm import LLMSpecError, create_client, parse_llm_spec
 from agentic_core.reasoning.llm.config import SPEC_ENV
 from agentic_core.reasoning.reasoners import Reasoner, make_reasoner
@@ -40,7 +41,7 @@ NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.:+@/-]{0,79}$")
 USAGE = "[NAME=]KIND[:LLM_SPEC] with KIND one of yolo, rules, hybrid, llm (e.g. yolo,rules,llm:ollama:gemma3:4b)"
 
 
-class SystemSpecError(ValueError):
+class SystemSpecError(InputError):
     """A ``--systems`` entry that cannot be used: unknown kind, bad LLM spec, a missing model, a duplicate name."""
 
 

@@ -11,6 +11,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+from agentic_core.contracts.errors import AgenticUAVError, report_error
+
 PROG = "agentic-uav eval paper"
 
 
@@ -52,7 +54,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:
         return int(exc.code) if isinstance(exc.code, int) else 2
-    return run(args)
+    try:
+        return run(args)
+    except AgenticUAVError as exc:
+        return report_error(PROG, exc, sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
+from agentic_core.contracts.errors import AgenticUAVError, report_error
 from evaluation.stats.errors import InputError
 
 PROG = "agentic-uav eval stats"
@@ -94,7 +95,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse exits on --help (0) and on usage errors (2)
         return int(exc.code) if isinstance(exc.code, int) else 2
-    return run(args)
+    try:
+        return run(args)
+    except AgenticUAVError as exc:
+        return report_error(PROG, exc, sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from agentic_core.contracts.errors import InputError as _InputError
 
-class InputError(ValueError):
+
+class InputError(_InputError):
     """Bad input: a missing or unreadable file, an unknown column, a non-numeric value, too few groups.
 
     ``str(error)`` reads ``results.csv, line 12, column 3 'processing_time_s': non-numeric value 'fast'``.

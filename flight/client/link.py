@@ -31,6 +31,8 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_TYPE_GCS,
 )
 
+from agentic_core.contracts.errors import RunFailure
+
 Address = tuple[str, int]
 MAX_DATAGRAMS_PER_WAKE = 1000
 
@@ -51,7 +53,7 @@ def parse_address(address: str | Address) -> tuple[Address, bool]:
     return (host or "0.0.0.0", int(port)), listen
 
 
-class VehicleConnectionError(ConnectionError):
+class VehicleConnectionError(RunFailure, ConnectionError):
     """No heartbeat from a vehicle within the connect timeout (or the socket could not be opened)."""
 
 

@@ -31,6 +31,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
 )
 
+from agentic_core.contracts.errors import AgenticUAVError
 from flight.geodesy import local_offset
 from flight.mavlink.mission_items import (
     FENCE_CIRCLE_COMMANDS,
@@ -43,7 +44,7 @@ from flight.mavlink.params import ParamStore
 Point = tuple[float, float]
 
 
-class FenceInvalid(ValueError):
+class FenceInvalid(AgenticUAVError, ValueError):
     """A fence plan that does not describe areas (a polygon's vertex runs do not add up)."""
 
 

@@ -114,6 +114,8 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_ROI_WPNEXT,
 )
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 FENCE_POLYGON_COMMANDS = frozenset(
     {MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION}
 )
@@ -208,7 +210,7 @@ MIN_POLYGON_VERTICES = 3
 MAX_ABS_ALTITUDE_M = 100_000.0
 
 
-class ItemRejected(Exception):
+class ItemRejected(AgenticUAVError):
     """An item the vehicle will not store, with the MAV_MISSION_RESULT to answer."""
 
     def __init__(self, result: int, reason: str) -> None:

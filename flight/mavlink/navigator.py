@@ -45,6 +45,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_SEVERITY_CRITICAL,
 )
 
+from agentic_core.contracts.errors import AgenticUAVError
 from flight.mavlink.geofence import Geofence
 from flight.mavlink.offboard import OffboardSetpoint
 from flight.mavlink.params import ParamStore
@@ -59,7 +60,7 @@ MIN_TAKEOFF_ALT_M = 1.0
 MIN_GPS_SATELLITES = 6
 
 
-class CommandDenied(Exception):
+class CommandDenied(AgenticUAVError):
     """A request the vehicle refuses, with the MAV_RESULT to answer and a reason for the STATUSTEXT."""
 
     def __init__(self, reason: str, result: int = MAV_RESULT_DENIED) -> None:

@@ -32,6 +32,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_FRAME_LOCAL_OFFSET_NED,
 )
 
+from agentic_core.contracts.errors import AgenticUAVError
 from flight.sim import Simulator, geodetic_to_ned
 
 IGNORE_X, IGNORE_Y, IGNORE_Z = 1, 2, 4
@@ -48,7 +49,7 @@ _RELATIVE_FRAMES = frozenset({3, 6, 10, 11})
 Vec3 = tuple[float, float, float]
 
 
-class SetpointRejected(ValueError):
+class SetpointRejected(AgenticUAVError, ValueError):
     """A setpoint message that cannot be flown (frame, mask or values)."""
 
 

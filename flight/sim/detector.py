@@ -78,6 +78,7 @@ from flight.camera import (
     SensorHealth,
     footprint,
     ground_points,
+    pose_of,
     project_points,
 )
 from flight.sim.scene import SceneState
@@ -167,7 +168,7 @@ class SimulatedCamera:
         if isinstance(source, CameraPose):
             pose, t = source, 0.0 if time_s is None else time_s
         else:
-            pose, t = CameraPose.from_vehicle(source), source.time_s if time_s is None else time_s
+            pose, t = pose_of(source), source.time_s if time_s is None else time_s
         frame = Frame(index=self.frames_taken, time_s=t, spec=self.spec, pose=pose, health=self.health_at(t))
         self.frames_taken += 1
         self._next_s = t + self.spec.frame_period_s

@@ -33,6 +33,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
+from agentic_core.contracts.errors import InputError
 from flight.sim.scene_model import Path, Scene, describe_path, scene_problems
 from flight.yaml_positions import node_position, position_at
 
@@ -53,7 +54,7 @@ class SceneProblem:
         return f"{self.file}:{self.line}:{self.col}: {self.message}"
 
 
-class SceneFileError(ValueError):
+class SceneFileError(InputError):
     """A scene file that cannot be used; ``problems`` lists everything found wrong, in file order."""
 
     def __init__(self, problems: Sequence[SceneProblem]) -> None:

@@ -9,6 +9,16 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 MODULES = [
+    "agentic_core.contracts",
+    "agentic_core.contracts.assessment",
+    "agentic_core.contracts.camera",
+    "agentic_core.contracts.errors",
+    "agentic_core.contracts.events",
+    "agentic_core.contracts.plan",
+    "agentic_core.contracts.policy_graph",
+    "agentic_core.contracts.telemetry",
+    "agentic_core.contracts.tool_result",
+    "agentic_core.contracts.world_model",
     "agentic_core.graph",
     "agentic_core.graph.graph",
     "agentic_core.graph.types",

@@ -19,6 +19,7 @@ from flight.camera import (
     footprint,
     ground_points,
     ground_sample_distance,
+    pose_of,
     project_points,
     rotation_world_from_camera,
 )
@@ -111,7 +112,7 @@ def test_ground_sample_distance_grows_with_range() -> None:
 
 def test_pose_from_a_simulated_vehicle() -> None:
     state = Simulator(seed=1).state()
-    pose = CameraPose.from_vehicle(state)
+    pose = pose_of(state)
     assert (pose.north_m, pose.east_m, pose.down_m, pose.yaw_rad) == (
         state.north_m,
         state.east_m,

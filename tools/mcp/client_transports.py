@@ -25,6 +25,8 @@ from typing import IO, Any
 
 import httpx
 
+from agentic_core.contracts.errors import AgenticUAVError, RunFailure
+
 from . import protocol as p
 
 log = logging.getLogger("tools.mcp.client")
@@ -32,7 +34,7 @@ log = logging.getLogger("tools.mcp.client")
 Future = concurrent.futures.Future
 
 
-class McpError(RuntimeError):
+class McpError(RunFailure):
     """A server refused or answered what the client cannot use: a JSON-RPC error (``code``), an HTTP error
     (``status``), an unsupported protocol version. Not worth retrying as is."""
 
@@ -43,7 +45,7 @@ class McpError(RuntimeError):
         self.data = data
 
 
-class SessionExpired(ConnectionError):
+class SessionExpired(AgenticUAVError, ConnectionError):
     """The HTTP server no longer knows our session (404): the client starts a new one and retries once."""
 
 

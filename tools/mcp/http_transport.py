@@ -41,6 +41,8 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 from urllib.parse import urlsplit
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 from ..auth import Caller, InvalidToken, TokenAuthority
 from . import protocol as p
 from .server import McpServer, McpSession
@@ -83,7 +85,7 @@ class _HttpSession:
             self.stream.put(None)
 
 
-class _Rejected(Exception):
+class _Rejected(AgenticUAVError):
     def __init__(self, status: int, message: str, headers: dict[str, str] | None = None) -> None:
         super().__init__(message)
         self.status = status

@@ -31,6 +31,8 @@ import json
 from collections.abc import Mapping
 from typing import Any, Literal, TypeGuard
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 from ..result import ToolResult
 from ..security import wrap_untrusted
 
@@ -53,7 +55,7 @@ MessageKind = Literal["request", "notification", "response"]
 RequestId = str | int
 
 
-class JsonRpcError(Exception):
+class JsonRpcError(AgenticUAVError):
     """A JSON-RPC error to answer with (server side) or that a server answered (client side)."""
 
     def __init__(self, code: int, message: str, data: Any = None) -> None:

@@ -17,6 +17,8 @@ False
 True
 """
 
-from .injection import DEFAULT_THRESHOLD, Finding, InjectionReport, scan, scan_value, wrap_untrusted
+from agentic_core.contracts.tool_result import Finding, InjectionReport
+
+from .injection import DEFAULT_THRESHOLD, scan, scan_value, wrap_untrusted
 
 __all__ = ["DEFAULT_THRESHOLD", "Finding", "InjectionReport", "scan", "scan_value", "wrap_untrusted"]

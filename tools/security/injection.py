@@ -14,7 +14,9 @@ import secrets
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel
+
+from agentic_core.contracts.tool_result import Finding, InjectionReport
 
 from .actions import DECODED_RULES, ENCODED, EXFILTRATION, REVERSED_WORDS, ROT13_WORDS, SECRET_REQUEST, TOOL_CALL
 from .decoding import blobs, despaced, invisible_hits, unescaped
@@ -27,30 +29,6 @@ MAX_DEPTH = 2  # decode at most twice (base64 inside hex, say)
 MAX_FINDINGS_PER_RULE = 20
 MAX_BLOBS = 256  # decoded segments rescanned per string
 RULES: tuple[Rule, ...] = OVERRIDE + ROLE_MARKER + TOOL_CALL + SECRET_REQUEST + EXFILTRATION + ENCODED
-
-
-class Finding(BaseModel):
-    """One cue found in the text: its kind, where it is and how much it adds to the score."""
-
-    model_config = ConfigDict(frozen=True)
-
-    kind: str
-    excerpt: str = Field(max_length=80)
-    start: int = Field(ge=0)
-    end: int = Field(ge=0)
-    weight: float = Field(ge=0.0, le=1.0)
-    path: str = "$"
-
-
-class InjectionReport(BaseModel):
-    """The verdict on one text or value: the combined score, whether it reaches the threshold, and the findings."""
-
-    model_config = ConfigDict(frozen=True)
-
-    score: float = Field(ge=0.0, le=1.0)
-    flagged: bool
-    findings: list[Finding]
-    threshold: float = Field(ge=0.0, le=1.0)
 
 
 @dataclass(slots=True)

@@ -14,6 +14,8 @@ from typing import Literal
 import httpx
 from pydantic import BaseModel, ConfigDict, Field, SecretStr
 
+from agentic_core.contracts.errors import InputError
+
 Provider = Literal["openai", "openai-compatible", "ollama"]
 PROVIDERS: tuple[Provider, ...] = ("openai", "openai-compatible", "ollama")
 SPEC_ENV = "AGENTIC_UAV_LLM"
@@ -27,7 +29,7 @@ OLLAMA_BASE_URL = "http://localhost:11434"
 EXAMPLES = "openai:gpt-4o, ollama:gemma3:4b@http://localhost:11434 or openai-compatible:MODEL@http://localhost:8000/v1"
 
 
-class LLMSpecError(ValueError):
+class LLMSpecError(InputError):
     """A ``--llm`` spec or LLM environment setting that cannot be used; the message names it and what is wrong."""
 
 

@@ -27,6 +27,8 @@ import httpx
 import tenacity
 from pydantic import SecretStr
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 from .config import RetryPolicy
 from .result import LLMStatus
 
@@ -39,7 +41,7 @@ too)."""
 SleepFn = Callable[[float], Awaitable[None]]
 
 
-class RequestFailure(Exception):
+class RequestFailure(AgenticUAVError):
     """A request that failed: the status the call's result gets, a message already free of the key, and whether
     sending it again may help."""
 

@@ -1,0 +1,449 @@
+"""PolicyGraph, the mission contract (the paper's name): one pydantic model, its JSON Schema exported from it.
+
+A mission is what users write in YAML and what the LLM planner emits as JSON: ``plan_id``, ``goal``, typed
+``params``, ``limits``, ``steps`` and ``triggers``. Each step's ``action`` selects its own ``args`` model, so the
+JSON Schema tells an editor exactly which arguments an action takes. Wherever a value is expected, a
+``${...}`` expression may stand instead; it is checked at load time and evaluated when the step runs.
+
+>>> from agentic_core.contracts.policy_graph import PolicyGraph
+>>> plan = PolicyGraph.model_validate({
+...     "plan_id": "P-1", "goal": "look around",
+...     "steps": [{"id": "up", "action": "takeoff", "args": {"altitude_m": 20}},
+...               {"id": "look", "action": "hover", "args": {"duration_s": 5}, "depends_on": ["up"]}]})
+>>> [s.id for s in plan.steps]
+['up', 'look']
+"""
+
+from __future__ import annotations
+
+import math
+import typing
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
+
+TEMPLATE_PATTERN = r"^\$\{.+\}$"
+Template = Annotated[str, StringConstraints(pattern=TEMPLATE_PATTERN)]
+"""A value computed when the step runs: ``"${params.altitude_m + 10}"``."""
+
+Number = Annotated[float, Field(allow_inf_nan=False)] | Template
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)] | Template
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)] | Template
+Latitude = Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False)] | Template
+Longitude = Annotated[float, Field(ge=-180, le=180, allow_inf_nan=False)] | Template
+StepId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
+OnFail = Literal["trigger_reflection", "retry", "skip", "abort", "rtl"]
+
+
+class Contract(BaseModel):
+    """Base of every mission model: unknown fields are errors, not silently ignored."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)  # "30" is not a number here: as in the JSON Schema
+
+
+class LatLon(Contract):
+    lat: Latitude = Field(description="latitude, degrees (WGS-84)")
+    lon: Longitude = Field(description="longitude, degrees (WGS-84)")
+
+
+class Circle(Contract):
+    center: LatLon
+    radius_m: float = Field(gt=0)
+
+
+class Limits(Contract):
+    """Safety limits every step is checked against at load time and by the flight envelope when it flies."""
+
+    geofence: Annotated[list[LatLon], Field(min_length=3)] | Circle | None = Field(
+        default=None, description="a polygon of at least three points, or a circle"
+    )
+    max_altitude_m: float | None = Field(default=None, gt=0, description="above the home position")
+    min_battery_pct: float | None = Field(default=None, ge=0, le=100)
+    max_wind_mps: float | None = Field(default=None, gt=0)
+
+
+class Param(Contract):
+    """A mission parameter: typed, with a default, overridable from the command line (``--param name=value``)."""
+
+    type: Literal["number", "integer", "string", "boolean", "position"] = "number"
+    default: Any = None
+    description: str = ""
+    minimum: float | None = None
+    maximum: float | None = None
+
+    @model_validator(mode="after")
+    def _default_fits(self) -> Param:
+        value = self.default
+        if value is None:
+            return self
+        fits = {
+            "number": isinstance(value, int | float) and not isinstance(value, bool),
+            "integer": isinstance(value, int) and not isinstance(value, bool),
+            "string": isinstance(value, str),
+            "boolean": isinstance(value, bool),
+            "position": isinstance(value, dict) and {"lat", "lon"} <= set(value),
+        }[self.type]
+        if not fits:
+            raise ValueError(f"default {value!r} is not a {self.type}")
+        problem = self.out_of_bounds(value)
+        if problem:
+            raise ValueError(f"the default {problem}")
+        return self
+
+    def out_of_bounds(self, value: Any) -> str | None:
+        """Why a number breaks this parameter's minimum or maximum (or is not finite), or None."""
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            shown = f"{value:g}" if isinstance(value, float) else str(value) if abs(value) < 10**20 else "a huge number"
+            if isinstance(value, float) and not math.isfinite(value):
+                return f"must be a finite number, got {value}"
+            if self.minimum is not None and value < self.minimum:
+                return f"must be at least {self.minimum:g}, got {shown}"
+            if self.maximum is not None and value > self.maximum:
+                return f"must be at most {self.maximum:g}, got {shown}"
+        return None
+
+
+# --- arguments of each action ---
+class TakeoffArgs(Contract):
+    altitude_m: Positive = Field(default=10.0, description="climb to this height above home")
+
+
+class FlyToArgs(Contract):
+    """Exactly one way of saying where: ``lat``/``lon``, local ``north_m``/``east_m``, or a world-model object."""
+
+    lat: Latitude | None = None
+    lon: Longitude | None = None
+    north_m: Number | None = None
+    east_m: Number | None = None
+    target_id: str | None = Field(default=None, description="an object id of the world model, e.g. P-12")
+    alt_m: NonNegative | None = Field(default=None, description="height above home; default: keep the current one")
+    speed_mps: Positive | None = None
+
+    @model_validator(mode="after")
+    def _one_destination(self) -> FlyToArgs:
+        ways = [
+            self.lat is not None or self.lon is not None,
+            self.north_m is not None or self.east_m is not None,
+            self.target_id is not None,
+        ]
+        if sum(ways) != 1:
+            raise ValueError("give exactly one destination: lat and lon, north_m and east_m, or target_id")
+        if ways[0] and (self.lat is None or self.lon is None):
+            raise ValueError("lat and lon go together")
+        if ways[1] and (self.north_m is None or self.east_m is None):
+            raise ValueError("north_m and east_m go together")
+        return self
+
+
+class SurveyArgs(Contract):
+    polygon: Annotated[list[LatLon], Field(min_length=3)] | Template = Field(description="the area, 3+ points")
+    altitude_m: Positive
+    spacing_m: Annotated[float, Field(ge=1, allow_inf_nan=False)] | Template = Field(
+        default=20.0, description="distance between the lawnmower lines, at least 1 m"
+    )
+    speed_mps: Positive | None = None
+
+
+class OrbitArgs(Contract):
+    center: LatLon | None = None
+    target_id: str | None = None
+    radius_m: Positive
+    turns: Positive = 1.0
+    alt_m: NonNegative | None = None
+
+    @model_validator(mode="after")
+    def _one_center(self) -> OrbitArgs:
+        if (self.center is None) == (self.target_id is None):
+            raise ValueError("give exactly one of center or target_id")
+        return self
+
+
+class HoverArgs(Contract):
+    duration_s: Positive
+
+
+class LandArgs(Contract):
+    """Land here (no arguments), at a position, or beside a world-model object (``offset_m`` away from it)."""
+
+    lat: Latitude | None = None
+    lon: Longitude | None = None
+    target_id: str | None = None
+    offset_m: NonNegative = Field(default=0.0, description="keep this distance from the target when landing")
+
+    @model_validator(mode="after")
+    def _one_place(self) -> LandArgs:
+        if (self.lat is None) != (self.lon is None):
+            raise ValueError("lat and lon go together")
+        if self.lat is not None and self.target_id is not None:
+            raise ValueError("give lat and lon, or target_id, not both")
+        return self
+
+
+class NoArgs(Contract):
+    pass
+
+
+class DeployPayloadArgs(Contract):
+    payload: str = "rescue_kit"
+
+
+class AnalyzeSceneArgs(Contract):
+    focus: str | None = Field(default=None, description="an object id, or a description of what to look at")
+    min_confidence: Annotated[float, Field(ge=0, le=1)] | Template = 0.5
+
+
+class NotifyArgs(Contract):
+    channel: Literal["email", "webhook", "log"] = "email"
+    to: list[str] | str | None = None
+    subject: str
+    body: str
+    attach: list[str] = Field(default_factory=list, description="e.g. snapshot, position, world_model")
+
+
+# --- steps ---
+class StepBase(Contract):
+    id: StepId
+    description: str = ""
+    depends_on: list[StepId] = Field(default_factory=list)
+    preconditions: list[str] = Field(default_factory=list, description="expressions that must all be true")
+    on_fail: OnFail = "abort"
+    max_retries: int = Field(default=0, ge=0, le=20, description="retries before on_fail applies")
+    timeout_s: float | None = Field(default=None, gt=0)
+    approval: bool = Field(default=False, description="an operator must approve before the step runs")
+
+
+class TakeoffStep(StepBase):
+    action: Literal["takeoff"]
+    args: TakeoffArgs = Field(default_factory=TakeoffArgs)
+
+
+class FlyToStep(StepBase):
+    action: Literal["fly_to"]
+    args: FlyToArgs
+
+
+class SurveyStep(StepBase):
+    action: Literal["survey"]
+    args: SurveyArgs
+
+
+class OrbitStep(StepBase):
+    action: Literal["orbit"]
+    args: OrbitArgs
+
+
+class HoverStep(StepBase):
+    action: Literal["hover"]
+    args: HoverArgs
+
+
+class LandStep(StepBase):
+    action: Literal["land"]
+    args: LandArgs = Field(default_factory=LandArgs)
+
+
+class RtlStep(StepBase):
+    action: Literal["rtl"]
+    args: NoArgs = Field(default_factory=NoArgs)
+
+
+class DeployPayloadStep(StepBase):
+    action: Literal["deploy_payload"]
+    args: DeployPayloadArgs = Field(default_factory=DeployPayloadArgs)
+
+
+class CallToolStep(StepBase):
+    """Any registered tool; its arguments are checked against the tool's own schema."""
+
+    action: Literal["call_tool"]
+    tool: str = Field(
+        pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)+$", description="e.g. weather.get_forecast"
+    )
+    args: dict[str, Any] = Field(default_factory=dict)
+
+
+class AnalyzeSceneStep(StepBase):
+    action: Literal["analyze_scene"]
+    args: AnalyzeSceneArgs = Field(default_factory=AnalyzeSceneArgs)
+
+
+class NotifyStep(StepBase):
+    action: Literal["notify"]
+    args: NotifyArgs
+
+
+class WaitUntilStep(StepBase):
+    action: Literal["wait_until"]
+    condition: str
+    poll_s: float = Field(default=1.0, gt=0)
+
+
+class RepeatStep(StepBase):
+    """Run ``steps`` in order, again and again, until ``until`` is true (a patrol)."""
+
+    action: Literal["repeat"]
+    steps: list[Step] = Field(min_length=1)
+    until: str
+    max_iterations: int = Field(default=100, ge=1)
+
+
+class BranchStep(StepBase):
+    """Run ``then`` if the condition holds, else ``else``."""
+
+    action: Literal["branch"]
+    if_: str = Field(alias="if")
+    then: list[Step] = Field(min_length=1)
+    else_: list[Step] = Field(default_factory=list, alias="else")
+
+
+Step = Annotated[
+    TakeoffStep
+    | FlyToStep
+    | SurveyStep
+    | OrbitStep
+    | HoverStep
+    | LandStep
+    | RtlStep
+    | DeployPayloadStep
+    | CallToolStep
+    | AnalyzeSceneStep
+    | NotifyStep
+    | WaitUntilStep
+    | RepeatStep
+    | BranchStep,
+    Field(discriminator="action"),
+]
+STEP_MODELS: dict[str, type[StepBase]] = {
+    typing.get_args(model.model_fields["action"].annotation)[0]: model
+    for model in typing.get_args(typing.get_args(Step)[0])
+}
+"""The step model of each action."""
+ACTIONS: tuple[str, ...] = (
+    "takeoff",
+    "fly_to",
+    "survey",
+    "orbit",
+    "hover",
+    "land",
+    "rtl",
+    "deploy_payload",
+    "call_tool",
+    "analyze_scene",
+    "notify",
+    "wait_until",
+    "repeat",
+    "branch",
+)
+ACTION_TOOLS: dict[str, str] = {
+    "takeoff": "flight.takeoff",
+    "fly_to": "flight.fly_to",
+    "survey": "flight.fly_to",  # a survey flies its lawnmower legs one fly_to at a time
+    "orbit": "flight.orbit",
+    "hover": "flight.hover",
+    "land": "flight.land",
+    "rtl": "flight.rtl",
+    "deploy_payload": "flight.deploy_payload",
+    "analyze_scene": "perception.analyze_scene",
+    "notify": "alerts.notify",
+}
+"""The registered tool each action calls; ``call_tool`` names its own, the control actions call none."""
+
+
+class Trigger(Contract):
+    """An event over the world model that starts a sub-plan, e.g. a person motionless and isolated."""
+
+    id: StepId
+    when: str = Field(description="an expression over world, vehicle, params and step outputs")
+    steps: list[Step] = Field(min_length=1)
+    once: bool = Field(default=True, description="fire at most once per mission")
+    preempt: bool = Field(default=True, description="stop the rest of the plan (a patrol) while the sub-plan runs")
+    plan: Literal["steps", "reasoner"] = Field(
+        default="steps",
+        description="who writes the response: 'steps' runs the steps above; 'reasoner' asks the reasoner for a "
+        "plan (checked like the mission itself), the steps above running when it proposes none or is refused",
+    )
+
+
+class PolicyGraph(Contract):
+    """A mission: the plan the Action Layer executes (paper §3, Reasoning Layer output)."""
+
+    plan_id: str = Field(min_length=1)
+    goal: str = Field(min_length=1)
+    params: dict[StepId, Param] = Field(default_factory=dict)
+    limits: Limits = Field(default_factory=Limits)
+    steps: list[Step] = Field(min_length=1)
+    triggers: list[Trigger] = Field(default_factory=list)
+    dependencies: dict[str, list[str]] = Field(
+        default_factory=dict, description="the paper's form of depends_on: {step_id: [step_id, ...]}"
+    )
+
+
+def step_args(step: StepBase) -> dict[str, Any]:
+    """A step's arguments as plain data (templates still in place); control steps have none."""
+    args = getattr(step, "args", None)
+    if isinstance(args, BaseModel):
+        return args.model_dump(by_alias=True, exclude_none=True)
+    return dict(args or {})
+
+
+def mission_json_schema() -> dict[str, Any]:
+    """The JSON Schema of mission files, generated from :class:`PolicyGraph`."""
+    schema = PolicyGraph.model_json_schema(by_alias=True)
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["title"] = "agentic-uavs mission (PolicyGraph)"
+    return schema
+
+
+for _model in (RepeatStep, BranchStep, Trigger, PolicyGraph):
+    _model.model_rebuild()
+
+
+__all__ = [
+    "ACTIONS",
+    "ACTION_TOOLS",
+    "STEP_MODELS",
+    "TEMPLATE_PATTERN",
+    "AnalyzeSceneArgs",
+    "AnalyzeSceneStep",
+    "BranchStep",
+    "CallToolStep",
+    "Circle",
+    "Contract",
+    "DeployPayloadArgs",
+    "DeployPayloadStep",
+    "FlyToArgs",
+    "FlyToStep",
+    "HoverArgs",
+    "HoverStep",
+    "LandArgs",
+    "LandStep",
+    "LatLon",
+    "Latitude",
+    "Limits",
+    "Longitude",
+    "NoArgs",
+    "NonNegative",
+    "NotifyArgs",
+    "NotifyStep",
+    "Number",
+    "OnFail",
+    "OrbitArgs",
+    "OrbitStep",
+    "Param",
+    "PolicyGraph",
+    "Positive",
+    "RepeatStep",
+    "RtlStep",
+    "Step",
+    "StepBase",
+    "StepId",
+    "SurveyArgs",
+    "SurveyStep",
+    "TakeoffArgs",
+    "TakeoffStep",
+    "Template",
+    "Trigger",
+    "WaitUntilStep",
+    "mission_json_schema",
+    "step_args",
+]
