@@ -19,6 +19,8 @@ from urllib.parse import quote
 
 from pydantic import BaseModel, ConfigDict
 
+from agentic_core.contracts.errors import AgenticUAVError
+
 from .audit_index import KeyIndex
 from .result import ToolStatus
 
@@ -64,7 +66,7 @@ def completes(record: AuditRecord) -> bool:
     return record.status == "ok" and record.replay_of is None
 
 
-class AuditLogWarning(UserWarning):
+class AuditLogWarning(AgenticUAVError, UserWarning):
     """A line of a JSONL audit log is not a record (a write cut short by a crash leaves one): it is skipped."""
 
 

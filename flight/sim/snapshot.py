@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any, Literal, Self
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, ValidationError, model_validator
 
+from agentic_core.contracts.errors import InputError
 from flight.sim.battery import BatteryConfig
 from flight.sim.controller import ControlOutput, Gains, GoToPosition, HoldPosition, Land, Limits, VelocitySetpoint
 from flight.sim.controller import Setpoint as ControllerSetpoint
@@ -54,7 +55,7 @@ SETPOINT_KINDS: dict[str, Callable[..., ControllerSetpoint]] = {
 }
 
 
-class SnapshotError(ValueError):
+class SnapshotError(InputError):
     """A snapshot that cannot be restored; the message names every bad field."""
 
 
