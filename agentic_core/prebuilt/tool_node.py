@@ -133,13 +133,15 @@ class ToolNode:
                 status="error",
             )
         requested, call_id = call["name"], str(call.get("id") or "")
-        result = self.executor.call(
-            self.resolve(requested), call.get("args", {}), caller=self.caller, timeout_s=self.timeout_s
-        )
+        name = self.resolve(requested)
+        result = self.executor.call(name, call.get("args", {}), caller=self.caller, timeout_s=self.timeout_s)
         artifact = {"tool": result.tool, "status": result.status, "call_id": result.call_id}
         if result.ok:
             return ToolMessage(_content(result.output), tool_call_id=call_id, name=requested, artifact=artifact)
-        return ToolMessage(_refusal(result), tool_call_id=call_id, name=requested, status="error", artifact=artifact)
+        reason = _refusal(result)
+        if name not in self.executor.registry:  # the model asked for a tool that is not there: tell it what is
+            reason += f"; the tools are: {', '.join(spec.name for spec in self.executor.registry)}"
+        return ToolMessage(reason, tool_call_id=call_id, name=requested, status="error", artifact=artifact)
 
     def __call__(self, state: Any) -> dict[str, list[ToolMessage]] | list[ToolMessage]:
         """Answer the tool calls of the last AI message in ``state`` (a dict, a model, or a list of messages)."""
