@@ -18,7 +18,7 @@ def _run_block(marker: str) -> list[str]:
 
 
 def test_quickstart_runs_as_documented() -> None:
-    lines = _run_block("StateGraph")
+    lines = _run_block("more_legs")
     assert lines[0].startswith("[Interrupt(value={'question': 'land near the crowd?'}, id=")
     assert lines[1] == "['leg 0', 'leg 1', 'leg 2', 'landed']"
     assert "graph TD;" in lines
@@ -30,3 +30,7 @@ def test_tools_example_runs_as_documented() -> None:
     assert lines[0].startswith(f"ok {{'depth_m': 4.2}} [{stages}, 'circuit_breaker:passed', 'invoke:passed'")
     assert lines[0].endswith("'injection_guard:passed', 'audit:passed']")
     assert lines[1] == "invalid arguments: $.lat: 'north' is not of type 'number'"
+
+
+def test_langgraph_agent_example_runs_as_documented() -> None:
+    assert _run_block("tools_condition") == ["Battery at 87%."]

@@ -17,7 +17,9 @@ the node, key or edge at fault, and a run stopped by ``recursion_limit`` is chec
 {'log': ['plan', 'act']}
 """
 
-from .checkpoint import BaseCheckpointSaver, InMemorySaver, SqliteSaver
+from typing import TYPE_CHECKING, Any
+
+from .checkpoint import BaseCheckpointSaver, InMemorySaver, MemorySaver, SqliteSaver
 from .compiled import CompiledStateGraph
 from .constants import END, START
 from .context import get_config, get_stream_writer, interrupt
@@ -36,8 +38,24 @@ from .errors import (
 from .graph import StateGraph
 from .types import Command, Interrupt, PregelTask, RetryPolicy, Send, StateSnapshot, StreamMode
 
+if TYPE_CHECKING:
+    from .message import REMOVE_ALL_MESSAGES, MessagesState, add_messages
+
+_MESSAGE_NAMES = frozenset({"REMOVE_ALL_MESSAGES", "MessagesState", "add_messages"})
+
+
+def __getattr__(name: str) -> Any:
+    """The chat-message names on first use: they bring in pydantic, which a graph without messages need not load."""
+    if name in _MESSAGE_NAMES:
+        from . import message
+
+        return getattr(message, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
     "END",
+    "REMOVE_ALL_MESSAGES",
     "START",
     "BaseCheckpointSaver",
     "CheckpointError",
@@ -52,6 +70,8 @@ __all__ = [
     "Interrupt",
     "InvalidRouteError",
     "InvalidUpdateError",
+    "MemorySaver",
+    "MessagesState",
     "NodeTimeoutError",
     "PregelTask",
     "RetryPolicy",
@@ -61,6 +81,7 @@ __all__ = [
     "StateSnapshot",
     "StateTypeError",
     "StreamMode",
+    "add_messages",
     "get_config",
     "get_stream_writer",
     "interrupt",

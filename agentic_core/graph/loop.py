@@ -54,7 +54,11 @@ def merge_writes(
                 values[key] = value
             else:
                 base = values[key] if key in values else spec.initial()
-                values[key] = value if base is MISSING else spec.reducer(base, value)
+                try:
+                    values[key] = value if base is MISSING else spec.reducer(base, value)
+                except (ValueError, TypeError) as exc:  # the reducer refused the value: say whose write it was
+                    name = getattr(spec.reducer, "__name__", "reducer")
+                    raise InvalidUpdateError(f"node {node!r} wrote key {key!r}, which {name} refused: {exc}") from exc
             changed.add(key)
     return changed
 

@@ -104,6 +104,15 @@ def _adapter(base: Any) -> TypeAdapter[Any] | None:
         return TypeAdapter(base, config=ConfigDict(arbitrary_types_allowed=True))
 
 
+def _is_typeddict(schema: Any) -> bool:
+    """A ``typing`` or a ``typing_extensions`` TypedDict (before Python 3.12 they are different classes)."""
+    if typing.is_typeddict(schema):
+        return True
+    import typing_extensions  # a dependency of pydantic
+
+    return typing_extensions.is_typeddict(schema)
+
+
 class StateSchema:
     """Introspects a TypedDict or pydantic model once and answers for it at run time."""
 
@@ -112,7 +121,7 @@ class StateSchema:
 
         self.schema = schema
         self.is_model = isinstance(schema, type) and issubclass(schema, BaseModel)
-        if not self.is_model and not typing.is_typeddict(schema):
+        if not self.is_model and not _is_typeddict(schema):
             raise GraphError(
                 f"StateGraph needs a TypedDict or a pydantic BaseModel as its state schema, got {schema!r}"
             )
@@ -194,6 +203,12 @@ class StateSchema:
         spec = self.spec(node, key)
         if spec.reducer is None:
             return self.check_value(node, spec, value, values)
+        if type(value) is tuple and spec.empty is list:
+            try:  # ("assistant", "hi") is one item, not a list of two: hand the reducer the tuple as written
+                self.check_value(node, spec, [value], values)
+                return value
+            except StateTypeError:
+                pass
         try:
             return self.check_value(node, spec, value, values)
         except StateTypeError as first:
@@ -209,7 +224,11 @@ class StateSchema:
                 raise
             try:
                 self.check_value(node, spec, spec.reducer(base, value), values)
-            except Exception:
+            except Exception as refused:
+                from ..contracts.errors import InputError  # here: the contracts package loads pydantic
+
+                if isinstance(refused, InputError):  # the reducer says in its own words what is wrong with the value
+                    raise StateTypeError(node, key, spec.type_name, type(value).__name__, str(refused)) from None
                 raise first from None
             return value
 

@@ -78,3 +78,56 @@ def langgraph_api() -> GraphAPI:
 def api(request: pytest.FixtureRequest) -> GraphAPI:
     """One implementation of the graph API; every test using it runs once per implementation."""
     return agentic_api() if request.param == "agentic_core" else langgraph_api()
+
+
+@dataclass(frozen=True)
+class AgentAPI:
+    """What a LangGraph tool-calling agent imports: graph, messages, ToolNode, tools_condition and MemorySaver."""
+
+    name: str
+    StateGraph: Any
+    START: Literal["__start__"]
+    END: Literal["__end__"]
+    MessagesState: Any
+    add_messages: Any
+    MemorySaver: Any
+    ToolNode: Any
+    tools_condition: Any
+    HumanMessage: Any
+    AIMessage: Any
+    ToolMessage: Any
+    SystemMessage: Any
+    RemoveMessage: Any
+
+    def __repr__(self) -> str:
+        return f"AgentAPI({self.name})"
+
+
+def agentic_agent_api() -> AgentAPI:
+    from agentic_core.contracts.messages import AIMessage, HumanMessage, RemoveMessage, SystemMessage, ToolMessage
+    from agentic_core.graph import END, START, MessagesState, StateGraph, add_messages
+    from agentic_core.graph.checkpoint.memory import MemorySaver
+    from agentic_core.prebuilt import ToolNode, tools_condition
+
+    return AgentAPI(
+        "agentic_core", StateGraph, START, END, MessagesState, add_messages, MemorySaver, ToolNode, tools_condition,
+        HumanMessage, AIMessage, ToolMessage, SystemMessage, RemoveMessage,
+    )  # fmt: skip
+
+
+def langgraph_agent_api() -> AgentAPI:
+    graph = pytest.importorskip("langgraph.graph")
+    memory = pytest.importorskip("langgraph.checkpoint.memory")
+    prebuilt = pytest.importorskip("langgraph.prebuilt")
+    messages = pytest.importorskip("langchain_core.messages")
+    return AgentAPI(
+        "langgraph", graph.StateGraph, graph.START, graph.END, graph.MessagesState, graph.add_messages,
+        memory.MemorySaver, prebuilt.ToolNode, prebuilt.tools_condition, messages.HumanMessage,
+        messages.AIMessage, messages.ToolMessage, messages.SystemMessage, messages.RemoveMessage,
+    )  # fmt: skip
+
+
+@pytest.fixture(params=["agentic_core", "langgraph"])
+def agent_api(request: pytest.FixtureRequest) -> AgentAPI:
+    """The agent-building names of one implementation; every test using it runs once per implementation."""
+    return agentic_agent_api() if request.param == "agentic_core" else langgraph_agent_api()

@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -17,6 +16,7 @@ from evaluation.campaign.cli import main
 from evaluation.campaign.records import TIMING_FIELDS
 from flight.sim.scene_file import dump_scene
 from flight.sim.scene_gen import generate_scene
+from tests.waiting import wait_for
 
 REPO = Path(__file__).resolve().parents[2]
 SCENES = 8
@@ -48,10 +48,12 @@ def test_a_killed_campaign_resumes_to_the_records_of_an_uninterrupted_one(tmp_pa
     command = [sys.executable, "-m", "agentic_core", "eval", "campaign", *args, "--out", str(killed)]
     process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     results = killed / "results.jsonl"
-    deadline = time.monotonic() + 300
     try:
-        while complete_lines(results) < len(SYSTEMS) and process.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_for(
+            lambda: complete_lines(results) >= len(SYSTEMS) or process.poll() is not None,
+            240,  # inside pytest-timeout's 300 s, so the failure says what was awaited
+            what=f"{len(SYSTEMS)} complete result lines (or the campaign's end)",
+        )
         if process.poll() is not None:
             _, err = process.communicate()
             pytest.fail(f"the campaign ended before it could be killed: {err.decode(errors='replace')}")

@@ -12,6 +12,7 @@ from flight.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import VehicleClient, VehicleConnectionError, parse_address
+from tests.waiting import wait_for_async
 
 
 def free_udp_port():
@@ -207,7 +208,9 @@ def test_a_vehicle_that_stops_mid_flight_makes_the_wait_time_out(vehicle):
             home: Any = client.home
             lat, lon = offset_position(home[0], home[1], 200.0, 0.0)
             task = asyncio.create_task(client.goto(lat, lon, timeout_s=1.0))
-            await asyncio.sleep(0.05)
+            await wait_for_async(  # the vehicle took the goto (200 m north) before it stops
+                lambda: getattr(vehicle.sim.controller.setpoint, "north_m", 0.0) > 100.0, 5, what="the goto setpoint"
+            )
             vehicle.stop()
             result: Any = await task
             assert result.status == "timeout" and result.reached is False

@@ -10,6 +10,7 @@ from typing import Any
 import pytest
 
 import tools.workers
+from tests.waiting import wait_for
 from tools import ToolExecutor, ToolRegistry, ToolSpec
 
 
@@ -47,7 +48,10 @@ def test_a_cancelled_error_raised_by_the_tool_is_its_failure_not_a_cancellation(
 
 @pytest.mark.filterwarnings("ignore:coroutine .* was never awaited")  # the quick tool, cancelled unstarted
 def test_an_async_tool_that_blocks_the_loop_does_not_hold_a_sync_caller_past_its_timeout() -> None:
+    blocking = threading.Event()
+
     async def blocker(args: dict[str, Any]) -> int:
+        blocking.set()
         time.sleep(3)  # never yields: the loop is stuck for 3 s
         return 1
 
@@ -60,7 +64,7 @@ def test_an_async_tool_that_blocks_the_loop_does_not_hold_a_sync_caller_past_its
     executor = ToolExecutor(registry)
     try:
         threading.Thread(target=executor.call, args=("svc.blocker", {}), daemon=True).start()
-        time.sleep(0.2)
+        wait_for(blocking.is_set, 5, what="the blocking tool to start")
         started = time.perf_counter()
         result = executor.call("svc.quick", {})
         assert result.status == "timeout" and "event loop is blocked" in (result.error or "")
@@ -90,7 +94,10 @@ def test_hung_sync_tools_do_not_starve_others_on_the_async_path() -> None:
 
 
 def test_closing_the_executor_mid_call_ends_the_call_and_later_calls_are_refused() -> None:
+    running = threading.Event()
+
     async def slow(args: dict[str, Any]) -> int:
+        running.set()
         await asyncio.sleep(1)
         return 1
 
@@ -100,7 +107,7 @@ def test_closing_the_executor_mid_call_ends_the_call_and_later_calls_are_refused
     results: list[Any] = []
     caller = threading.Thread(target=lambda: results.append(executor.call("svc.slow", {}, timeout_s=3)))
     caller.start()
-    time.sleep(0.2)
+    wait_for(running.is_set, 5, what="the slow tool to start")
     executor.close()
     caller.join(5)
     assert not caller.is_alive() and results and results[0].status in ("timeout", "error")
@@ -120,8 +127,7 @@ def test_executors_created_and_closed_many_times_leave_no_threads_behind() -> No
         executor = ToolExecutor(registry)
         assert executor.call("svc.quick", {}).ok
         executor.close()
-    time.sleep(0.2)
-    assert threading.active_count() <= before + 2
+    wait_for(lambda: threading.active_count() <= before + 2, 5, what="the executors' threads to end")
 
 
 def test_a_worker_ending_on_its_idle_timer_never_loses_a_job(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -42,3 +42,11 @@ class InMemorySaver(BaseCheckpointSaver):
         """Bytes of serialized checkpoint data held, for measuring checkpoint growth."""
         rows = sum(len(r.body) for rs in self._store.values() for r in rs)
         return rows + sum(len(b) for ws in self._writes.values() for b in ws.values())
+
+
+MemorySaver = InMemorySaver
+"""LangGraph's older name for :class:`InMemorySaver` (``langgraph.checkpoint.memory.MemorySaver``).
+
+>>> MemorySaver is InMemorySaver
+True
+"""

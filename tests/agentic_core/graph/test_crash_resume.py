@@ -6,8 +6,9 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
+
+from tests.waiting import wait_for
 
 MISSION = textwrap.dedent(
     """
@@ -129,9 +130,7 @@ def test_killed_from_outside_at_an_arbitrary_moment(tmp_path: Path) -> None:
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
-    deadline = time.monotonic() + 60
-    while len(effects(tmp_path)) < 2 and time.monotonic() < deadline:
-        time.sleep(0.02)
+    wait_for(lambda: len(effects(tmp_path)) >= 2, 60, interval_s=0.02, what="two effects of the mission")
     proc.send_signal(signal.SIGKILL)
     proc.wait(30)
     done_before = effects(tmp_path)

@@ -21,6 +21,7 @@ from agentic_core.graph import (
     interrupt,
 )
 from agentic_core.graph.types import default_retry_on
+from tests.waiting import wait_for_async
 
 
 def cfg(thread: Any = "t") -> dict[str, Any]:
@@ -265,7 +266,11 @@ def test_cancelling_ainvoke_cancels_its_running_nodes() -> None:
         effects.append("fast")
 
     async def slow(state: E) -> None:
-        await asyncio.sleep(0.5)
+        try:
+            await asyncio.sleep(0.5)
+        except asyncio.CancelledError:
+            effects.append("cancelled")
+            raise
         effects.append("slow")
 
     g = StateGraph(E)
@@ -275,10 +280,10 @@ def test_cancelling_ainvoke_cancels_its_running_nodes() -> None:
     async def main() -> None:
         with pytest.raises(TimeoutError):
             await asyncio.wait_for(g.compile().ainvoke({}), 0.1)
-        await asyncio.sleep(0.6)
+        await wait_for_async(lambda: "cancelled" in effects, 5, what="the slow node to be cancelled")
 
     asyncio.run(main())
-    assert effects == ["fast"]
+    assert effects == ["fast", "cancelled"]
 
 
 def test_astream_custom_chunks_come_before_the_nodes_update() -> None:

@@ -37,6 +37,7 @@ from flight.mavlink.commands import HANDLERS
 from flight.mavlink.mission import MESSAGES as MISSION_MESSAGES
 from flight.mavlink.mission_service import MISSION_COMMANDS
 from flight.sim import Simulator
+from tests.waiting import wait_for
 
 from .conftest import ACCEPTED
 
@@ -392,9 +393,7 @@ def test_a_vehicle_running_free_survives_mixed_bursts_and_still_answers():
             raw.sendto(d, vehicle.address)
         sent += len(datagrams)
         invalid += sum(1 for d in datagrams if valid_messages(d) == 0)
-        deadline = time.monotonic() + 10.0  # a safety net: normally read within a few ticks
-        while vehicle.stats.rx_datagrams < sent and time.monotonic() < deadline:
-            time.sleep(0.002)
+        wait_for(lambda: vehicle.stats.rx_datagrams >= sent, 10.0, 0.002, what=f"{sent} datagrams read")
         assert vehicle.stats.rx_datagrams == sent
         assert vehicle.stats.rx_dropped == invalid  # valid ones never count as dropped: no handler raised
         assert thread.is_alive()

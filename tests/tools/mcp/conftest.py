@@ -4,13 +4,13 @@ import asyncio
 import socket
 import sys
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from tests.waiting import wait_for
 from tools import Caller, TokenAuthority, ToolExecutor, ToolRegistry
 from tools.mcp import HttpHandle, McpServer, McpSession, serve_http
 
@@ -86,10 +86,7 @@ def sdk_http_url() -> Iterator[str]:
     runner = uvicorn.Server(config)
     thread = threading.Thread(target=runner.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
-    deadline = time.monotonic() + 10
-    while not runner.started and time.monotonic() < deadline:
-        time.sleep(0.01)
-    assert runner.started, "the SDK server did not start"
+    wait_for(lambda: runner.started, 10, what="the SDK server to start")
     try:
         yield f"http://127.0.0.1:{sock.getsockname()[1]}/mcp"
     finally:

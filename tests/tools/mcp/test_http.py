@@ -4,12 +4,12 @@ stream."""
 import json
 import socket
 import threading
-import time
 from collections.abc import Iterator
 
 import httpx
 import pytest
 
+from tests.waiting import wait_for
 from tools import TokenAuthority, ToolRegistry, tool
 from tools.mcp import HttpHandle, McpServer, serve_http
 
@@ -176,10 +176,7 @@ def test_close_ends_open_streams(server: McpServer) -> None:
         thread = threading.Thread(target=listen)
         thread.start()
         session = handle._endpoint.sessions[headers["Mcp-Session-Id"]]
-        deadline = time.monotonic() + 5
-        while session.stream is None and time.monotonic() < deadline:
-            time.sleep(0.01)
-        assert session.stream is not None
+        wait_for(lambda: session.stream is not None, 5, what="the session's event stream to open")
         handle.close()
         assert ended.wait(5)
         thread.join(5)

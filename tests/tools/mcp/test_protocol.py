@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 
+from tests.waiting import wait_for_async
 from tools import ANONYMOUS, Caller, ToolExecutor, tool
 from tools.mcp import LATEST_VERSION, McpServer, McpSession, serve_stdio
 
@@ -192,7 +193,7 @@ def test_a_cancelled_request_gets_no_answer(server: McpServer, session: McpSessi
         slow = asyncio.ensure_future(
             server.handle(call("slow-1", "tools/call", {"name": "sample.slow", "arguments": {"seconds": 5}}), session)
         )
-        await asyncio.sleep(0.05)
+        await wait_for_async(lambda: "slow-1" in session.in_flight, 5, what="the slow request to be in flight")
         cancel = {"jsonrpc": "2.0", "method": "notifications/cancelled", "params": {"requestId": "slow-1"}}
         assert await server.handle(cancel, session) is None
         return await asyncio.wait_for(slow, 2)

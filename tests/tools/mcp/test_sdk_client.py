@@ -10,6 +10,7 @@ from mcp import Client, MCPError, StdioServerParameters
 from mcp.client.streamable_http import streamable_http_client
 from mcp.types import CallToolResult, TextContent
 
+from tests.waiting import wait_for_async
 from tools import TokenAuthority, ToolRegistry, tool
 from tools.mcp import HttpHandle
 
@@ -61,17 +62,18 @@ def test_sdk_client_over_streamable_http(http: HttpHandle, authority: TokenAutho
             assert set(TOOLS) <= {t.name for t in (await client.list_tools()).tools}
             wind = await client.call_tool("sample.wind", {"lat": 1, "lon": 2})
             if subject == "pilot":  # the GET stream brings list_changed when the registry changes
-                await asyncio.sleep(0.2)
+                await wait_for_async(  # the SDK opens its GET stream on its own schedule
+                    lambda: any(s.stream is not None for s in http._endpoint.sessions.values()),
+                    5,
+                    what="the client's event stream to open",
+                )
 
                 @tool(name="late.tool")
                 def late() -> str:
                     return "here"
 
                 registry.register(late)
-                for _ in range(100):
-                    if notices:
-                        break
-                    await asyncio.sleep(0.02)
+                await wait_for_async(lambda: notices, 2, 0.02, what="a list_changed notice")
                 assert text(await client.call_tool("late.tool", {})) == "here"
             return wind, client.protocol_version
 
