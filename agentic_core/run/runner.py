@@ -130,6 +130,7 @@ class MissionRun:
         earlier = read_jsonl(self.run_dir / "trace.jsonl") if self.resuming else []
         self.trace.records.extend(earlier)
         self.bus = EventBus(clock=self.clock, first_seq=max((int(r.get("seq", 0)) for r in earlier), default=0))
+        self.bus.subscribe(self._after_tool)  # first: a tool's effect is in the snapshot before it is in the trace
         self.bus.subscribe(self.trace)
         self.bus.subscribe(self._say)
         self.telemetry = TelemetryLog(self.run_dir / "telemetry.jsonl", hz=settings.telemetry_hz)
@@ -158,7 +159,6 @@ class MissionRun:
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
             hold_over=self._hold_over,
         )  # fmt: skip
-        self.bus.subscribe(self._after_tool)
         self.env = Environment(
             dispatch=self.dispatch,
             vehicle=self.view,

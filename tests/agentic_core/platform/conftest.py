@@ -1,0 +1,106 @@
+"""Shared parts of the platform's end-to-end tests: the emergency mission over the near-emergency scene (the
+casualty 40 m from home, so a run takes seconds of the test even at real time), an SMTP server, a model stand-in
+that answers as slowly as asked, and readers of a run's trace."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from flight.geodesy import local_offset
+from flight.sim.scene_file import load_scene
+from tests.tools.builtin.conftest import Inbox, _start
+
+from ..reasoning.llm.standin import Reply, StandIn
+from ..run.scripted_model import ScriptedModel
+
+REPO = Path(__file__).resolve().parents[3]
+EMERGENCY = REPO / "missions" / "hajj_emergency.yaml"
+NEAR = REPO / "tests" / "agentic_core" / "run" / "scenes" / "near_emergency.yaml"
+PARAMS = {"rounds": "1", "still_s": "4"}
+"""One patrol pass; four seconds of stillness make a collapse (the scene's casualty never moves)."""
+
+
+class SlowModel:
+    """The scripted model answering after ``latency_s``: as slow as the paper's own (Gemma-3 1.48 s, GPT-4 4.95 s)."""
+
+    def __init__(self, latency_s: float) -> None:
+        self.latency_s = latency_s
+        self.model = ScriptedModel(still_s=4.0)
+
+    def __call__(self, path: str, body: Any) -> Reply:
+        time.sleep(self.latency_s)  # the latency under test
+        return self.model(path, body)
+
+
+@pytest.fixture
+def smtp(monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
+    controller, server = _start(Inbox())
+    monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", server.host)
+    monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(server.port))
+    monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")
+    yield server
+    controller.stop()
+
+
+def slow_server(latency_s: float) -> tuple[StandIn, SlowModel]:
+    model = SlowModel(latency_s)
+    return StandIn(responder=model), model
+
+
+def trace(run_dir: Path) -> list[dict[str, Any]]:
+    lines = (run_dir / "trace.jsonl").read_text(encoding="utf-8").splitlines()
+    out = []
+    for line in lines:
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:  # a line cut by a kill
+            continue
+    return out
+
+
+def of_kind(records: list[dict[str, Any]], kind: str) -> list[dict[str, Any]]:
+    return [r for r in records if r["kind"] == kind]
+
+
+def tools_ok(records: list[dict[str, Any]], name: str) -> list[dict[str, Any]]:
+    """The calls of ``name`` that acted (ok, and not a replay of a recorded result)."""
+    return [r for r in of_kind(records, "tool") if r.get("name") == name and r.get("status") == "ok"
+            and not r.get("replayed")]  # fmt: skip
+
+
+def assert_served(run_dir: Path, inbox: Any, *, until_kit: bool = False) -> list[dict[str, Any]]:
+    """The casualty was found (a trigger acted), assessed critical, the medical team alerted once by SMTP, and the
+    kit released once, on the ground, within metres of the casualty."""
+    records = trace(run_dir)
+    assert [r for r in of_kind(records, "trigger") if r["act"]], "no trigger acted"
+    verdicts = [r["assessment"]["severity"] for r in of_kind(records, "decision") if r.get("assessment")]
+    assert "critical" in verdicts, verdicts
+    assert len(tools_ok(records, "alerts.notify")) == 1
+    assert len(inbox.inbox.envelopes) == 1
+    assert len(tools_ok(records, "flight.deploy_payload")) == 1
+    order = [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
+    assert order.index("alerts.notify") < order.index("flight.deploy_payload")
+    kit = tools_ok(records, "flight.deploy_payload")[0]["sim_t"]
+    at = min(telemetry(run_dir), key=lambda t: abs(t["time_s"] - kit))
+    assert at["alt_m"] < 0.5, at
+    assert distance_to_casualty(at) < 9.0
+    return records
+
+
+def telemetry(run_dir: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in (run_dir / "telemetry.jsonl").read_text(encoding="utf-8").splitlines()]
+
+
+def distance_to_casualty(sample: dict[str, Any]) -> float:
+    """Horizontal metres from a telemetry sample's position to the scene's casualty."""
+    scene = load_scene(NEAR)
+    casualty = scene.actor("P-12").position
+    north, east = local_offset(scene.home.lat_deg, scene.home.lon_deg, sample["lat_deg"], sample["lon_deg"])
+    return math.hypot(north - casualty.north, east - casualty.east)

@@ -1,0 +1,64 @@
+"""The same emergency mission flown on a vehicle in another process: ``agentic-uav sim`` started by the test,
+reached only over MAVLink (``--connect udp://HOST:PORT``); perception takes the camera's pose from the link's
+telemetry."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from agentic_core.cli import main
+from agentic_core.run.runner import RunSettings, run_mission
+from tests.flight.test_cli import free_udp_port
+from tests.flight.test_cli_vehicle import listening_port, stop
+
+from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, trace
+
+
+def start_vehicle(port: int, speed: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "flight.cli", "--bind", f"127.0.0.1:{port}", "--gcs", "none", "--api", "none",
+         "--scene", str(NEAR), "--speed", speed],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+    )  # fmt: skip
+
+
+def test_the_emergency_mission_flies_on_a_vehicle_in_another_process(tmp_path: Path, smtp: Any) -> None:
+    port = free_udp_port()
+    vehicle = start_vehicle(port, "4")
+    try:
+        assert listening_port(vehicle) == port
+        result = run_mission(
+            RunSettings(
+                mission=EMERGENCY, scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS, camera_hz=15.0,
+                connect=f"udp://127.0.0.1:{port}",
+            ),
+            progress=None,
+        )  # fmt: skip
+    finally:
+        code, _, err = stop(vehicle)
+    assert code == 0, err
+    assert result.summary.outcome == "completed", result.summary
+    records = assert_served(result.run_dir, smtp)
+    (start,) = [r for r in of_kind(records, "run") if r.get("event") == "start"]
+    assert start["backend"] == "link"
+    assert result.summary.frames > 0 and not (result.run_dir / "snapshot.json").read_text().count('"vehicle":{')
+    telemetry = (result.run_dir / "telemetry.jsonl").read_text(encoding="utf-8").splitlines()
+    assert len(telemetry) >= 5 * result.summary.sim_duration_s * 0.9  # at least 5 Hz of the vehicle's clock
+
+
+def test_a_vehicle_that_does_not_answer_stops_the_run_before_take_off(tmp_path: Path, capsys: Any) -> None:
+    port = free_udp_port()  # nobody listens there
+    code = main(["run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path), "--quiet",
+                 "--connect", f"udp://127.0.0.1:{port}"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1 and "cannot reach the vehicle" in err and "Traceback" not in err
+    records = trace(next(tmp_path.iterdir()))
+    assert not [r for r in of_kind(records, "tool") if r.get("name") == "flight.takeoff"]
+
+
+def test_a_bad_link_address_is_input_error(tmp_path: Path, capsys: Any) -> None:
+    code = main(["run", str(EMERGENCY), "--runs-dir", str(tmp_path), "--quiet", "--connect", "tcp://somewhere"])
+    assert code == 2 and "udp://HOST:PORT" in capsys.readouterr().err

@@ -1,0 +1,111 @@
+"""``kill -9`` a run at three points — on patrol, right after the alert, while it waits for the operator — and
+``agentic-uav run --resume RUN_ID`` finishes the mission with exactly one alert e-mail and one kit release: the
+graph goes on from its checkpoint, the simulated aircraft from its snapshot, and a side effect done before the kill
+is replayed from the audit log instead of done again."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.waiting import wait_for
+
+from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, tools_ok, trace
+
+Condition = Callable[[list[dict[str, Any]]], bool]
+
+
+def command(runs: Path, *extra: str) -> list[str]:
+    params = [arg for name, value in PARAMS.items() for arg in ("--param", f"{name}={value}")]
+    return [sys.executable, "-m", "agentic_core", "run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir",
+            str(runs), "--camera-hz", "15", *params, *extra]  # fmt: skip
+
+
+def environment(smtp: Any) -> dict[str, str]:
+    return {
+        **os.environ, "AGENTIC_UAV_SMTP_HOST": smtp.host, "AGENTIC_UAV_SMTP_PORT": str(smtp.port),
+        "AGENTIC_UAV_SMTP_STARTTLS": "false", "PYTHONUNBUFFERED": "1",
+    }  # fmt: skip
+
+
+def kill_when(runs: Path, smtp: Any, condition: Condition, *extra: str) -> Path:
+    """Start a run in a process of its own, SIGKILL it once its trace meets ``condition``; its folder."""
+    proc = subprocess.Popen(
+        command(runs, *extra), cwd=REPO, env=environment(smtp), stdin=subprocess.PIPE,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    try:
+
+        def met() -> bool:
+            folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
+            return bool(folders) and (folders[0] / "trace.jsonl").is_file() and condition(trace(folders[0]))
+
+        wait_for(met, timeout_s=120.0, what="the moment to kill the run")
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10.0)
+    (folder,) = [p for p in runs.iterdir() if p.is_dir()]
+    return folder
+
+
+def resume(runs: Path, run_id: str, smtp: Any, answers: str = "") -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "agentic_core", "run", "--resume", run_id, "--runs-dir", str(runs)],
+        cwd=REPO, env=environment(smtp), input=answers, capture_output=True, text=True, timeout=300.0,
+    )  # fmt: skip
+
+
+def on_patrol(records: list[dict[str, Any]]) -> bool:
+    return bool(tools_ok(records, "flight.takeoff"))
+
+
+def after_the_alert(records: list[dict[str, Any]]) -> bool:
+    return bool(tools_ok(records, "alerts.notify"))
+
+
+def waiting_for_the_operator(records: list[dict[str, Any]]) -> bool:
+    return any(r.get("status") == "asked" for r in of_kind(records, "approval"))
+
+
+@pytest.mark.parametrize(
+    ("condition", "extra", "answers"),
+    [
+        (on_patrol, (), ""),
+        (after_the_alert, (), ""),
+        (waiting_for_the_operator, ("--approval", "ask", "--approval-timeout-s", "60"), "y\ny\n"),
+    ],
+    ids=["on-patrol", "after-the-alert", "waiting-on-approval"],
+)
+def test_a_killed_run_resumes_and_does_nothing_twice(
+    tmp_path: Path, smtp: Any, condition: Condition, extra: tuple[str, ...], answers: str
+) -> None:
+    runs = tmp_path / "runs"
+    folder = kill_when(runs, smtp, condition, *extra)
+    before = trace(folder)
+    assert not any(r["kind"] == "run" and r.get("event") == "end" for r in before), "the run ended before the kill"
+    done = resume(runs, folder.name, smtp, answers)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "Traceback" not in done.stderr
+    assert f"{folder.name}: completed" in done.stdout
+    records = assert_served(folder, smtp)  # one alert e-mail, one kit release, on the ground beside the casualty
+    starts = [r.get("event") for r in of_kind(records, "run")]
+    assert starts[0] == "start" and "resume" in starts and starts[-1] == "end"
+    seqs = [r["seq"] for r in records]
+    assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)  # one event stream across both processes
+    resumed_at = next(r for r in of_kind(records, "run") if r.get("event") == "resume")
+    assert resumed_at["sim_t"] > 0  # the aircraft and its clock came back from the snapshot, not from the ground
+
+
+def test_resuming_what_does_not_exist_is_a_clear_error(tmp_path: Path, smtp: Any) -> None:
+    done = resume(tmp_path, "no-such-run", smtp)
+    assert done.returncode == 2 and "no-such-run" in done.stderr and "Traceback" not in done.stderr
