@@ -132,6 +132,18 @@ class RandomStream(_Frozen):
     generator: dict[str, Any]
     ahead: list[FiniteFloat] = Field(default_factory=list)
 
+    @model_validator(mode="after")
+    def _a_generator_state(self) -> Self:
+        """Checked here, so that restoring never stops half-way on it."""
+        kind = getattr(np.random, str(self.generator.get("bit_generator")), None)
+        if not (isinstance(kind, type) and issubclass(kind, np.random.BitGenerator)):
+            raise ValueError(f"unknown bit generator {self.generator.get('bit_generator')!r}")
+        try:
+            kind().state = self.generator
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ValueError(f"not a {kind.__name__} state: {exc}") from None
+        return self
+
 
 class Weather(_Frozen):
     """The wind now, the gust process's value, and the GPS error processes (bias, last errors, next epoch)."""

@@ -168,6 +168,8 @@ def test_the_simulator_alone_draws_the_same_gusts_and_gps_errors_and_flies_on_cl
         (("params", "RTL_RETURN_ALT"), 1e6, "params.RTL_RETURN_ALT"),
         (("params", "NO_SUCH_PARAM"), 1.0, "params.NO_SUCH_PARAM"),
         (("sim", "surprise"), 1, "sim.surprise"),
+        (("sim", "weather", "gps_stream", "generator", "state"), {"state": "x"}, "sim.weather.gps_stream"),
+        (("sim", "weather", "gust_stream", "generator", "bit_generator"), "Dice", "unknown bit generator"),
     ],
 )
 def test_a_bad_field_is_named_and_nothing_changes(path, value, named):
