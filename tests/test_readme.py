@@ -5,6 +5,8 @@ import io
 import re
 from pathlib import Path
 
+import pytest
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
@@ -34,3 +36,11 @@ def test_tools_example_runs_as_documented() -> None:
 
 def test_langgraph_agent_example_runs_as_documented() -> None:
     assert _run_block("tools_condition") == ["Battery at 87%."]
+
+
+def test_control_port_example_runs_as_documented(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    repo = README.parent
+    for name in ("missions", "scenes"):
+        (tmp_path / name).symlink_to(repo / name)
+    monkeypatch.chdir(tmp_path)
+    assert _run_block("run.control.rtl")[-1] == "returned"  # after what JSBSim prints as it loads
