@@ -128,10 +128,11 @@ def run_once(settings: RunSettings, loop: PerceptionLoop, pose: CameraPose, t: f
     """One confirming frame to its alert, through a fresh run of the mission (built outside the timings)."""
     run = MissionRun(settings)
     run.loop = loop  # the hovering camera's perception: the runner reads it through this attribute at every use
+    run.gate.world = loop  # and the gate judges on it
     run.prepare()  # as MissionRun.execute does before take-off
     stamps: dict[str, float] = {}
-    executor = run.executor
-    run.executor = _Marked(executor, stamps)  # type: ignore[assignment]
+    executor = run.dispatch.executor
+    run.dispatch.executor = _Marked(executor, stamps)  # type: ignore[assignment]
     runner_dispatch = run.env.dispatch
 
     def dispatch(tool: str, args: dict[str, Any], timeout_s: float | None) -> Any:
@@ -164,7 +165,7 @@ def run_once(settings: RunSettings, loop: PerceptionLoop, pose: CameraPose, t: f
             t3 = clock()
             graph.invoke(initial_state(run.plan), config)
     finally:
-        run.executor = executor
+        run.dispatch.executor = executor
         run.close()
     if "alert" not in stamps:
         raise SystemExit(f"no alert was sent: {json.dumps(stamps)}; see {run.run_dir / 'trace.jsonl'}")

@@ -334,14 +334,17 @@ class MissionRun:
 
     # ---- running ----
 
-    def prepare(self) -> None:
-        """Get ready before take-off: the annotator loaded, the vehicle reached, the model's connection opened (a
-        model server that does not answer is reported now rather than at the first event)."""
-        if self.loop is not None:
-            self.loop.warm()
+    def reach_vehicle(self) -> None:
+        """Connect to the vehicle before anything flies; :class:`RunFailure` when it does not answer."""
         status = self.executor.call("flight.status", {})
         if status.status != "ok":
             raise RunFailure(f"cannot reach the vehicle at {self.backend.address}: {status.error}")
+
+    def prepare(self) -> None:
+        """Get ready before take-off: the annotator loaded, the model's connection opened (a model server that does
+        not answer is reported now rather than at the first event)."""
+        if self.loop is not None:
+            self.loop.warm()
         client = self._model_client()
         warm = getattr(client, "warm", None)
         if callable(warm):
@@ -362,6 +365,7 @@ class MissionRun:
         outcome = "failed"
         try:
             self.backend.start()
+            self.reach_vehicle()
             self.prepare()
             with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
