@@ -82,14 +82,27 @@ class Dispatcher:
         return self.call(tool, args, timeout_s, key=key)
 
     def call(
-        self, tool: str, args: dict[str, Any], timeout_s: float | None = None, *, key: str | None = None
+        self,
+        tool: str,
+        args: dict[str, Any],
+        timeout_s: float | None = None,
+        *,
+        key: str | None = None,
+        publish: bool = True,
     ) -> ToolResult:
-        """One tool call through the executor, paced, published, and keyed with ``key`` (an idempotency key)."""
+        """One tool call through the executor, paced, keyed with ``key`` (an idempotency key) and published (unless
+        the caller publishes it itself)."""  # fmt: skip
         options: dict[str, Any] = {"timeout_s": timeout_s}
         if key is not None and self._keyed:
             options["idempotency_key"] = key
         with self.pace.waiting("vehicle" if tool.startswith("flight.") else "tool"):
             result = self.executor.call(tool, args, **options)
+        if publish:
+            self.published(tool, args, result, key)
+        return result
+
+    def published(self, tool: str, args: dict[str, Any], result: ToolResult, key: str | None) -> None:
+        """Publish one call's ``tool`` event."""
         replayed = bool(getattr(result, "replayed", False))
         self.publish(
             "tool", name=tool, args=args, status=result.status, error=result.error, latency_s=result.latency_s,
@@ -97,7 +110,6 @@ class Dispatcher:
             summary=f"{tool} {result.status}" + (" (replayed)" if replayed else "")
             + (f": {result.error}" if result.error else ""),
         )  # fmt: skip
-        return result
 
     def _watched(
         self, tool: str, args: dict[str, Any], timeout_s: float | None, state: Mapping[str, Any], key: str | None
@@ -106,7 +118,7 @@ class Dispatcher:
             box: dict[str, ToolResult] = {}
 
             def fly(into: dict[str, ToolResult] = box) -> None:
-                into["result"] = self.call(tool, args, timeout_s, key=key)
+                into["result"] = self.call(tool, args, timeout_s, key=key, publish=False)
 
             worker = threading.Thread(target=fly, name=f"agent-{tool}", daemon=True)
             worker.start()
@@ -123,9 +135,10 @@ class Dispatcher:
                 if found is not None:
                     break
             if stop is None and found is None:
+                self.published(tool, args, box["result"], key)
                 return box["result"]
             hold = self.executor.call(HOLD, {})
-            worker.join()
+            worker.join()  # the action ends, superseded by the hold: its result is the interruption's
             if stop is not None:
                 return self._interrupted(tool, hold, Interrupted(stop))
             assert found is not None

@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import math
 import queue
 import threading
 from collections.abc import Callable
@@ -24,7 +23,6 @@ from flight.mavlink.snapshot import VehicleSnapshot
 from flight.sim import Environment as SimEnvironment
 from flight.sim import Simulator
 from flight.sim.environment import Home
-from flight.sim.simulator import VehicleState
 from flight.vehicle import VehicleClient
 
 from ..agent.pacing import Pace
@@ -180,16 +178,4 @@ def parse_link(url: str) -> tuple[str, int]:
     return parts.hostname, parts.port
 
 
-def sample_of(state: VehicleState, mode: str = "unknown") -> TelemetrySample:
-    """A telemetry sample from a simulated vehicle's state (for tests and tools that hold a state)."""
-    return TelemetrySample(
-        time_s=state.time_s, lat_deg=state.lat_deg, lon_deg=state.lon_deg, alt_m=-state.down_m,
-        alt_msl_m=state.alt_msl_m, north_m=state.north_m, east_m=state.east_m, down_m=state.down_m,
-        vn_mps=state.vn_mps, ve_mps=state.ve_mps, vd_mps=state.vd_mps, roll_deg=math.degrees(state.roll_rad),
-        pitch_deg=math.degrees(state.pitch_rad), yaw_deg=math.degrees(state.yaw_rad) % 360.0,
-        battery_pct=state.battery_pct, mode=mode, armed=state.armed,
-        landed_state="on_ground" if state.landed else "in_air",
-    )  # fmt: skip
-
-
-__all__ = ["Backend", "LinkBackend", "SampleHook", "SimBackend", "parse_link", "sample_of"]
+__all__ = ["Backend", "LinkBackend", "SampleHook", "SimBackend", "parse_link"]

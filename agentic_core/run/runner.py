@@ -35,6 +35,7 @@ from tools.function import spec_from_function
 
 from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
+from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
@@ -201,8 +202,8 @@ class MissionRun:
     def _on_sample(self, sample: TelemetrySample) -> None:
         self.last_sample = sample
 
-    def _world_source(self) -> Any:
-        return self.loop if self.loop is not None else _NoWorld(self.scene)
+    def _world_source(self) -> WorldSource:
+        return self.loop if self.loop is not None else _NoWorld()
 
     def _target(self, object_id: str) -> tuple[float, float] | None:
         return self.loop.target(object_id) if self.loop else None
@@ -382,7 +383,7 @@ class MissionRun:
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
             if result.stopped is not None:
-                self.dispatch.call(STOP_TOOLS[result.stopped], {})
+                self._carry_out(result.stopped)
                 outcome = STOP_OUTCOMES[result.stopped]
             elif result.over_time:
                 outcome = "interrupted"
@@ -402,6 +403,14 @@ class MissionRun:
         track = self.track()
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)
+
+    def _carry_out(self, command: str) -> None:
+        """What the operator's stop asks of the aircraft (nothing to do for a landing on the ground, disarmed)."""
+        view = self.view()
+        if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
+            self.bus.publish("log", level="info", summary="land: the aircraft is on the ground already")
+            return
+        self.dispatch.call(STOP_TOOLS[command], {})
 
     def track(self) -> list[TrackPoint]:
         """The flight as ``telemetry.jsonl`` recorded it (every resumed part included)."""
@@ -453,9 +462,6 @@ class MissionRun:
 class _NoWorld:
     """The world source of a run without a scene: an empty World Model."""
 
-    def __init__(self, scene: Scene | None) -> None:
-        self.scene = scene
-
     @property
     def world(self) -> WorldModel:
         return WorldModel.model_validate(
@@ -463,6 +469,9 @@ class _NoWorld:
         )
 
     def target(self, object_id: str) -> tuple[float, float] | None:
+        return None
+
+    def resolve(self, object_id: str) -> str | None:
         return None
 
 

@@ -219,8 +219,8 @@ class Navigator:
             raise CommandDenied(f"Mode change denied: {why}")
         if mode is FlightMode.OFFBOARD and not self.offboard_active():
             raise CommandDenied("Mode change denied: offboard needs a setpoint stream first")
-        if mode is self.mode:
-            return
+        if mode is self.mode and not (mode in (FlightMode.HOLD, FlightMode.POSITION) and self._goto is not None):
+            return  # Hold asked while a reposition flies in Hold: stop there (below), as a pilot asking Hold means
         if not self.sim.armed:
             self.mode = mode
             self.rtl_phase = None

@@ -1,0 +1,81 @@
+"""The control port steers a real run from another thread: a pause holds the aircraft where it is until resume
+(and the mission then goes on to its end), an abort ends the mission in the air with the aircraft holding, and
+every command is a ``control`` event naming who sent it."""
+
+from __future__ import annotations
+
+import math
+import threading
+from pathlib import Path
+
+from agentic_core.run.runner import MissionRun, RunSettings
+from tests.waiting import wait_for
+
+from .conftest import REPO, of_kind, telemetry, trace
+
+PATROL = REPO / "missions" / "hajj_patrol.yaml"
+NORMAL = REPO / "tests" / "agentic_core" / "run" / "scenes" / "small_normal.yaml"
+
+
+def patrol(tmp_path: Path) -> MissionRun:
+    settings = RunSettings(mission=PATROL, scene=NORMAL, runs_dir=tmp_path / "runs", params={"rounds": "1"},
+                           camera_hz=5.0)  # fmt: skip
+    return MissionRun(settings)
+
+
+def flying_a_leg(run: MissionRun) -> bool:
+    sample = run.last_sample
+    return sample is not None and sample.alt_m > 30.0 and math.hypot(sample.vn_mps, sample.ve_mps) > 3.0
+
+
+def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(tmp_path: Path) -> None:
+    run = patrol(tmp_path)
+    held: list[tuple[float, float]] = []
+
+    def operator() -> None:
+        wait_for(lambda: flying_a_leg(run), timeout_s=120.0, what="the first leg")
+        paused = run.clock()
+        run.control.pause(by="tester")
+        try:  # the hold brakes, and settles within seconds: judge the hover after that
+            wait_for(lambda: run.clock() >= paused + 10.0, timeout_s=60.0, what="ten seconds of holding")
+            start = run.clock()
+            wait_for(lambda: run.clock() >= start + 3.0, timeout_s=30.0, what="three more seconds of holding")
+            held.append((start, run.clock()))
+        finally:
+            run.control.resume(by="tester")
+
+    steer = threading.Thread(target=operator, daemon=True)
+    steer.start()
+    result = run.execute()
+    steer.join(timeout=10.0)
+    assert held, "the operator thread never resumed"
+    assert result.summary.outcome == "completed"
+    start, end = held[0]
+    during = [t for t in telemetry(result.run_dir) if start <= t["time_s"] <= end]
+    assert during and max(t["north_m"] for t in during) - min(t["north_m"] for t in during) < 1.0
+    assert max(math.hypot(t["vn_mps"], t["ve_mps"]) for t in during) < 0.5
+    records = trace(result.run_dir)
+    commands = [(r["command"], r["by"]) for r in of_kind(records, "control")]
+    assert commands == [("pause", "tester"), ("resume", "tester")]
+    stopped = [r for r in of_kind(records, "tool") if r.get("status") == "interrupted"]
+    assert stopped and "paused" in stopped[0]["summary"]
+    flown = [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
+    assert flown.count("incidents.log") == 2 and flown[-1] == "flight.rtl"  # the whole pass was flown after all
+
+
+def test_an_abort_from_another_thread_ends_the_mission_holding_in_the_air(tmp_path: Path) -> None:
+    run = patrol(tmp_path)
+
+    def operator() -> None:
+        wait_for(lambda: flying_a_leg(run), timeout_s=120.0, what="the first leg")
+        run.control.abort("the operator saw smoke", by="tester")
+
+    threading.Thread(target=operator, daemon=True).start()
+    result = run.execute()
+    assert result.summary.outcome == "aborted"
+    records = trace(result.run_dir)
+    (command,) = of_kind(records, "control")
+    assert command["command"] == "abort" and command["reason"] == "the operator saw smoke"
+    last = telemetry(result.run_dir)[-1]
+    assert last["alt_m"] > 20.0 and last["mode"] == "hold"
+    assert "flight.rtl" not in [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
