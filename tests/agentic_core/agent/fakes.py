@@ -186,19 +186,25 @@ class Aircraft:
             return len(self.commands)
 
     def fly_to(self, args: dict[str, Any]) -> dict[str, Any]:
-        mine = self.command("flight.fly_to", args)
-        with self._cond:
-            self.flying += 1
-            try:
-                done = self._cond.wait_for(
-                    lambda: self.instant or self.arrived >= mine or len(self.commands) > mine, timeout=WAIT_S
-                )
-                return {
-                    "reached": done and (self.instant or self.arrived >= mine),
-                    "superseded": len(self.commands) > mine,
-                }
-            finally:
-                self.flying -= 1
+        return self.flies("flight.fly_to")(args)
+
+    def flies(self, tool: str) -> Callable[[dict[str, Any]], dict[str, Any]]:
+        """A long flight action: under way until it arrives or a later command supersedes it."""
+
+        def act(args: dict[str, Any]) -> dict[str, Any]:
+            mine = self.command(tool, args)
+            with self._cond:
+                self.flying += 1
+                try:
+                    done = self._cond.wait_for(
+                        lambda: self.instant or self.arrived >= mine or len(self.commands) > mine, timeout=WAIT_S
+                    )
+                    reached = done and (self.instant or self.arrived >= mine)
+                    return {"reached": reached, "superseded": len(self.commands) > mine}
+                finally:
+                    self.flying -= 1
+
+        return act
 
     def other(self, tool: str) -> Callable[[dict[str, Any]], dict[str, Any]]:
         def act(args: dict[str, Any]) -> dict[str, Any]:
@@ -226,14 +232,16 @@ class Aircraft:
             return self.flying
 
 
-FLIGHT_TOOLS = ("flight.takeoff", "flight.hover", "flight.orbit", "flight.hold", "flight.land", "flight.rtl")
+FLIGHT_TOOLS = ("flight.takeoff", "flight.hold", "flight.land", "flight.rtl", "flight.deploy_payload")
 
 
 def registry_for(aircraft: Aircraft, extra: Iterable[tuple[str, Callable[[dict[str, Any]], Any]]] = ()) -> ToolRegistry:
     """A real registry with the aircraft's ``flight.*`` tools, ``alerts.notify``, ``perception.analyze_scene`` and
     ``extra`` tools (any arguments, no retries)."""
     registry = ToolRegistry()
-    tools: list[tuple[str, Callable[[dict[str, Any]], Any]]] = [("flight.fly_to", aircraft.fly_to)]
+    tools: list[tuple[str, Callable[[dict[str, Any]], Any]]] = [
+        (name, aircraft.flies(name)) for name in ("flight.fly_to", "flight.orbit", "flight.hover")
+    ]
     tools += [(name, aircraft.other(name)) for name in FLIGHT_TOOLS]
     tools += [("alerts.notify", lambda args: {"sent": True}), ("perception.analyze_scene", lambda args: {"ok": True})]
     for name, handler in [*tools, *extra]:
