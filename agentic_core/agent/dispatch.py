@@ -35,6 +35,8 @@ WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
 """Long flight actions during which the control port and the triggers are watched."""
 
 HOLD = "flight.hold"
+HOLD_WAIT_S = 2.0
+"""How long a hold is given to end the action it supersedes before another is sent."""
 
 Watch = Callable[[Mapping[str, Any]], list[tuple[Trigger, Any]]]
 """The (trigger, event) pairs whose rule holds now, evaluated on a mission state."""
@@ -115,19 +117,10 @@ class Dispatcher:
         self, tool: str, args: dict[str, Any], timeout_s: float | None, state: Mapping[str, Any], key: str | None
     ) -> ToolResult | Interrupted:
         while True:
-            box: dict[str, ToolResult] = {}
-
-            def fly(into: dict[str, ToolResult] = box) -> None:
-                into["result"] = self.call(tool, args, timeout_s, key=key, publish=False)
-
-            worker = threading.Thread(target=fly, name=f"agent-{tool}", daemon=True)
-            worker.start()
+            worker = _Flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
             found: tuple[Trigger, Any] | None = None
             stop: str | None = None
-            while worker.is_alive():
-                worker.join(self.poll_s)
-                if not worker.is_alive():
-                    break
+            while worker.running(self.poll_s):
                 stop = self._control_stop()
                 if stop is not None:
                     break
@@ -135,27 +128,38 @@ class Dispatcher:
                 if found is not None:
                     break
             if stop is None and found is None:
-                self.published(tool, args, box["result"], key)
-                return box["result"]
-            hold = self.executor.call(HOLD, {})
-            worker.join()  # the action ends, superseded by the hold: its result is the interruption's
+                result = worker.result()
+                self.published(tool, args, result, key)
+                return result
+            hold = self._stop(worker)  # the action ends, superseded by the hold: its result is the interruption's
             if stop is not None:
                 return self._interrupted(tool, hold, Interrupted(stop))
             assert found is not None
             trigger, event = found
-            self._go_over(event)
-            if self.gate(trigger, event):  # the aircraft holds over the object while the reasoner thinks
+            over = self._go_over(event)
+            acted = self.gate(trigger, event)  # the aircraft holds over the object while the reasoner thinks
+            if over is not None:
+                self._stop(over)  # before anything else is sent: its command must not land after the next one
+            if acted:
                 reason = f"{trigger.id} acts on {_name(event)}"
                 return self._interrupted(tool, hold, Interrupted(reason, trigger=trigger.id, event=event))
             self.publish("tool", name=tool, status="resumed", summary=f"{tool} flies on: {trigger.id} declined")
 
-    def _go_over(self, event: Any) -> None:
-        """Send the aircraft to hold over the event's object, without waiting: the reasoner thinks meanwhile, and
-        the next command (the sub-plan's, or the leg sent again) supersedes it."""
+    def _stop(self, flight: _Flight) -> ToolResult:
+        """Send ``flight.hold`` until ``flight``'s action has ended (a command still on its way when the first hold
+        was sent is superseded by the next); the last hold's result."""
+        while True:
+            hold = self.executor.call(HOLD, {})
+            if not flight.running(HOLD_WAIT_S):
+                return hold
+
+    def _go_over(self, event: Any) -> _Flight | None:
+        """Send the aircraft to hold over the event's object, without waiting for it to get there: the reasoner
+        thinks meanwhile. None when there is nowhere to go (it holds where it is)."""
         args = self.hold_over(event) if self.hold_over is not None else None
         if args is None:
-            return
-        threading.Thread(target=self.call, args=("flight.fly_to", args), name="agent-hold-over", daemon=True).start()
+            return None
+        return _Flight(lambda: self.call("flight.fly_to", args), "agent-hold-over")
 
     def _control_stop(self) -> str | None:
         command = self.control.stop_requested()
@@ -178,6 +182,34 @@ class Dispatcher:
         self.publish("tool", name=tool, status="interrupted", trigger=outcome.trigger, hold=hold.status,
                      summary=f"{tool} stopped: {outcome.reason}")  # fmt: skip
         return outcome
+
+
+class _Flight:
+    """A flight action running on a thread of its own while the dispatcher watches; what it raised is re-raised
+    to the watcher (the step then fails as any raising dispatch does)."""
+
+    def __init__(self, action: Callable[[], ToolResult], name: str) -> None:
+        self._box: dict[str, Any] = {}
+
+        def run() -> None:
+            try:
+                self._box["result"] = action()
+            except BaseException as exc:  # handed to the watcher
+                self._box["error"] = exc
+
+        self._thread = threading.Thread(target=run, name=name, daemon=True)
+        self._thread.start()
+
+    def running(self, wait_s: float) -> bool:
+        """Wait up to ``wait_s`` for the action to end; whether it still runs."""
+        self._thread.join(wait_s)
+        return self._thread.is_alive()
+
+    def result(self) -> ToolResult:
+        if "error" in self._box:
+            raise self._box["error"]
+        result: ToolResult = self._box["result"]
+        return result
 
 
 def _name(event: Any) -> str:

@@ -55,6 +55,7 @@ class Gate:
         self.decisions = 0
         self._lock = threading.Lock()
         self._verdicts: dict[tuple[str, str | None], Assessment | None] = {}
+        self._asking: dict[tuple[str, str | None], threading.Lock] = {}
 
     # ---- verdicts ----
 
@@ -71,11 +72,14 @@ class Gate:
         """The gate (``Environment.gate``): whether ``trigger`` may act on ``event``; asks the reasoner once."""
         key = (trigger.id, object_id(event))
         with self._lock:
-            if key in self._verdicts:
-                return acts(self._verdicts[key])
-        decision = self.decide(key[1], f"trigger {trigger.id}")
-        with self._lock:
-            self._verdicts[key] = decision.assessment
+            asking = self._asking.setdefault(key, threading.Lock())
+        with asking:  # a second thread asking about the same object waits for the first one's answer
+            with self._lock:
+                if key in self._verdicts:
+                    return acts(self._verdicts[key])
+            decision = self.decide(key[1], f"trigger {trigger.id}")
+            with self._lock:
+                self._verdicts[key] = decision.assessment
         act = acts(decision.assessment)
         self.publish("trigger", trigger=trigger.id, event=key[1], act=act,
                      summary=f"{trigger.id} on {key[1]}: {'act' if act else 'no action'}")  # fmt: skip

@@ -92,6 +92,8 @@ class StepCall:
 
     path: str
     origin: str | None = None
+    rerun: int = 0
+    """How often the step was interrupted before (an interrupted step runs again: a new call, not a replay)."""
     iteration: int | None = None
     attempt: int = 1
     number: int = 0
@@ -99,7 +101,9 @@ class StepCall:
     """The mission state the step started from (what a trigger watch evaluates against)."""
 
     def key(self) -> str:
-        where = self.path if self.iteration is None else f"{self.path}#{self.iteration}"
+        root, _, rest = self.path.partition("/")
+        where = (f"{root}~{self.rerun}" if self.rerun else root) + (f"/{rest}" if rest else "")
+        where = where if self.iteration is None else f"{where}#{self.iteration}"
         return f"{where}:{self.attempt}.{self.number}"
 
 
@@ -113,8 +117,11 @@ def current_call() -> StepCall | None:
 
 @contextmanager
 def step_call(path: str, origin: str | None = None, state: Mapping[str, Any] | None = None) -> Iterator[None]:
-    """Run the block as the mission step ``path`` (the runtime's node for one step), started from ``state``."""
-    token = _CALL.set(StepCall(path=path, origin=origin, state=state))
+    """Run the block as the mission step ``path`` (the runtime's node for one step), started from ``state``; the
+    times the log says it was interrupted before make its run number."""
+    log = (state or {}).get("log") or []
+    rerun = sum(1 for e in log if e.get("step") == path and e.get("status") == "interrupted")
+    token = _CALL.set(StepCall(path=path, origin=origin, rerun=rerun, state=state))
     try:
         yield
     finally:

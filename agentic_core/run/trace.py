@@ -31,7 +31,7 @@ class TraceWriter:
 
     def __init__(self, out: Path | TextIO) -> None:
         self._own = isinstance(out, Path)
-        self._out: TextIO = out.open("a", encoding="utf-8") if isinstance(out, Path) else out
+        self._out: TextIO = _append(out) if isinstance(out, Path) else out
         self._lock = threading.Lock()
         self.records: list[dict[str, Any]] = []
 
@@ -39,10 +39,11 @@ class TraceWriter:
         line = event.model_dump_json(exclude_none=False)
         record = json.loads(line)
         with self._lock:
+            if self._out.closed:
+                return
             self.records.append(record)
-            if not self._out.closed:
-                self._out.write(line + "\n")
-                self._out.flush()
+            self._out.write(line + "\n")
+            self._out.flush()
 
     def of_kind(self, kind: str) -> list[dict[str, Any]]:
         with self._lock:
@@ -61,20 +62,19 @@ class TelemetryLog:
         if not hz > 0:
             raise ValueError("hz must be positive")
         self.period_s = 1.0 / hz
-        self._out = path.open("a", encoding="utf-8")
-        self._next_s = -1.0
+        self._out = _append(path)
+        self._next_period = -(2**62)
         self._lock = threading.Lock()
         self.last: TelemetrySample | None = None
         self.lines = 0
 
     def __call__(self, sample: TelemetrySample) -> None:
         self.last = sample
-        if sample.time_s + 1e-9 < self._next_s:
-            return
         with self._lock:
-            if self._out.closed:
+            period = math.floor(sample.time_s / self.period_s + 1e-6)  # the period the sample falls in
+            if self._out.closed or period < self._next_period:
                 return
-            self._next_s = (math.floor(sample.time_s / self.period_s) + 1) * self.period_s
+            self._next_period = period + 1
             self._out.write(sample.model_dump_json() + "\n")
             self._out.flush()
             self.lines += 1
@@ -83,6 +83,20 @@ class TelemetryLog:
         with self._lock:
             if not self._out.closed:
                 self._out.close()
+
+
+def _append(path: Path) -> TextIO:
+    """``path`` opened to append, on a fresh line: a last line cut short by a kill is left as it is, not joined."""
+    if path.is_file() and path.stat().st_size:
+        with path.open("rb") as existing:
+            existing.seek(-1, 2)
+            cut = existing.read(1) != b"\n"
+    else:
+        cut = False
+    out = path.open("a", encoding="utf-8")
+    if cut:
+        out.write("\n")
+    return out
 
 
 __all__ = ["TelemetryLog", "TraceWriter"]

@@ -210,12 +210,6 @@ def test_no_hold_over_place_sends_nothing_more() -> None:
     assert isinstance(box[0], Interrupted) and rig.aircraft.tools() == ["flight.fly_to", "flight.hold"]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="Dispatcher._go_over sends the hold-over fly_to on a thread and does not wait for it: when the gate "
-    "declines at once, the hold-over can reach the aircraft after the leg sent again and replace it, and the "
-    "call returns the superseded leg's result as if it had been flown",
-)
 def test_a_declined_event_leaves_the_aircraft_flying_the_leg_not_holding_over_the_object() -> None:
     over = {"target_id": "P-1", "alt_m": 30.0}
     rig = Rig("low", hold_over=lambda event: dict(over))
@@ -235,12 +229,6 @@ def test_a_declined_event_leaves_the_aircraft_flying_the_leg_not_holding_over_th
     assert rig.aircraft.commands[-1] == ("flight.fly_to", LEG)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a step run again after an interruption (pause, or a trigger) has the same StepCall key as the call "
-    "that was cut short, so an executor that replays by idempotency key answers the new leg with the old, "
-    "superseded result and the leg is never flown",
-)
 def test_a_leg_interrupted_by_a_pause_is_flown_again_by_an_executor_that_replays_by_key() -> None:
     rig = Rig()
     keyed = KeyedExecutor(rig.executor, replay=True)
@@ -251,7 +239,8 @@ def test_a_leg_interrupted_by_a_pause_is_flown_again_by_an_executor_that_replays
     assert isinstance(box[0], Interrupted)
     rig.control.resume()
     rig.aircraft.instant = True
-    with step_call("leg", state={}):  # the scheduler runs the blocked step again, from the start
+    rerun = {"log": [{"step": "leg", "status": "interrupted"}]}  # what the runtime logged of the interruption
+    with step_call("leg", state=rerun):  # the scheduler runs the blocked step again, from the start
         again = rig.dispatch("flight.fly_to", dict(LEG), None)
     assert isinstance(again, ToolResult) and again.output["reached"] is True
     assert rig.aircraft.sent("flight.fly_to") == [LEG, LEG]

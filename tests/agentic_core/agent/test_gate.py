@@ -86,11 +86,6 @@ def test_an_event_that_is_not_an_object_is_judged_on_the_scene_once() -> None:
     assert reasoner.foci() == [None] and events.of("trigger")[0]["event"] is None
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="Gate.__call__ checks its verdicts, then asks the reasoner outside its lock: two threads (two watched "
-    "flights of one superstep, or the watch and the scheduler) both ask about the same (trigger, object)",
-)
 def test_two_threads_asking_about_the_same_object_ask_the_reasoner_once() -> None:
     release = threading.Event()
 

@@ -88,7 +88,7 @@ def test_an_interrupted_leg_runs_again_after_the_sub_plan_and_the_trigger_fires_
     notify = [args for tool, args, _ in dispatch.calls if tool == "alerts.notify"]
     assert notify[0]["subject"] == "P-1"  # the sub-plan reads the latched event
     legs = [key for tool, _, key in dispatch.calls if tool == "flight.fly_to"]
-    assert legs[0] == legs[1]  # the step run again from its start
+    assert legs == ["leg:1.1", "leg~1:1.1"]  # the step runs again from its start, as a new call (no replay)
 
 
 def test_an_interruption_without_a_trigger_blocks_the_step_and_it_runs_again() -> None:
