@@ -24,6 +24,7 @@ def test_a_line_starting_with_y_approves_anything_else_declines(line: str, appro
 
 def test_no_answer_in_time_declines_and_a_late_answer_goes_to_the_next_question() -> None:
     read_fd, write_fd = os.pipe()
+    before = sum(t.name == "operator-input" for t in threading.enumerate())
     with os.fdopen(read_fd) as answers, os.fdopen(write_fd, "w") as typing:
         operator = TerminalOperator(answers, io.StringIO(), timeout_s=0.2)
         silent = operator(REQUEST)
@@ -31,8 +32,8 @@ def test_no_answer_in_time_declines_and_a_late_answer_goes_to_the_next_question(
         typing.write("y\n")
         typing.flush()
         assert operator(REQUEST).approved  # one reader: the answer is not lost to the first, timed-out prompt
-        readers = [t for t in threading.enumerate() if t.name == "operator-input"]
-        assert readers == [operator._reader]  # this operator's one reader, whatever else the process runs
+        readers = sum(t.name == "operator-input" for t in threading.enumerate())
+        assert readers - before == 1  # one reader for both prompts, whatever else the process runs
 
 
 def test_an_input_that_has_ended_declines_every_question() -> None:
