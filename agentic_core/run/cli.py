@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +23,8 @@ from pydantic import ValidationError
 
 from flight.cli import parse_speed
 
-from .report import RunSummary
+from ..contracts.errors import AgenticUAVError, report_error
+from .settings import RunResult
 
 PROG = "agentic-uav run"
 
@@ -67,7 +68,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from ..contracts import AgenticUAVError, InputError
     from .runner import RunSettings, resume_run, run_mission
 
     args = build_parser().parse_args(argv)
@@ -83,15 +83,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             overrides["approval"] = args.approval or "decline"
         if "speed" in vars(args):
             overrides["speed"] = args.speed
-        try:
-            result = resume_run(args.runs_dir, args.resume, progress=progress, **overrides)
-        except InputError as exc:
-            print(f"{PROG}: error: {exc}", file=sys.stderr)
-            return 2
-        except AgenticUAVError as exc:
-            print(f"{PROG}: {exc}", file=sys.stderr)
-            return 1
-        return _finish(result.summary, result.report)
+        return _fly(lambda: resume_run(args.runs_dir, args.resume, progress=progress, **overrides))
     if args.mission is None:
         print(f"{PROG}: error: give a MISSION, or --resume RUN_ID", file=sys.stderr)
         return 2
@@ -128,21 +120,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         first = exc.errors()[0]
         print(f"{PROG}: error: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
         return 2
+    return _fly(lambda: run_mission(settings, progress=progress))
+
+
+def _fly(start: Callable[[], RunResult]) -> int:
+    """Run ``start`` and print its outcome; the exit status says it: 0 completed or returned home, 1 anything else
+    that happened, 2 for bad input (one line naming it, no traceback)."""
     try:
-        result = run_mission(settings, progress=progress)
-    except (InputError, ValueError) as exc:
+        result = start()
+    except AgenticUAVError as exc:
+        return report_error(PROG, exc, sys.stderr)
+    except ValueError as exc:  # a bad value found below our own checks
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return 2
-    except AgenticUAVError as exc:
-        print(f"{PROG}: {exc}", file=sys.stderr)
-        return 1
-    return _finish(result.summary, result.report)
-
-
-def _finish(summary: RunSummary, report: Path) -> int:
-    """Print the outcome; the exit status says it: 0 completed or returned home, 1 anything else."""
+    summary = result.summary
     print(f"{summary.run_id}: {summary.outcome}: {summary.mission} in {summary.sim_duration_s:.0f} s of flight; "
-          f"report: {report}")  # fmt: skip
+          f"report: {result.report}")  # fmt: skip
     return 0 if summary.outcome in ("completed", "returned") else 1
 
 

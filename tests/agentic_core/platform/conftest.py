@@ -7,15 +7,11 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import pytest
-
 from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
-from tests.tools.builtin.conftest import Inbox, _start
 
 from ..reasoning.llm.standin import Reply, StandIn
 from ..run.scripted_model import ScriptedModel
@@ -37,16 +33,6 @@ class SlowModel:
     def __call__(self, path: str, body: Any) -> Reply:
         time.sleep(self.latency_s)  # the latency under test
         return self.model(path, body)
-
-
-@pytest.fixture
-def smtp(monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
-    controller, server = _start(Inbox())
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", server.host)
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(server.port))
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")
-    yield server
-    controller.stop()
 
 
 def slow_server(latency_s: float) -> tuple[StandIn, SlowModel]:

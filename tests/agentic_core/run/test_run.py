@@ -18,7 +18,6 @@ from agentic_core.run.operator import OperatorAnswer
 from agentic_core.run.runner import MissionRun, RunResult, RunSettings, run_mission
 from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
-from tests.tools.builtin.conftest import Inbox, _start
 from tools import ToolSpec
 
 from ..reasoning.llm.standin import StandIn
@@ -53,16 +52,6 @@ def records(result: RunResult, kind: str) -> list[dict[str, Any]]:
 
 def tools_called(result: RunResult) -> list[str]:
     return [r["name"] for r in records(result, "tool") if r.get("status") != "interrupted"]
-
-
-@pytest.fixture
-def smtp(monkeypatch: pytest.MonkeyPatch) -> Any:
-    controller, server = _start(Inbox())
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", server.host)
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(server.port))
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")
-    yield server
-    controller.stop()
 
 
 def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(tmp_path: Path, smtp: Any) -> None:
