@@ -1,36 +1,27 @@
-"""Small geodesy for missions: distances, geofence containment and lawnmower survey legs.
+"""Mission geometry on the WGS-84 tangent plane (:mod:`agentic_core.contracts.geodesy`): geofence containment and
+lawnmower survey legs.
 
-Areas a small UAV flies are a few kilometres across, so positions are projected onto a local tangent plane
-(equirectangular about a reference point); the error is far below GPS noise at that scale.
+Areas a small UAV flies are a few kilometres across, so positions are projected onto the tangent plane at a
+reference point; the error is far below GPS noise at that scale.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-EARTH_RADIUS_M = 6_371_000.0
+from agentic_core.contracts.geodesy import local_offset, offset_position
+
 LatLonPoint = tuple[float, float]
 
 
-def haversine_m(a: LatLonPoint, b: LatLonPoint) -> float:
-    """Great-circle distance in metres between two (lat, lon) points in degrees."""
-    lat1, lon1, lat2, lon2 = map(math.radians, (*a, *b))
-    h = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(h)))
-
-
 def to_local(point: LatLonPoint, origin: LatLonPoint) -> tuple[float, float]:
-    """(north_m, east_m) of ``point`` relative to ``origin``."""
-    north = math.radians(point[0] - origin[0]) * EARTH_RADIUS_M
-    east = math.radians(point[1] - origin[1]) * EARTH_RADIUS_M * math.cos(math.radians(origin[0]))
-    return north, east
+    """(north_m, east_m) of ``point`` relative to ``origin``, on the WGS-84 tangent plane."""
+    return local_offset(origin[0], origin[1], point[0], point[1])
 
 
 def from_local(north: float, east: float, origin: LatLonPoint) -> LatLonPoint:
-    lat = origin[0] + math.degrees(north / EARTH_RADIUS_M)
-    lon = origin[1] + math.degrees(east / (EARTH_RADIUS_M * math.cos(math.radians(origin[0]))))
-    return lat, lon
+    """The point ``north``/``east`` metres from ``origin`` (the inverse of :func:`to_local`)."""
+    return offset_position(origin[0], origin[1], north, east)
 
 
 class Polygon:

@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts.geodesy import earth_radii, ned_to_geodetic
 from flight.camera import BoundingBox, Detection, Frame, footprint
-from flight.geodesy import earth_radii, ned_to_geodetic
 
 from .measurement import NoiseModel, common_covariance, ego_covariance, ground_measurements
 from .scene_graph import Rel, RelationConfig, SceneGraph, as_landmark
@@ -270,7 +270,8 @@ def _trusted_relation(r: Rel) -> bool:
 
 
 def _geodetic(lat0: float, lon0: float, north: np.ndarray, east: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Latitudes and longitudes of local points (the tangent-plane formulas of :mod:`flight.geodesy`, vectorised)."""
+    """Latitudes and longitudes of local points (the tangent plane of :mod:`agentic_core.contracts.geodesy`,
+    vectorised)."""
     r_m, r_n = earth_radii(lat0)
     lat = lat0 + np.degrees(north / r_m)
     lon = lon0 + np.degrees(east / (r_n * math.cos(math.radians(lat0))))

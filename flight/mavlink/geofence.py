@@ -15,8 +15,8 @@ Behaviour kept from PX4 (MAVLink ``common.xml`` for the items; the PX4 user guid
   area; the inclusion groups of param2 are not distinguished (every inclusion area is one group).
 * Fence areas are horizontal only; the height limit is ``GF_MAX_VER_DIST``.
 
-Positions are north/east metres from home on the tangent plane (:mod:`flight.geodesy`), good over the few
-kilometres a fence spans. A polygon whose vertices do not come in complete runs of param1 is refused
+Positions are north/east metres from home on the tangent plane (:mod:`agentic_core.contracts.geodesy`), good
+over the few kilometres a fence spans. A polygon whose vertices do not come in complete runs of param1 is refused
 (:class:`FenceInvalid`; ours, PX4 discards such a fence when loading it).
 """
 
@@ -32,7 +32,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from agentic_core.contracts.errors import AgenticUAVError
-from flight.geodesy import local_offset
+from agentic_core.contracts.geodesy import local_offset
 from flight.mavlink.mission_items import (
     FENCE_CIRCLE_COMMANDS,
     FENCE_POLYGON_COMMANDS,

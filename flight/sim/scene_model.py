@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validator
 
-from flight.geodesy import offset_position
+from agentic_core.contracts.geodesy import offset_position
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG, Home
 
 FloatArray = NDArray[np.float64]

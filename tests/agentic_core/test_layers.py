@@ -30,9 +30,9 @@ TABLE: dict[str, set[str]] = {
 """package (or module) → what of ours it may import, besides itself. Missing packages are rows with no files."""
 
 KNOWN_EXCEPTIONS: dict[str, set[str]] = {
-    # Perception reads the camera's pinhole geometry (project_points, ground_points) and flight's geodesy; both
-    # belong in contracts (issue 14 part 3: one geodesy), not done yet.
-    "agentic_core.perception": {"flight.camera", "flight.geodesy"},
+    # Perception reads the camera's pinhole geometry (project_points, ground_points); it belongs in contracts
+    # (issue 14 part 3), not done yet.
+    "agentic_core.perception": {"flight.camera"},
     # Mission files and scene files share the YAML position helper (line:col of a node); to move into contracts.
     "agentic_core.mission": {"flight.yaml_positions"},
     # The reflector reads the mission's Failure record, which lives beside the compiler (mission.compile is being

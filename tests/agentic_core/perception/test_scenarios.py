@@ -25,6 +25,7 @@ import math
 import numpy as np
 import pytest
 
+from agentic_core.contracts.geodesy import local_offset
 from agentic_core.mission.expressions import Expression, render
 from agentic_core.mission.functions import find
 from agentic_core.perception.geometry import distance_to_polygon_edge, points_in_polygon
@@ -32,7 +33,6 @@ from agentic_core.perception.metrics import TrackingScore
 from agentic_core.perception.scene_graph import RelationConfig
 from agentic_core.perception.world_model import WorldModel, WorldObject
 from flight.camera import footprint
-from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
 from flight.sim.scene_gen import generate_scene
 
