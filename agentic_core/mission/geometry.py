@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from agentic_core.contracts.geodesy import local_offset, offset_position
+from agentic_core.contracts.polygon import point_in_polygon
 
 LatLonPoint = tuple[float, float]
 
@@ -30,22 +31,10 @@ class Polygon:
     def __init__(self, vertices: Sequence[LatLonPoint]) -> None:
         self.origin = vertices[0]
         self.local = [to_local(p, self.origin) for p in vertices]
-        self.edges = list(zip(self.local, self.local[1:] + self.local[:1], strict=True))
 
     def contains(self, point: LatLonPoint) -> bool:
-        """Ray casting on the local plane; points on an edge count as inside."""
-        x, y = to_local(point, self.origin)
-        inside = False
-        for (x1, y1), (x2, y2) in self.edges:
-            if min(y1, y2) <= y <= max(y1, y2) and min(x1, x2) <= x <= max(x1, x2):
-                cross = (x2 - x1) * (y - y1) - (y2 - y1) * (x - x1)
-                if abs(cross) < 1e-6:
-                    return True
-            if (y1 > y) != (y2 > y):
-                x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-                if x < x_at:
-                    inside = not inside
-        return inside
+        """Whether ``point`` is inside (its edges count as inside: :mod:`agentic_core.contracts.polygon`)."""
+        return point_in_polygon(to_local(point, self.origin), self.local)
 
 
 def lawnmower(polygon: Sequence[LatLonPoint], spacing_m: float) -> list[LatLonPoint]:
