@@ -7,7 +7,8 @@ kept as :attr:`Perception.world`). One thread updates; others may read :attr:`Pe
 confirmed tracks and lost ones still within their re-identification window (``state`` says which); tentative
 tracks only with ``publish_tentative``.
 
->>> from flight.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame, project_points
+>>> from agentic_core.contracts.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame
+>>> from agentic_core.contracts.pinhole import project_points
 >>> spec, pose = CameraSpec(), CameraPose(north_m=0.0, east_m=0.0, down_m=-30.0)
 >>> perception = Perception(home=(21.4133, 39.8933, 0.0))
 >>> (u, v), = project_points(spec, pose, np.array([[4.0, 3.0, -0.85]]))[0]  # a person's middle, 0.85 m up
@@ -32,8 +33,9 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts.camera import BoundingBox, Detection, Frame
 from agentic_core.contracts.geodesy import earth_radii, ned_to_geodetic
-from flight.camera import BoundingBox, Detection, Frame, footprint
+from agentic_core.contracts.pinhole import footprint
 
 from .measurement import NoiseModel, common_covariance, ego_covariance, ground_measurements
 from .scene_graph import Rel, RelationConfig, SceneGraph, as_landmark
