@@ -44,10 +44,10 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts.geodesy import local_offset, offset_position
 from tools import ToolError, ToolRegistry, ToolSpec
 from tools.function import spec_from_function
 
-from .geodesy import local_offset, offset_position
 from .vehicle import FlightResult, MissionItem, MissionResult, Telemetry, VehicleClient
 
 ClientFactory = Callable[[], Awaitable[VehicleClient]]

@@ -5,7 +5,8 @@ graph runtime.
 >>> plan = load_mission("missions/inspect_perimeter.yaml")  # doctest: +SKIP
 """
 
-from .compile import Environment, Failure, MissionState, compile_mission
+from ..contracts.failure import Failure
+from .compile import Environment, MissionState, compile_mission
 from .model import ACTION_TOOLS, ACTIONS, PolicyGraph, Step, mission_json_schema
 from .params import initial_state
 from .source import MissionError, Problem

@@ -20,6 +20,7 @@ from typing import Any
 
 from pydantic import TypeAdapter, ValidationError
 
+from ..contracts.failure import Failure
 from ..graph import END, START, Command, CompiledStateGraph, Send, StateGraph
 from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
@@ -41,15 +42,6 @@ from .validate import check_revision, iter_steps
 REFLECT, ABORT, RTL, SCHEDULE, DYNAMIC = "__reflect__", "__abort__", "__rtl__", "__schedule__", "__dynamic__"
 DONE = frozenset({"ok", "skipped"})
 STEPS_ADAPTER: TypeAdapter[list[Step]] = TypeAdapter(list[Step])
-
-
-@dataclass
-class Failure:
-    """What a reflector is given: the step that failed, why, and the mission state at that moment."""
-
-    step: Step
-    error: str
-    state: Mapping[str, Any]
 
 
 Reflector = Callable[[Failure], list[Step] | list[dict[str, Any]] | None]

@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterable, Mapping
 from types import MappingProxyType, SimpleNamespace
 from typing import Any
 
-from .geometry import haversine_m
+from agentic_core.contracts import geodesy
 
 MISSING: Any = object()
 """What :func:`get_field` returns for a field that is not there."""
@@ -110,19 +110,19 @@ def _pair(position: Any, keys: tuple[tuple[str, str], ...]) -> tuple[float, floa
     return None
 
 
-def _haversine_m(a: tuple[float, float], b: tuple[float, float]) -> float:
+def _geodesic_m(a: tuple[float, float], b: tuple[float, float]) -> float:
     if not (abs(a[0]) <= 90 and abs(b[0]) <= 90):
         raise ValueError("latitude must be between -90 and 90 degrees")
-    return haversine_m(a, b)
+    return geodesy.distance_m(a[0], a[1], b[0], b[1])
 
 
 def distance_m(a: Any, b: Any) -> float:
     """Horizontal distance in metres between two positions (dicts or records). Both with ``lat``/``lon`` (or
-    ``latitude``/``longitude``): great circle on a 6,371 km sphere; else both with ``north``/``east`` (or
+    ``latitude``/``longitude``): the WGS-84 ellipsoid's shortest distance; else both with ``north``/``east`` (or
     ``north_m``/``east_m``, local NED): Euclidean. One of each is refused."""
     geo = _pair(a, (("lat", "lon"), ("latitude", "longitude"))), _pair(b, (("lat", "lon"), ("latitude", "longitude")))
     if geo[0] is not None and geo[1] is not None:
-        return _haversine_m(geo[0], geo[1])
+        return _geodesic_m(geo[0], geo[1])
     ned = _pair(a, (("north", "east"), ("north_m", "east_m"))), _pair(b, (("north", "east"), ("north_m", "east_m")))
     if ned[0] is not None and ned[1] is not None:
         return math.hypot(ned[0][0] - ned[1][0], ned[0][1] - ned[1][1])

@@ -1,36 +1,28 @@
-"""Small geodesy for missions: distances, geofence containment and lawnmower survey legs.
+"""Mission geometry on the WGS-84 tangent plane (:mod:`agentic_core.contracts.geodesy`): geofence containment and
+lawnmower survey legs.
 
-Areas a small UAV flies are a few kilometres across, so positions are projected onto a local tangent plane
-(equirectangular about a reference point); the error is far below GPS noise at that scale.
+Areas a small UAV flies are a few kilometres across, so positions are projected onto the tangent plane at a
+reference point; the error is far below GPS noise at that scale.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
-EARTH_RADIUS_M = 6_371_000.0
+from agentic_core.contracts.geodesy import local_offset, offset_position
+from agentic_core.contracts.polygon import point_in_polygon
+
 LatLonPoint = tuple[float, float]
 
 
-def haversine_m(a: LatLonPoint, b: LatLonPoint) -> float:
-    """Great-circle distance in metres between two (lat, lon) points in degrees."""
-    lat1, lon1, lat2, lon2 = map(math.radians, (*a, *b))
-    h = math.sin((lat2 - lat1) / 2) ** 2 + math.cos(lat1) * math.cos(lat2) * math.sin((lon2 - lon1) / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(h)))
-
-
 def to_local(point: LatLonPoint, origin: LatLonPoint) -> tuple[float, float]:
-    """(north_m, east_m) of ``point`` relative to ``origin``."""
-    north = math.radians(point[0] - origin[0]) * EARTH_RADIUS_M
-    east = math.radians(point[1] - origin[1]) * EARTH_RADIUS_M * math.cos(math.radians(origin[0]))
-    return north, east
+    """(north_m, east_m) of ``point`` relative to ``origin``, on the WGS-84 tangent plane."""
+    return local_offset(origin[0], origin[1], point[0], point[1])
 
 
 def from_local(north: float, east: float, origin: LatLonPoint) -> LatLonPoint:
-    lat = origin[0] + math.degrees(north / EARTH_RADIUS_M)
-    lon = origin[1] + math.degrees(east / (EARTH_RADIUS_M * math.cos(math.radians(origin[0]))))
-    return lat, lon
+    """The point ``north``/``east`` metres from ``origin`` (the inverse of :func:`to_local`)."""
+    return offset_position(origin[0], origin[1], north, east)
 
 
 class Polygon:
@@ -39,22 +31,10 @@ class Polygon:
     def __init__(self, vertices: Sequence[LatLonPoint]) -> None:
         self.origin = vertices[0]
         self.local = [to_local(p, self.origin) for p in vertices]
-        self.edges = list(zip(self.local, self.local[1:] + self.local[:1], strict=True))
 
     def contains(self, point: LatLonPoint) -> bool:
-        """Ray casting on the local plane; points on an edge count as inside."""
-        x, y = to_local(point, self.origin)
-        inside = False
-        for (x1, y1), (x2, y2) in self.edges:
-            if min(y1, y2) <= y <= max(y1, y2) and min(x1, x2) <= x <= max(x1, x2):
-                cross = (x2 - x1) * (y - y1) - (y2 - y1) * (x - x1)
-                if abs(cross) < 1e-6:
-                    return True
-            if (y1 > y) != (y2 > y):
-                x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-                if x < x_at:
-                    inside = not inside
-        return inside
+        """Whether ``point`` is inside (its edges count as inside: :mod:`agentic_core.contracts.polygon`)."""
+        return point_in_polygon(to_local(point, self.origin), self.local)
 
 
 def lawnmower(polygon: Sequence[LatLonPoint], spacing_m: float) -> list[LatLonPoint]:

@@ -8,37 +8,24 @@ from __future__ import annotations
 
 import contextlib
 import gc
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 import yaml
 
-from agentic_core.contracts.errors import InputError
-from flight.yaml_positions import node_position, position_at
+from agentic_core.contracts.problems import LocatedProblem, ProblemsError
+from agentic_core.contracts.yaml_positions import node_position, position_at
 
 Path = tuple[str | int, ...]
 
 
-@dataclass(frozen=True, order=True)
-class Problem:
-    """One thing wrong with a mission file, printed as ``file:line:col: message``."""
-
-    file: str
-    line: int
-    col: int
-    message: str
-
-    def __str__(self) -> str:
-        return f"{self.file}:{self.line}:{self.col}: {self.message}"
+Problem = LocatedProblem
+"""One thing wrong with a mission file, printed as ``file:line:col: message``."""
 
 
-class MissionError(InputError):
+class MissionError(ProblemsError):
     """A mission that cannot be flown; ``problems`` holds every problem found in it, in file order."""
-
-    def __init__(self, problems: Sequence[Problem]) -> None:
-        self.problems = sorted(problems)
-        super().__init__("\n".join(str(p) for p in self.problems))
 
 
 @dataclass

@@ -20,8 +20,10 @@ from typing import Any, NamedTuple
 
 from pydantic import BaseModel, ValidationError
 
+from agentic_core.contracts.geodesy import distance_m
+
 from .expressions import Expression, ExpressionError, find_templates
-from .geometry import Polygon, haversine_m
+from .geometry import Polygon
 from .model import BranchStep, Circle, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
 from .schema_errors import schema_problems, suggest
 from .source import MissionError, Path, Problem, SourceMap, load_document
@@ -435,7 +437,7 @@ class _Checker:
         if isinstance(fence, Circle):
             if not isinstance(fence.center.lat, _NUMBER) or not isinstance(fence.center.lon, _NUMBER):
                 return True
-            return haversine_m(point, (float(fence.center.lat), float(fence.center.lon))) <= fence.radius_m
+            return distance_m(point[0], point[1], float(fence.center.lat), float(fence.center.lon)) <= fence.radius_m
         if self._fence is None:
             if not all(isinstance(p.lat, _NUMBER) and isinstance(p.lon, _NUMBER) for p in fence):
                 return True  # a vertex given as ${...} is only known when the mission runs

@@ -6,7 +6,7 @@ with covariances), :mod:`.tracker` (+ :mod:`.kalman`, :mod:`.association`), :mod
 networkx graph), :mod:`.world_model` (the contract and its JSON Schema), :mod:`.annotate` (a PNG of a frame for
 alerts) and :mod:`.metrics` (scoring tracks against ground truth).
 
->>> from flight.camera import CameraPose, CameraSpec, Frame
+>>> from agentic_core.contracts.camera import CameraPose, CameraSpec, Frame
 >>> perception = Perception(home=(21.4133, 39.8933, 300.0))
 >>> world = perception.update(Frame(index=0, time_s=0.0, spec=CameraSpec(),
 ...                                 pose=CameraPose(north_m=0.0, east_m=0.0, down_m=-30.0)), [])

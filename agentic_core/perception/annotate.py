@@ -16,7 +16,7 @@ with :mod:`zlib` at its fastest level (lossless; a frame compresses well). Sizes
 as the figure had them. No global state but the glyph cache (guarded by a lock), so it is safe in a headless run
 and from any thread.
 
->>> from flight.camera import CameraPose, CameraSpec, Frame
+>>> from agentic_core.contracts.camera import CameraPose, CameraSpec, Frame
 >>> from agentic_core.perception.world_model import WorldModel
 >>> frame = Frame(index=0, time_s=0.0, spec=CameraSpec(), pose=CameraPose(north_m=0, east_m=0, down_m=-30))
 >>> world = WorldModel.model_validate({"timestamp": 0.0, "ego_pose": {"north": 0, "east": 0, "down": -30,
@@ -43,7 +43,8 @@ import numpy as np
 from matplotlib import ft2font, get_data_path
 from numpy.typing import NDArray
 
-from flight.camera import BoundingBox, Detection, Frame, ground_points, ground_sample_distance, project_points
+from agentic_core.contracts.camera import BoundingBox, Detection, Frame
+from agentic_core.contracts.pinhole import ground_points, ground_sample_distance, project_points
 
 from .world_model import WorldModel
 

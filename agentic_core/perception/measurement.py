@@ -1,14 +1,14 @@
 """From pixel boxes to ground positions with covariances: what the tracker measures, and how sure it can be.
 
-A detection's box centre is cast through the camera model onto a horizontal plane (:func:`flight.camera.
-ground_points`). Why the centre: the default camera looks straight down, where the bottom edge of a person's
-box is not their feet (from above, the feet are inside the box) but the box spans feet to head, leaning away from
-the nadir; its centre marks the body's middle, half its height up. So each class names the height its box centre
-marks (``centre_height_m``: 0.85 m for a person, standing or walking as most are) and the centre is cast onto that
-plane, which puts the point over the feet at any gimbal pitch: on the simulated Hajj crowds this halves the
-position error against casting onto the ground (0.55 → 0.16–0.26 m RMSE). A person lying down (box centre 0.15 m
-up) is then placed ``0.7 m · offset / height`` towards the nadir (0.33 m at 14 m offset, 30 m up); that ambiguity
-is in each object's reported covariance (``centre_height_sigma_m``).
+A detection's box centre is cast through the camera model onto a horizontal plane
+(:func:`agentic_core.contracts.pinhole.ground_points`). Why the centre: the default camera looks straight down, where
+the bottom edge of a person's box is not their feet (from above, the feet are inside the box) but the box spans feet
+to head, leaning away from the nadir; its centre marks the body's middle, half its height up. So each class names the
+height its box centre marks (``centre_height_m``: 0.85 m for a person, standing or walking as most are) and the centre
+is cast onto that plane, which puts the point over the feet at any gimbal pitch: on the simulated Hajj crowds this
+halves the position error against casting onto the ground (0.55 → 0.16–0.26 m RMSE). A person lying down (box centre
+0.15 m up) is then placed ``0.7 m · offset / height`` towards the nadir (0.33 m at 14 m offset, 30 m up); that
+ambiguity is in each object's reported covariance (``centre_height_sigma_m``).
 
 Noise splits in two, because the two behave differently:
 
@@ -22,10 +22,10 @@ Noise splits in two, because the two behave differently:
   together, so it does not enter ``R`` (the tracker would otherwise smooth relative motion it can see); it is
   added to each object's reported covariance and is the ego pose's covariance.
 
-Degraded sensors (:class:`flight.camera.SensorHealth`) multiply their terms: ``camera`` and ``thermal`` the pixel
-noise, ``imu`` the attitude jitter, ``gps`` the fix (jitter and absolute), ``baro`` the height.
+Degraded sensors (:class:`agentic_core.contracts.camera.SensorHealth`) multiply their terms: ``camera`` and
+``thermal`` the pixel noise, ``imu`` the attitude jitter, ``gps`` the fix (jitter and absolute), ``baro`` the height.
 
->>> from flight.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame
+>>> from agentic_core.contracts.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame
 >>> frame = Frame(index=0, time_s=0.0, spec=CameraSpec(), pose=CameraPose(north_m=0, east_m=0, down_m=-30))
 >>> box = BoundingBox(x_min=950, y_min=530, x_max=970, y_max=550)
 >>> m = ground_measurements(frame, [Detection(class_name="person", box=box, confidence=0.9)], NoiseModel())
@@ -44,7 +44,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
-from flight.camera import CameraPose, CameraSpec, Detection, Frame, SensorHealth, ground_points
+from agentic_core.contracts.camera import CameraPose, CameraSpec, Detection, Frame, SensorHealth
+from agentic_core.contracts.pinhole import ground_points
 
 FloatArray = NDArray[np.float64]
 

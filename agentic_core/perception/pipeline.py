@@ -7,7 +7,8 @@ kept as :attr:`Perception.world`). One thread updates; others may read :attr:`Pe
 confirmed tracks and lost ones still within their re-identification window (``state`` says which); tentative
 tracks only with ``publish_tentative``.
 
->>> from flight.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame, project_points
+>>> from agentic_core.contracts.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame
+>>> from agentic_core.contracts.pinhole import project_points
 >>> spec, pose = CameraSpec(), CameraPose(north_m=0.0, east_m=0.0, down_m=-30.0)
 >>> perception = Perception(home=(21.4133, 39.8933, 0.0))
 >>> (u, v), = project_points(spec, pose, np.array([[4.0, 3.0, -0.85]]))[0]  # a person's middle, 0.85 m up
@@ -32,8 +33,9 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from flight.camera import BoundingBox, Detection, Frame, footprint
-from flight.geodesy import earth_radii, ned_to_geodetic
+from agentic_core.contracts.camera import BoundingBox, Detection, Frame
+from agentic_core.contracts.geodesy import earth_radii, ned_to_geodetic
+from agentic_core.contracts.pinhole import footprint
 
 from .measurement import NoiseModel, common_covariance, ego_covariance, ground_measurements
 from .scene_graph import Rel, RelationConfig, SceneGraph, as_landmark
@@ -270,7 +272,8 @@ def _trusted_relation(r: Rel) -> bool:
 
 
 def _geodetic(lat0: float, lon0: float, north: np.ndarray, east: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Latitudes and longitudes of local points (the tangent-plane formulas of :mod:`flight.geodesy`, vectorised)."""
+    """Latitudes and longitudes of local points (the tangent plane of :mod:`agentic_core.contracts.geodesy`,
+    vectorised)."""
     r_m, r_n = earth_radii(lat0)
     lat = lat0 + np.degrees(north / r_m)
     lon = lon0 + np.degrees(east / (r_n * math.cos(math.radians(lat0))))

@@ -58,7 +58,8 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
-from .geometry import distance_to_polygon_edge, points_in_polygon
+from agentic_core.contracts.polygon import distance_to_edge, points_in_polygon
+
 from .kalman import speed_and_sigma
 from .tracker import CONFIRMED, TENTATIVE, TrackTable
 from .world_model import Landmark
@@ -140,7 +141,7 @@ def _landmark_geometry(lm: Landmark, points: FloatArray) -> tuple[FloatArray, ND
     if lm.polygon is not None:
         poly = np.asarray(lm.polygon, dtype=float)
         inside = points_in_polygon(points, poly)
-        return np.where(inside, 0.0, distance_to_polygon_edge(points, poly)), inside
+        return np.where(inside, 0.0, distance_to_edge(points, poly)), inside
     d = np.hypot(points[:, 0] - lm.north, points[:, 1] - lm.east)
     if lm.radius_m is not None:
         inside = d <= lm.radius_m
@@ -216,7 +217,7 @@ class SceneGraph:
         if footprint is not None and len(cand):
             poly = np.asarray(footprint, dtype=float)
             pts = tracks.x[cand, :2]
-            seen = points_in_polygon(pts, poly) & (distance_to_polygon_edge(pts, poly) >= cfg.view_margin_m)
+            seen = points_in_polygon(pts, poly) & (distance_to_edge(pts, poly) >= cfg.view_margin_m)
             cand, nearest = cand[seen], nearest[seen]
         if len(cand) == 0:
             return []

@@ -40,9 +40,10 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts.polygon import points_in_polygon
+
 from . import kalman
 from .association import associate
-from .geometry import points_in_polygon
 from .measurement import Measurements
 
 FloatArray = NDArray[np.float64]

@@ -15,10 +15,10 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import prompts
+from agentic_core.contracts.failure import Failure
 from agentic_core.contracts.policy_graph import PolicyGraph
 from tools.security import wrap_untrusted
 
-from ..mission.compile import Failure
 from .llm import ChatRequest, Message
 from .model_reasoners import StructuredChat
 from .proposal import ask

@@ -22,8 +22,8 @@ import threading
 import time
 from pathlib import Path
 
+from agentic_core.contracts.geodesy import local_offset
 from flight.camera import CameraPose, Frame
-from flight.geodesy import local_offset
 from flight.sim.detector import SimulatedCamera, SimulatedDetector
 from flight.sim.scene_model import Scene
 from flight.sim.simulator import VehicleState

@@ -38,10 +38,10 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_RESULT_UNSUPPORTED,
 )
 
+from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.client.operations import OperationsClient
 from flight.client.results import FlightResult
 from flight.client.telemetry import Telemetry, TelemetryState
-from flight.geodesy import local_offset, offset_position
 from flight.px4 import AutoSubMode, MainMode
 
 FORCE_MAGIC = 21196

@@ -15,8 +15,8 @@ Behaviour kept from PX4 (MAVLink ``common.xml`` for the items; the PX4 user guid
   area; the inclusion groups of param2 are not distinguished (every inclusion area is one group).
 * Fence areas are horizontal only; the height limit is ``GF_MAX_VER_DIST``.
 
-Positions are north/east metres from home on the tangent plane (:mod:`flight.geodesy`), good over the few
-kilometres a fence spans. A polygon whose vertices do not come in complete runs of param1 is refused
+Positions are north/east metres from home on the tangent plane (:mod:`agentic_core.contracts.geodesy`), good
+over the few kilometres a fence spans. A polygon whose vertices do not come in complete runs of param1 is refused
 (:class:`FenceInvalid`; ours, PX4 discards such a fence when loading it).
 """
 
@@ -32,7 +32,8 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from agentic_core.contracts.errors import AgenticUAVError
-from flight.geodesy import local_offset
+from agentic_core.contracts.geodesy import local_offset
+from agentic_core.contracts.polygon import point_in_polygon, points_in_circle
 from flight.mavlink.mission_items import (
     FENCE_CIRCLE_COMMANDS,
     FENCE_POLYGON_COMMANDS,
@@ -55,18 +56,8 @@ class Polygon:
     inclusion: bool
 
     def contains(self, north: float, east: float) -> bool:
-        """Even-odd ray casting; a point on an edge may fall either way."""
-        inside = False
-        pts = self.vertices
-        j = len(pts) - 1
-        for i in range(len(pts)):
-            (ni, ei), (nj, ej) = pts[i], pts[j]
-            if (ei > east) != (ej > east):
-                cross_n = ni + (east - ei) * (nj - ni) / (ej - ei)
-                if north < cross_n:
-                    inside = not inside
-            j = i
-        return inside
+        """Even-odd, a point on an edge inside (:mod:`agentic_core.contracts.polygon`)."""
+        return point_in_polygon((north, east), self.vertices)
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +67,7 @@ class Circle:
     inclusion: bool
 
     def contains(self, north: float, east: float) -> bool:
-        return math.hypot(north - self.centre[0], east - self.centre[1]) <= self.radius_m
+        return bool(points_in_circle([(north, east)], self.centre, self.radius_m)[0])
 
 
 Area = Polygon | Circle

@@ -77,7 +77,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MISSION_STATE_PAUSED,
 )
 
-from flight.geodesy import local_offset
+from agentic_core.contracts.geodesy import local_offset
 from flight.mavlink.commands import GRIPPER_ACTION_RELEASE, PAYLOAD_RELEASE_PWM, CommandOutcome, CommandRequest
 from flight.mavlink.mission import MissionStore
 from flight.mavlink.mission_items import StoredItem

@@ -7,7 +7,7 @@ vehicle's pacer). Nothing in ``flight.sim`` imports from ``agentic_core`` or ``t
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from flight.geodesy import geodetic_to_ned, ned_to_geodetic
+from agentic_core.contracts.geodesy import geodetic_to_ned, ned_to_geodetic
 from flight.sim.battery import Battery, BatteryConfig, cell_ocv
 from flight.sim.controller import (
     ControlOutput,

@@ -42,7 +42,7 @@ from typing import NamedTuple
 
 import jsbsim
 
-from flight.geodesy import earth_radii
+from agentic_core.contracts.geodesy import earth_radii
 
 FT = 0.3048
 """Metres per foot."""

@@ -25,41 +25,26 @@ import difflib
 import os
 import types
 import typing
-from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path as FilePath
 from typing import Any
 
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from agentic_core.contracts.errors import InputError
+from agentic_core.contracts.problems import LocatedProblem, ProblemsError
+from agentic_core.contracts.yaml_positions import node_position, position_at
 from flight.sim.scene_model import Path, Scene, describe_path, scene_problems
-from flight.yaml_positions import node_position, position_at
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 SCHEMA_HEADER = "# yaml-language-server: $schema=scene.schema.json\n"
 
 
-@dataclass(frozen=True, order=True)
-class SceneProblem:
-    """One thing wrong with a scene file: ``file:line:col: message`` (1-based line and column)."""
-
-    file: str
-    line: int
-    col: int
-    message: str
-
-    def __str__(self) -> str:
-        return f"{self.file}:{self.line}:{self.col}: {self.message}"
+SceneProblem = LocatedProblem
+"""One thing wrong with a scene file: ``file:line:col: message`` (1-based line and column)."""
 
 
-class SceneFileError(InputError):
+class SceneFileError(ProblemsError):
     """A scene file that cannot be used; ``problems`` lists everything found wrong, in file order."""
-
-    def __init__(self, problems: Sequence[SceneProblem]) -> None:
-        self.problems = sorted(problems)
-        super().__init__("\n".join(str(p) for p in self.problems))
 
 
 def load_scene(source: str | os.PathLike[str], *, file: str | None = None) -> Scene:

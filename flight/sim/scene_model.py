@@ -30,7 +30,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validator
 
-from flight.geodesy import offset_position
+from agentic_core.contracts.geodesy import offset_position
+from agentic_core.contracts.polygon import distance_to_edge, points_in_circle, points_in_polygon, polygon_area
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG, Home
 
 FloatArray = NDArray[np.float64]
@@ -175,28 +176,14 @@ class Zone(BaseModel):
     def area(self) -> float:
         if self.circle is not None and self.polygon is None:
             return math.pi * self.circle.radius_m**2
-        v = self.vertices()
-        if len(v) < 3:
-            return 0.0
-        x, y = v[:, 0], v[:, 1]
-        return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+        return polygon_area(self.vertices())
 
     def contains(self, points: FloatArray) -> NDArray[np.bool_]:
-        """Which of N north/east points (N×2) lie inside (even–odd rule for polygons)."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        """Which of N north/east points (N×2) lie inside (:mod:`agentic_core.contracts.polygon`: edges inside)."""
         if self.circle is not None and self.polygon is None:
             c = self.circle.center
-            inside: NDArray[np.bool_] = np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east) <= self.circle.radius_m
-            return inside
-        v = self.vertices()
-        inside = np.zeros(len(pts), dtype=bool)
-        x, y = pts[:, 0], pts[:, 1]
-        for (x1, y1), (x2, y2) in zip(v, np.roll(v, -1, axis=0), strict=True):
-            crosses = (y1 > y) != (y2 > y)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-            inside ^= crosses & (x < x_at)
-        return inside
+            return points_in_circle(points, (c.north, c.east), self.circle.radius_m)
+        return points_in_polygon(points, self.vertices())
 
     def distance(self, points: FloatArray) -> FloatArray:
         """Ground distance (m) from N points to the zone: 0 inside."""
@@ -205,14 +192,7 @@ class Zone(BaseModel):
             c = self.circle.center
             d: FloatArray = np.maximum(np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east) - self.circle.radius_m, 0.0)
             return d
-        v = self.vertices()
-        a, b = v, np.roll(v, -1, axis=0)
-        ab = b - a  # K×2
-        ap = pts[:, None, :] - a[None, :, :]  # N×K×2
-        t = np.clip(np.einsum("nkj,kj->nk", ap, ab) / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-12), 0.0, 1.0)
-        nearest = a[None, :, :] + t[..., None] * ab[None, :, :]
-        d = np.linalg.norm(pts[:, None, :] - nearest, axis=2).min(axis=1)
-        return np.where(self.contains(pts), 0.0, d)
+        return np.where(self.contains(pts), 0.0, distance_to_edge(pts, self.vertices()))
 
     def sample(self, n: int, rng: np.random.Generator) -> FloatArray:
         """``n`` points drawn uniformly inside the zone."""

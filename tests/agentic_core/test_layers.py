@@ -29,17 +29,8 @@ TABLE: dict[str, set[str]] = {
 }
 """package (or module) → what of ours it may import, besides itself. Missing packages are rows with no files."""
 
-KNOWN_EXCEPTIONS: dict[str, set[str]] = {
-    # Perception reads the camera's pinhole geometry (project_points, ground_points) and flight's geodesy; both
-    # belong in contracts (issue 14 part 3: one geodesy), not done yet.
-    "agentic_core.perception": {"flight.camera", "flight.geodesy"},
-    # Mission files and scene files share the YAML position helper (line:col of a node); to move into contracts.
-    "agentic_core.mission": {"flight.yaml_positions"},
-    # The reflector reads the mission's Failure record, which lives beside the compiler (mission.compile is being
-    # rewritten in parallel); the record is to move into contracts.
-    "agentic_core.reasoning": {"agentic_core.mission.compile"},
-}
-"""Imports that break a row today, each to be removed by the part of issue 14 named beside it."""
+KNOWN_EXCEPTIONS: dict[str, set[str]] = {}
+"""Imports that break a row today, each with the issue that removes it beside it (none since issue 14)."""
 
 
 def _row(module: str) -> str | None:
@@ -101,18 +92,19 @@ def test_each_package_imports_only_what_its_row_allows(row: str) -> None:
     assert offenders == []
 
 
-@pytest.mark.parametrize("row", sorted(KNOWN_EXCEPTIONS))
-def test_known_exceptions_are_still_needed(row: str) -> None:
+def test_known_exceptions_are_still_needed() -> None:
     """A known exception no longer used is removed from the list, so the table only ever gets stricter."""
-    used = {
-        allowed
-        for path, module in _modules()
-        if _row(module) == row
-        for target in _imports(path, module)
-        for allowed in KNOWN_EXCEPTIONS[row]
-        if (target == allowed or target.startswith(allowed + ".")) and not _allowed_without_exceptions(target, row)
-    }
-    assert used == KNOWN_EXCEPTIONS[row]
+    assert set(KNOWN_EXCEPTIONS) <= set(TABLE)
+    for row, exceptions in KNOWN_EXCEPTIONS.items():
+        used = {
+            allowed
+            for path, module in _modules()
+            if _row(module) == row
+            for target in _imports(path, module)
+            for allowed in exceptions
+            if (target == allowed or target.startswith(allowed + ".")) and not _allowed_without_exceptions(target, row)
+        }
+        assert used == exceptions, row
 
 
 def _allowed_without_exceptions(target: str, row: str) -> bool:

@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v20.common import MAV_RESULT_UNSUPPORTED
 
-from flight.geodesy import local_offset, offset_position
+from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import VehicleClient, VehicleConnectionError, parse_address

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from flight.geodesy import local_offset, offset_position
+from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import MissionItem, MissionType, VehicleClient

@@ -8,10 +8,10 @@ import time
 
 import pytest
 
+from agentic_core.contracts.geodesy import offset_position
 from agentic_core.contracts.telemetry import TelemetrySample
 from flight.client.streams import interval_us, message_id
 from flight.client.telemetry import Telemetry
-from flight.geodesy import offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import CAMERA_STREAMS, VehicleClient

@@ -9,9 +9,9 @@ import jsonschema
 import pytest
 from pydantic import BaseModel
 
+from agentic_core.contracts.geodesy import local_offset, offset_position
 from agentic_core.mission import model as mission
 from agentic_core.mission.steps import Environment, perform, prepare
-from flight.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.tools import NEEDS_WORLD_MODEL, TIMEOUTS_S, beside, flight_tools, register_flight_tools

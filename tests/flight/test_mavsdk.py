@@ -38,7 +38,7 @@ from mavsdk.asyncio.plugins.offboard import OffboardAsync, PositionNedYaw, Veloc
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import FixType, FlightMode, LandedState, TelemetryAsync
 
-from flight.geodesy import local_offset, offset_position
+from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.mavlink import PARAMS, MavlinkVehicle
 from flight.sim import Environment, Simulator
 from flight.sim.environment import GpsNoiseSettings

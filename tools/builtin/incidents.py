@@ -23,6 +23,8 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts.geodesy import WGS84_MIN_RADIUS_M, distance_m
+
 from ..errors import ToolError, TransientToolError
 from ..function import spec_from_function
 from ..spec import RetrySpec, ToolContext, ToolSpec, declared_transient
@@ -31,7 +33,6 @@ from .config import BuiltinConfig
 Severity = Literal["none", "low", "high", "critical"]
 RANK: dict[str, int] = {"none": 0, "low": 1, "high": 2, "critical": 3}
 BUSY_TIMEOUT_S = 30.0
-EARTH_RADIUS_M = 6_371_008.8
 MAX_LIMIT = 1000
 
 _SCHEMA = """
@@ -80,13 +81,6 @@ class IncidentLogged(BaseModel):
 class Incidents(BaseModel):
     incidents: list[Incident] = Field(description="newest first")
     count: int
-
-
-def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    """Great-circle (haversine) distance in metres."""
-    p1, p2 = math.radians(lat1), math.radians(lat2)
-    a = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(math.radians(lon2 - lon1) / 2) ** 2
-    return 2 * EARTH_RADIUS_M * math.asin(min(1.0, math.sqrt(a)))
 
 
 def utc_iso(text: str) -> str:
@@ -179,7 +173,7 @@ class IncidentStore:
             where.append("time >= ?")
             values.append(utc_iso(since))
         if near is not None:  # a box around the circle first; the exact distance below
-            dlat = math.degrees(near.radius_m / EARTH_RADIUS_M)
+            dlat = math.degrees(near.radius_m / WGS84_MIN_RADIUS_M)
             dlon = dlat / max(math.cos(math.radians(near.lat)), 1e-6)
             where.append("lat BETWEEN ? AND ?")
             values += [near.lat - dlat, near.lat + dlat]
@@ -273,4 +267,4 @@ def incident_tools(config: BuiltinConfig) -> list[ToolSpec]:
     ]
 
 
-__all__ = ["Incident", "IncidentLogged", "IncidentStore", "Incidents", "Near", "distance_m", "incident_tools"]
+__all__ = ["Incident", "IncidentLogged", "IncidentStore", "Incidents", "Near", "incident_tools"]

@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import BaseModel, ConfigDict, Field
 
+from agentic_core.contracts import geodesy
 from agentic_core.mission import expressions
 from agentic_core.mission.expressions import FUNCTIONS, Expression, ExpressionError, find_templates, render
 
@@ -171,26 +172,14 @@ def test_functions_are_the_documented_whitelist() -> None:
         FUNCTIONS["open"] = open  # type: ignore[index]
 
 
-def reference_distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    """Great-circle distance from the angle between unit vectors (not the haversine formula)."""
-
-    def unit(lat: float, lon: float) -> tuple[float, float, float]:
-        phi, lam = math.radians(lat), math.radians(lon)
-        return (math.cos(phi) * math.cos(lam), math.cos(phi) * math.sin(lam), math.sin(phi))
-
-    a, b = unit(lat1, lon1), unit(lat2, lon2)
-    chord = math.dist(a, b)
-    return 6_371_000.0 * 2 * math.asin(chord / 2)
-
-
 def test_distance_between_lat_lon_positions() -> None:
     mosque, mina = {"lat": 21.4225, "lon": 39.8262}, {"latitude": 21.4133, "longitude": 39.8933}
     got = ev("distance_m(a, b)", a=mosque, b=mina)
-    assert got == pytest.approx(reference_distance_m(21.4225, 39.8262, 21.4133, 39.8933), rel=1e-9)
+    assert got == pytest.approx(geodesy.distance_m(21.4225, 39.8262, 21.4133, 39.8933), rel=1e-12)
     assert 6_900 < got < 7_100
     assert ev("distance_m(a, a)", a=mosque) == 0.0
     quarter = ev("distance_m(a, b)", a=Point(0.0, 0.0), b=Point(0.0, 90.0))
-    assert quarter == pytest.approx(math.pi / 2 * 6_371_000.0)
+    assert quarter == pytest.approx(math.pi / 2 * geodesy.WGS84_A)  # along the equator: the ellipsoid's own radius
 
 
 def test_distance_between_local_ned_positions() -> None:

@@ -240,8 +240,8 @@ def test_a_mutated_mission_loads_or_fails_with_positioned_problems(text: str) ->
         last_line = len(text.splitlines()) + 1
         for problem in exc.problems:
             assert problem.file == "mutant.yaml"
-            assert 1 <= problem.line <= last_line, problem
-            assert problem.col >= 1, problem
+            assert problem.line is not None and 1 <= problem.line <= last_line, problem  # always placed
+            assert problem.col is not None and problem.col >= 1, problem
             assert problem.message.strip(), problem
     else:
         event("outcome: PolicyGraph")

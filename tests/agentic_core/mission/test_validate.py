@@ -317,7 +317,7 @@ def test_template_speed_is_accepted() -> None:
 
 def test_recursive_yaml_alias_is_a_problem() -> None:
     problems = problems_of("plan_id: P-1\ngoal: test\nsteps: &s\n  - {id: up, action: takeoff}\n  - *s\n")
-    assert problems and all(p.line >= 1 and p.col >= 1 and p.message for p in problems)
+    assert problems and all(p.line and p.col and p.message for p in problems)
 
 
 def test_deeply_nested_yaml_is_a_problem() -> None:
@@ -339,7 +339,7 @@ def test_file_that_is_not_utf8_is_a_problem(capsys: pytest.CaptureFixture[str], 
     path = tmp_path / "latin1.yaml"
     path.write_bytes(b"plan_id: P-1\ngoal: caf\xe9\nsteps: [{id: up, action: takeoff}]\n")
     (problem,) = problems_of(path)
-    assert problem.file == str(path) and problem.line >= 1 and problem.message
+    assert problem.file == str(path) and problem.line and problem.message
     assert main(["validate", *CORPUS_TOOLS, str(path)]) == 2
     assert capsys.readouterr().err.startswith(f"{path}:")
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from agentic_core.contracts.geodesy import offset_position
 from agentic_core.perception.pipeline import STAGES, Perception, PerceptionConfig
 from flight.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame, project_points
-from flight.geodesy import offset_position
 
 from .synthetic import SyntheticScene, run
 

@@ -25,14 +25,14 @@ import math
 import numpy as np
 import pytest
 
+from agentic_core.contracts.geodesy import local_offset
+from agentic_core.contracts.polygon import distance_to_edge, points_in_polygon
 from agentic_core.mission.expressions import Expression, render
 from agentic_core.mission.functions import find
-from agentic_core.perception.geometry import distance_to_polygon_edge, points_in_polygon
 from agentic_core.perception.metrics import TrackingScore
 from agentic_core.perception.scene_graph import RelationConfig
 from agentic_core.perception.world_model import WorldModel, WorldObject
 from flight.camera import footprint
-from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
 from flight.sim.scene_gen import generate_scene
 
@@ -66,7 +66,7 @@ def test_emergency_casualty_confirmed_within_12_frames() -> None:
             at = np.array([CASUALTY_AT])
             inside = bool(points_in_polygon(at, corners)[0])
             # margin less 0.5 m: a lying body is placed ~0.35 m off, and judged where it is placed
-            if judgeable is None and inside and distance_to_polygon_edge(at, corners)[0] >= margin - 0.5:
+            if judgeable is None and inside and distance_to_edge(at, corners)[0] >= margin - 0.5:
                 judgeable = k
             raised = alarms(step.world)
             for o in raised:

@@ -14,9 +14,9 @@ from typing import Any
 import pytest
 
 from agentic_core.cli import main
+from agentic_core.contracts.geodesy import local_offset
 from agentic_core.run.operator import OperatorAnswer
 from agentic_core.run.runner import MissionRun, RunResult, RunSettings, run_mission
-from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
 from tools import ToolSpec
 

@@ -7,7 +7,7 @@ import socket
 import pytest
 from pymavlink import mavutil
 
-from flight.geodesy import offset_position
+from agentic_core.contracts.geodesy import offset_position
 
 from .conftest import ACCEPTED, DENIED, take_off
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sqlite3
 import threading
 from collections.abc import Callable
@@ -9,9 +10,9 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 
+from agentic_core.contracts.geodesy import WGS84_A, distance_m
 from tools import Caller
 from tools.builtin import BuiltinConfig
-from tools.builtin.incidents import distance_m
 
 from .conftest import Harness
 
@@ -130,6 +131,6 @@ def test_scopes_guard_reading_and_writing(config: BuiltinConfig, harness: Callab
     assert tools.call("incidents.query", {}, caller=reader).ok
 
 
-def test_haversine_distance() -> None:
-    assert distance_m(0, 0, 0, 1) == pytest.approx(111_195, rel=1e-3)  # one degree at the equator
+def test_distance_is_the_wgs84_one() -> None:
+    assert distance_m(0, 0, 0, 1) == pytest.approx(WGS84_A * math.pi / 180, rel=1e-12)  # one degree at the equator
     assert distance_m(*JAMARAT, *JAMARAT) == 0.0

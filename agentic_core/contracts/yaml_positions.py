@@ -1,7 +1,8 @@
 """Where a value is written in a YAML file: 1-based line and column found by its path in PyYAML's composed tree.
 
-Shared by the scene loader (``flight.sim.scene_file``) and the mission loader (``agentic_core.mission.source``);
-it lives at the bottom of ``flight``, like ``flight.geodesy``, because ``flight`` must not import ``agentic_core``.
+Shared by the scene loader (``flight.sim.scene_file``) and the mission loader (``agentic_core.mission.source``),
+which report through :class:`~agentic_core.contracts.problems.LocatedProblem`; it lives in the contracts, the one
+layer both may import.
 
 >>> root = yaml.compose("steps:\\n  - {id: up, action: takeoff}\\n")
 >>> position_at(root, ("steps", 0, "action")), position_at(root, ("steps", 0, "action"), key=True)

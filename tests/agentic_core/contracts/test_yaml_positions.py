@@ -4,8 +4,8 @@ import doctest
 
 import yaml
 
-from flight import yaml_positions
-from flight.yaml_positions import node_position, position_at
+from agentic_core.contracts import yaml_positions
+from agentic_core.contracts.yaml_positions import node_position, position_at
 
 TEXT = """\
 id: x
