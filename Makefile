@@ -40,6 +40,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/sim_speed.py
 	$(PY) benchmarks/perception.py
 	$(PY) benchmarks/decision_latency.py
+	$(PY) benchmarks/envelope.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

@@ -3,6 +3,8 @@ from here, with
 
 * an idempotency key made of the run, the step (its path, pass, attempt and call number) so a resumed run does not
   repeat a side effect (the executor replays the recorded result);
+* the flight envelope (:mod:`~agentic_core.agent.envelope`): a command outside the mission's limits, once
+  resolved, is refused (``denied``, with every reason) and never sent;
 * pacing: the simulation runs at full speed while a flight action flies and at real time while anything else is
   awaited;
 * the watch during a long flight action (``flight.fly_to``, ``orbit``, ``hover``): the control port (pause, abort,
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import inspect
 import threading
+import uuid
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -27,6 +30,7 @@ from tools import ToolExecutor, ToolResult
 from ..mission.model import Trigger
 from ..mission.steps import Interrupted, current_call
 from .control import ControlPort
+from .envelope import Envelope
 from .gate import Gate
 from .pacing import Pace
 from .ports import Publish
@@ -59,6 +63,7 @@ class Dispatcher:
         watch: Watch | None = None,
         prepare: Mapping[str, Prepare] | None = None,
         hold_over: Callable[[Any], dict[str, Any] | None] | None = None,
+        envelope: Envelope | None = None,
         poll_s: float = 0.05,
     ) -> None:
         self.executor = executor
@@ -70,6 +75,7 @@ class Dispatcher:
         self.watch = watch
         self.prepare = dict(prepare or {})
         self.hold_over = hold_over
+        self.envelope = envelope
         self.poll_s = poll_s
         self._keyed = "idempotency_key" in inspect.signature(executor.call).parameters
 
@@ -97,8 +103,12 @@ class Dispatcher:
         options: dict[str, Any] = {"timeout_s": timeout_s}
         if key is not None and self._keyed:
             options["idempotency_key"] = key
-        with self.pace.waiting("vehicle" if tool.startswith("flight.") else "tool"):
-            result = self.executor.call(tool, args, **options)
+        problems = self.envelope.check(tool, args) if self.envelope is not None else []
+        if problems:
+            result = _refused(tool, problems)
+        else:
+            with self.pace.waiting("vehicle" if tool.startswith("flight.") else "tool"):
+                result = self.executor.call(tool, args, **options)
         if publish:
             self.published(tool, args, result, key)
         return result
@@ -182,6 +192,14 @@ class Dispatcher:
         self.publish("tool", name=tool, status="interrupted", trigger=outcome.trigger, hold=hold.status,
                      summary=f"{tool} stopped: {outcome.reason}")  # fmt: skip
         return outcome
+
+
+def _refused(tool: str, problems: list[str]) -> ToolResult:
+    """The result of a command the envelope refused: never sent, and the agent reads why."""
+    return ToolResult(
+        status="denied", error="outside the flight envelope: " + "; ".join(problems), latency_s=0.0, attempts=0,
+        call_id=f"envelope-{uuid.uuid4().hex[:12]}", tool=tool,
+    )  # fmt: skip
 
 
 class _Flight:

@@ -17,6 +17,7 @@ fence and refused by an exclusion fence, the same way in the mission validator a
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -82,6 +83,31 @@ def point_in_polygon(point: Sequence[float], polygon: ArrayLike) -> bool:
     return bool(points_in_polygon([point], polygon)[0])
 
 
+def outside_by(point: Sequence[float], polygon: Sequence[Sequence[float]]) -> float:
+    """How far one point lies outside a polygon (corners in order): 0 inside or on an edge, else the distance to
+    the nearest edge. The same rule as :func:`points_in_polygon` and :func:`distance_to_edge`, in plain Python:
+    for one point and a fence of a few corners it is ten times quicker than numpy's set-up."""
+    px, py = float(point[0]), float(point[1])
+    if not (math.isfinite(px) and math.isfinite(py)):
+        return math.inf
+    k = len(polygon)
+    if k == 0:
+        return math.inf
+    odd = False
+    nearest = math.inf
+    for i in range(k):
+        x1, y1 = polygon[i][0], polygon[i][1]
+        x2, y2 = polygon[(i + 1) % k][0], polygon[(i + 1) % k][1]
+        if (y1 > py) != (y2 > py) and px < x1 + (py - y1) * (x2 - x1) / (y2 - y1):
+            odd = not odd
+        dx, dy = x2 - x1, y2 - y1
+        t = min(1.0, max(0.0, ((px - x1) * dx + (py - y1) * dy) / max(dx * dx + dy * dy, 1e-24)))
+        nearest = min(nearest, math.hypot(px - (x1 + t * dx), py - (y1 + t * dy)))
+    if odd or nearest <= EDGE_TOLERANCE_M:
+        return 0.0
+    return nearest
+
+
 def points_in_circle(points: ArrayLike, centre: Sequence[float], radius: float) -> BoolArray:
     """Which of N points (N×2) lie within ``radius`` of ``centre`` (the circle itself included)."""
     pts = _points(points)
@@ -100,6 +126,7 @@ def polygon_area(polygon: ArrayLike) -> float:
 __all__ = [
     "EDGE_TOLERANCE_M",
     "distance_to_edge",
+    "outside_by",
     "point_in_polygon",
     "points_in_circle",
     "points_in_polygon",

@@ -35,6 +35,7 @@ from tools.function import spec_from_function
 
 from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
+from ..agent.envelope import Envelope
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..graph.checkpoint.sqlite import SqliteSaver
@@ -158,7 +159,7 @@ class MissionRun:
         self.dispatch = Dispatcher(
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
-            hold_over=self._hold_over,
+            hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target),
         )  # fmt: skip
         self.env = Environment(
             dispatch=self.dispatch,
@@ -204,6 +205,13 @@ class MissionRun:
 
     def _world_source(self) -> WorldSource:
         return self.loop if self.loop is not None else _NoWorld()
+
+    def _home(self) -> tuple[float, float] | None:
+        """The vehicle's home as it reports it (the scene's until it has)."""
+        home = self._client.home if self._client is not None else None
+        if home is not None:
+            return home[0], home[1]
+        return (self.scene.home.lat_deg, self.scene.home.lon_deg) if self.scene is not None else None
 
     def _target(self, object_id: str) -> tuple[float, float] | None:
         return self.loop.target(object_id) if self.loop else None
