@@ -35,6 +35,8 @@ JSBSim properties used (names listed from the loaded model's property catalogue,
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 import os
 import sys
@@ -100,8 +102,10 @@ def _quiet_stdio() -> Iterator[None]:
     """Silence JSBSim's C++ banner and warnings, which go straight to file descriptors 1 and 2."""
     try:
         fds = (sys.stdout.fileno(), sys.stderr.fileno())
-    except (AttributeError, OSError, ValueError):  # pragma: no cover - captured streams without descriptors
-        yield
+    except (AttributeError, OSError, ValueError):
+        # Streams replaced by Python objects without descriptors (a doctest): the binding then writes to them.
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            yield
         return
     sys.stdout.flush()
     sys.stderr.flush()
