@@ -58,9 +58,10 @@ def _approach(speed: float, room_m: float) -> float:
 
 def horizontal_room(fence: Geofence, north: float, east: float, un: float, ue: float, limit_m: float) -> float:
     """Metres from (north, east) along the unit direction (un, ue) to the first point outside the fence's
-    horizontal limits, or ``limit_m`` when there is none that near (0 when already outside)."""
+    horizontal limits, or ``limit_m`` when there is none that near; also ``limit_m`` from a point already outside
+    (the breach is the failsafe's, and a setpoint back inside must not be turned round)."""
     if fence.violation(north, east, 0.0) is not None:
-        return 0.0
+        return limit_m
     inside, d = 0.0, STEP_M
     while inside < limit_m:
         d = min(d, limit_m)

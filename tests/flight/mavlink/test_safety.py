@@ -278,3 +278,14 @@ def test_a_forced_disarm_in_flight_stops_the_motors(link):
     assert link.command(m.MAV_CMD_COMPONENT_ARM_DISARM, 0, FORCE).result == ACCEPTED
     assert not link.vehicle.sim.armed
     assert link.fly_until(lambda s: s.landed, 10.0)  # it fell
+
+
+def test_from_outside_the_fence_a_velocity_back_inside_is_not_turned_round(link):
+    set_param(link, "GF_ACTION", 1)  # warn only, so the vehicle stays outside and under offboard control
+    enter_offboard_at(link, 10.0)
+    fly_velocity(link, 5.0, 0.0, 0.0, 8.0)  # 30 m north or so
+    north = link.vehicle.sim.truth().north_m
+    set_param(link, "GF_MAX_HOR_DIST", north - 10.0)  # now 10 m outside
+    states = fly_velocity(link, -3.0, 0.0, 0.0, 8.0)  # back towards home
+    assert states[-1].north_m < north - 10.0
+    assert mode_of(link) is FlightMode.OFFBOARD
