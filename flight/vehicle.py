@@ -8,7 +8,9 @@ offers what a mission needs: :meth:`~VehicleClient.arm`, :meth:`~VehicleClient.t
 the COMMAND_ACK *and* the state observed afterwards), and the mission protocol:
 :meth:`~VehicleClient.upload_mission`, :meth:`~VehicleClient.download_mission`, :meth:`~VehicleClient.clear_mission`
 (each returning a :class:`MissionResult`), :meth:`~VehicleClient.start_mission` and
-:meth:`~VehicleClient.wait_mission`; for a consumer on another thread, :meth:`~VehicleClient.set_stream_rates` and
+:meth:`~VehicleClient.wait_mission`; safety set-up: :meth:`~VehicleClient.upload_fence` (fence items and altitude
+limits, read back; a :class:`FenceResult`) and :meth:`~VehicleClient.inject_failure`; for a consumer on another
+thread, :meth:`~VehicleClient.set_stream_rates` and
 :meth:`~VehicleClient.on_sample` (a callback per :class:`~agentic_core.contracts.telemetry.TelemetrySample`).
 Refusals and silences are results, never exceptions; every wait has a wall-clock timeout, so no call hangs when the
 vehicle stops answering.
@@ -23,7 +25,6 @@ from flight.client.actions import FORCE_MAGIC, GRIPPER_ACTION_RELEASE, FlightAct
 from flight.client.commands import DENIAL_TEXT_WAIT_S
 from flight.client.core import ACK_ATTEMPTS, ACK_TIMEOUT_S
 from flight.client.link import Address, VehicleConnectionError, parse_address
-from flight.client.mission import MissionClient
 from flight.client.mission_items import MISSION_TYPE_IDS, MissionItem, MissionType
 from flight.client.operations import FLYING_MODES
 from flight.client.results import (
@@ -34,6 +35,7 @@ from flight.client.results import (
     MissionResult,
     TransferStatus,
 )
+from flight.client.safety import FenceResult, SafetyClient
 from flight.client.streams import CAMERA_STREAMS, StreamsClient
 from flight.client.telemetry import (
     LANDED_STATES,
@@ -48,7 +50,7 @@ from flight.client.telemetry import (
 )
 
 
-class VehicleClient(FlightActions, MissionClient, StreamsClient):
+class VehicleClient(FlightActions, SafetyClient, StreamsClient):
     """A MAVLink client for one vehicle. Make it with :meth:`connect`; close it (or ``async with``) when done.
 
     Addresses: ``"HOST:PORT"``, ``"udpout:HOST:PORT"`` or ``(host, port)`` send to the vehicle; ``"udpin:HOST:PORT"``
@@ -73,6 +75,7 @@ __all__ = [
     "UINT16_MAX",
     "Address",
     "CommandStatus",
+    "FenceResult",
     "FlightResult",
     "LandedState",
     "MissionItem",

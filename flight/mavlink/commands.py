@@ -15,7 +15,8 @@ Facts relied on (MAVLink ``common.xml`` as generated into pymavlink's ``dialects
   DO_GRIPPER 211 (param2 GRIPPER_ACTION: RELEASE 0, GRAB 1, HOLD 2); COMPONENT_ARM_DISARM 400 (param1 1 arm,
   0 disarm; param2 21196 forces); GET_HOME_POSITION 410; GET_MESSAGE_INTERVAL 510; SET_MESSAGE_INTERVAL 511
   (param1 message id, param2 interval µs, -1 off, 0 default); REQUEST_MESSAGE 512 (param1 message id);
-  REQUEST_AUTOPILOT_CAPABILITIES 520.
+  REQUEST_AUTOPILOT_CAPABILITIES 520; INJECT_FAILURE 420 (param1 unit, param2 type, param3 instance:
+  :mod:`flight.mavlink.failures`).
 * COMMAND_INT carries param5/param6 as ``int32`` degrees×1e7 in ``x``/``y`` (INT32_MAX: unset) and param7 as
   ``z``, interpreted in ``frame``: MAV_FRAME_GLOBAL 0 and GLOBAL_INT 5 are above mean sea level,
   GLOBAL_RELATIVE_ALT 3 and GLOBAL_RELATIVE_ALT_INT 6 above home, GLOBAL_TERRAIN_ALT 10 / _INT 11 above terrain
@@ -47,6 +48,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_CMD_DO_SET_SERVO,
     MAV_CMD_GET_HOME_POSITION,
     MAV_CMD_GET_MESSAGE_INTERVAL,
+    MAV_CMD_INJECT_FAILURE,
     MAV_CMD_NAV_LAND,
     MAV_CMD_NAV_RETURN_TO_LAUNCH,
     MAV_CMD_NAV_TAKEOFF,
@@ -64,6 +66,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_RESULT_UNSUPPORTED,
 )
 
+from flight.mavlink.failures import FailureInjector
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.px4 import FlightMode
 from flight.sim import Simulator, geodetic_to_ned
@@ -129,6 +132,7 @@ class CommandContext(Protocol):
 
     sim: Simulator
     navigator: Navigator
+    failures: FailureInjector
 
     def statustext(self, text: str, severity: int = ...) -> None: ...
     def set_message_interval(self, message_id: int, interval_us: float) -> bool: ...
@@ -299,6 +303,11 @@ def _get_interval(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
     return CommandOutcome(MAV_RESULT_ACCEPTED, [ctx.build_message_interval(msg_id, interval)])
 
 
+def _inject_failure(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
+    ctx.failures.inject(req.params[0], req.params[1], req.params[2])
+    return _ok()
+
+
 HANDLERS: dict[int, Handler] = {
     MAV_CMD_COMPONENT_ARM_DISARM: _arm_disarm,
     MAV_CMD_NAV_TAKEOFF: _takeoff,
@@ -314,5 +323,6 @@ HANDLERS: dict[int, Handler] = {
     MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: _autopilot_capabilities,
     MAV_CMD_SET_MESSAGE_INTERVAL: _set_interval,
     MAV_CMD_GET_MESSAGE_INTERVAL: _get_interval,
+    MAV_CMD_INJECT_FAILURE: _inject_failure,
 }
 """The supported commands; anything else is answered MAV_RESULT_UNSUPPORTED."""

@@ -21,6 +21,10 @@ Behaviour (PX4 values; see :mod:`flight.mavlink.params` for the parameters and w
 * Data link: once any peer has been heard, no valid message from any peer for ``COM_DL_LOSS_T`` seconds of
   *simulated* time while flying triggers ``NAV_DLL_ACT`` (0 disabled, 1 hold, 2 return, 3 land, 5 terminate,
   6 disarm; 4, retired in PX4, is taken as return). A message from any peer clears the loss.
+* Position (GPS) loss: once the GPS reports no 3D fix while flying (an injected failure,
+  :mod:`flight.mavlink.failures`), the vehicle lands where it is (PX4's failsafe without a position and without
+  RC is "Descend"; we land straight down on the flight model's own position, having no estimator to lose). Once
+  per loss; a fix again re-arms it.
 * A failsafe never downgrades what the vehicle is already doing: a return does not interrupt a landing, a hold does
   not interrupt a return. Terminate and disarm cut the motors in the air (the aircraft falls), as in PX4.
 """
@@ -92,6 +96,7 @@ class Failsafes:
         self.battery_level = 0
         """0 normal, 1 low (returned), 2 critical (landed); reset on the ground with a charged battery."""
         self.link_lost = False
+        self.position_lost = False
         self._last_inside: tuple[float, float, float] | None = None
         """The last position (NED) found inside the fence areas, where a hold after an area breach goes."""
         self._area_breach = False
@@ -115,6 +120,7 @@ class Failsafes:
             return
         self._check_fence(s.north_m, s.east_m, s.alt_agl_m)
         self._check_battery(battery_pct / 100.0)
+        self._check_position()
 
     # -- checks -----------------------------------------------------------------------------------------------
 
@@ -150,6 +156,16 @@ class Failsafes:
         elif fraction <= params["BAT_LOW_THR"] and self.battery_level < 1:
             self.battery_level = 1
             self._act("battery_low", Action.RTL, f"Battery low ({fraction:.0%}): returning")
+
+    def _check_position(self) -> None:
+        sim = self.navigator.sim
+        if not sim.gps_lost:  # the one way the simulated GPS loses its fix; gps_fix() is not built every tick
+            self.position_lost = False
+            return
+        if self.position_lost:
+            return
+        self.position_lost = True
+        self._act("position", Action.LAND, "GPS lost, no position: landing")
 
     def _check_link(self, flying: bool, now_s: float, last_rx_s: float | None) -> None:
         if last_rx_s is None:

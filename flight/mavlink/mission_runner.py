@@ -16,6 +16,8 @@ for the item parameters):
   MISSION_STATE_NO_MISSION, and Mission mode cannot be entered. MISSION_START without a valid plan is DENIED with
   "Mission start denied! No valid mission"; its param1 (first item) must be -1..count-1 (otherwise DENIED); it
   switches to Mission and arms (TEMPORARILY_REJECTED with "Mission start denied" when arming fails).
+* Likewise a plan with a waypoint lower than the floor ``GF_MIN_ALT`` ("Waypoint N is below the … floor"; ours:
+  PX4 has no floor); take-off and landing items are exempt.
 * Landed, the mission starts with a take-off: a NAV_TAKEOFF item climbs over the current position; any other first
   item is preceded by a climb to ``MIS_TAKEOFF_ALT``. Flying, a NAV_TAKEOFF item is a waypoint.
 * NAV_WAYPOINT: reached within param2 metres (default :data:`DEFAULT_ACCEPT_M`) and :data:`ALT_ACCEPT_M`, then
@@ -214,6 +216,7 @@ class MissionRunner:
         """Check the plan (PX4's feasibility check, the geofence part): None if it may fly, else why not."""
         items = self.items
         home = self.nav.sim.environment.home
+        floor = self.nav.params.values["GF_MIN_ALT"]
         why: str | None = None
         if not items:
             why = "no mission"
@@ -228,6 +231,8 @@ class MissionRunner:
                 alt = self._alt_of(item)
                 if self.nav.fence.violation(north, east, 0.0 if alt is None else alt) is not None:
                     why = f"Geofence violation for waypoint {i + 1}"
+                elif alt is not None and item.command not in TAKEOFF_COMMANDS | LAND_COMMANDS and alt < floor:
+                    why = f"Waypoint {i + 1} is below the {floor:.1f} m floor"
         self.valid, self.invalid_reason = why is None, why
         return why
 

@@ -10,7 +10,12 @@ Behaviour kept from PX4 (PX4 user guide, flight modes; not verified against PX4 
 
 * Take-off climbs over the current position to the requested altitude, then switches to Hold.
 * Return climbs to ``RTL_RETURN_ALT`` above home (or stays higher if already higher), flies home at that altitude,
-  then lands; the simulator disarms on touchdown as PX4 does.
+  then lands; the simulator disarms on touchdown as PX4 does. Ours: the return altitude is capped
+  :data:`FENCE_MARGIN_M` below the ceiling ``GF_MAX_VER_DIST`` (a vehicle above it
+  descends to it first), so a return never breaches the fence. We did not find such a cap in the PX4 sources
+  we could read (PX4 lets the geofence act on a return that climbs through it); the issue asks for it.
+* Disarming in the air is refused (TEMPORARILY_REJECTED, "Disarming denied: not landed", as PX4's
+  ``Commander::disarm`` and its COMMAND_ACK mapping) unless param2 is the force code 21196.
 * Reposition (DO_REPOSITION) flies to the point in Hold mode.
 * Position mode without sticks holds position.
 
@@ -22,7 +27,12 @@ Behaviour kept from PX4 (PX4 user guide, flight modes; not verified against PX4 
   :class:`MissionDriver` hooks here. Switching to Mission, or arming in it, is refused without a valid mission;
   arming in Mission starts it, as does switching to it while armed.
 * The geofence (:mod:`flight.mavlink.geofence`: the parameters' cylinder and any uploaded fence areas) bounds
-  every target: commands and offboard setpoints outside it are refused.
+  every target: commands and offboard setpoints outside it are refused. So does the floor ``GF_MIN_ALT`` (ours,
+  :mod:`flight.mavlink.params`): reposition and offboard position targets lower than it above home are refused
+  ("Geofence: target … below the … floor"); take-off and landing are not targets in this sense.
+* Offboard *velocity* setpoints are limited every tick with ``GF_PREDICT`` 1 so the vehicle stops inside the
+  fence, below the ceiling and above the floor (:mod:`flight.mavlink.fence_predict`), with a STATUSTEXT at most
+  once per :data:`LIMIT_NOTICE_INTERVAL_S`.
 
 Simplifications: home is the simulator's environment home (not the arming position); there is no RTL descent
 altitude or loiter before landing, and no auto-disarm when armed on the ground.
@@ -43,9 +53,11 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_RESULT_DENIED,
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_SEVERITY_CRITICAL,
+    MAV_SEVERITY_WARNING,
 )
 
 from agentic_core.contracts.errors import AgenticUAVError
+from flight.mavlink.fence_predict import limit_velocity
 from flight.mavlink.geofence import Geofence
 from flight.mavlink.offboard import OffboardSetpoint
 from flight.mavlink.params import ParamStore
@@ -57,7 +69,13 @@ TAKEOFF_ACCEPT_M = 0.5
 RTL_CLIMB_ACCEPT_M = 0.5
 RTL_HOME_ACCEPT_M = 1.0
 MIN_TAKEOFF_ALT_M = 1.0
+FENCE_MARGIN_M = 1.0
+"""A return flies this far below the ceiling (as far as a geofence hold flies inside the fence)."""
 MIN_GPS_SATELLITES = 6
+LIMIT_NOTICE_INTERVAL_S = 1.0
+"""At most one STATUSTEXT per this many simulated seconds about an offboard velocity limited at the fence."""
+VELOCITY_RESEND_MPS = 0.02
+"""A limited velocity is given to the controller again when it changes by more than this."""
 
 
 class CommandDenied(AgenticUAVError):
@@ -137,6 +155,9 @@ class Navigator:
         """Where the navigator reports what it did on its own (the vehicle sends a STATUSTEXT)."""
         self.fence = Geofence(params)
         """The geofence every target must lie in (the vehicle installs the uploaded fence areas)."""
+        self._flown_velocity: tuple[float, float, float] | None = None
+        """The (possibly limited) offboard velocity last given to the simulator."""
+        self._limit_noticed_s = -math.inf
         self.mission: MissionDriver = _NoMission()
         """Flies Mission mode (the vehicle installs a :class:`~flight.mavlink.mission_runner.MissionRunner`)."""
 
@@ -201,9 +222,18 @@ class Navigator:
         if not self.sim.armed or s.landed:
             raise CommandDenied("Return denied: not flying")
         self.mode = FlightMode.RTL
-        self._rtl_alt_m = max(self.params["RTL_RETURN_ALT"], s.alt_agl_m)
+        self._rtl_alt_m = self.return_altitude(s.alt_agl_m)
         self.rtl_phase = RtlPhase.CLIMB
         self._fly(s.north_m, s.east_m, -self._rtl_alt_m, None)
+
+    def return_altitude(self, alt_m: float) -> float:
+        """The altitude a return from ``alt_m`` above home flies home at: ``RTL_RETURN_ALT`` or higher if already
+        higher, but never above the ceiling less the fence margin (the module docstring)."""
+        target = max(self.params["RTL_RETURN_ALT"], alt_m)
+        ceiling = self.params["GF_MAX_VER_DIST"]
+        if ceiling > 0:
+            target = min(target, max(ceiling - FENCE_MARGIN_M, 0.5 * ceiling))
+        return target
 
     def hold(self, mode: FlightMode = FlightMode.HOLD) -> None:
         """Hold the current position (Hold or Position mode)."""
@@ -259,6 +289,7 @@ class Navigator:
         if setpoint.position is not None:
             north, east, down = setpoint.position
             self._check_fence(north, east, -down)
+            self.check_floor(-down)
         self.offboard_setpoint = setpoint
         if self.mode is FlightMode.OFFBOARD and self.sim.armed:
             self._fly_offboard()
@@ -269,10 +300,28 @@ class Navigator:
         self._goto = None
         if sp is None or not self.sim.armed:
             return
+        self._flown_velocity = None
         if sp.position is not None:
             self.sim.goto(*sp.position, sp.yaw_rad, None)
         elif sp.velocity is not None:
-            self.sim.set_velocity(*sp.velocity, sp.yaw_rad)
+            self._fly_velocity(sp.velocity, sp.yaw_rad)
+
+    def _fly_velocity(self, velocity: tuple[float, float, float], yaw_rad: float | None) -> None:
+        """Fly ``velocity``, limited at the fence when ``GF_PREDICT`` is 1; tell the controller only on a change."""
+        vn, ve, vd = velocity
+        if self.params.values["GF_PREDICT"] == 1:
+            t = self.sim.truth()
+            lim = limit_velocity(self.fence, t.north_m, t.east_m, t.alt_agl_m, vn, ve, vd)
+            vn, ve, vd = lim.vn, lim.ve, lim.vd
+            now = self.sim.time_s
+            if lim.limited and now - self._limit_noticed_s >= LIMIT_NOTICE_INTERVAL_S:
+                self._limit_noticed_s = now
+                self.notify("Geofence: offboard velocity limited to stop at the fence", MAV_SEVERITY_WARNING)
+        flown = self._flown_velocity
+        if flown is not None and max(abs(vn - flown[0]), abs(ve - flown[1]), abs(vd - flown[2])) < VELOCITY_RESEND_MPS:
+            return
+        self._flown_velocity = (vn, ve, vd)
+        self.sim.set_velocity(vn, ve, vd, yaw_rad)
 
     def hold_at(self, north_m: float, east_m: float, down_m: float) -> None:
         """Hold at a NED point (failsafes), without the fence check."""
@@ -294,6 +343,7 @@ class Navigator:
         if not self.sim.armed or self.sim.state().landed:
             raise CommandDenied("Reposition denied: not flying")
         self._check_fence(north_m, east_m, -down_m)
+        self.check_floor(-down_m)
         if speed is not None and speed > 0:
             self.cruise_speed_mps = speed
         self.mode = FlightMode.HOLD
@@ -330,6 +380,8 @@ class Navigator:
             if not self.offboard_active():
                 self.hold()
                 self.notify("Offboard setpoints lost: holding", MAV_SEVERITY_CRITICAL)
+            elif (sp := self.offboard_setpoint) is not None and sp.velocity is not None:
+                self._fly_velocity(sp.velocity, sp.yaw_rad)
         elif self.mode is FlightMode.TAKEOFF:
             # sim.truth(), not sim.state(): the same values, without building a snapshot every tick
             if abs(sim.truth().alt_agl_m - self._takeoff_alt_m) < TAKEOFF_ACCEPT_M:
@@ -381,6 +433,12 @@ class Navigator:
         max_v = self.params["GF_MAX_VER_DIST"]
         if max_v > 0 and alt_m > max_v:
             raise CommandDenied(f"Geofence: {alt_m:.1f} m is above the {max_v:.0f} m ceiling")
+
+    def check_floor(self, alt_m: float) -> None:
+        """Refuse a target ``alt_m`` above home lower than the floor ``GF_MIN_ALT`` (0: no floor)."""
+        floor = self.params.values["GF_MIN_ALT"]
+        if floor > 0 and not alt_m >= floor:
+            raise CommandDenied(f"Geofence: target {alt_m:.1f} m is below the {floor:.1f} m floor")
 
     def _check_fence(self, north_m: float, east_m: float, alt_m: float) -> None:
         why = self.fence.violation(north_m, east_m, alt_m)

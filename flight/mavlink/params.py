@@ -19,6 +19,14 @@ Facts relied on:
 * **Our defaults, not PX4's**: GF_MAX_HOR_DIST 1500 m and GF_MAX_VER_DIST 120 m (PX4: 0, no fence) so that a
   vehicle nobody configured still has a fence (120 m is the usual regulatory ceiling for small drones);
   NAV_DLL_ACT 2, return (PX4: 0, disabled) because the issue asks for a link-loss return.
+* ``SYS_FAILURE_EN`` (0 default: failure injection refused) and ``GF_PREDICT`` are PX4's names (PX4 user guide,
+  "System Failure Injection"; ``geofence_params.c``). PX4's GF_PREDICT predicts a breach and triggers
+  ``GF_ACTION`` early; ours clamps offboard velocity setpoints so the vehicle stops at the fence
+  (:mod:`flight.mavlink.fence_predict`).
+* **Ours, not PX4's**: ``GF_MIN_ALT``, the floor: targets (reposition, offboard positions, mission waypoints)
+  lower than this above home are refused, take-off and landing excepted, and offboard descent stops at it.
+  PX4 has no such floor (``LNDMC_ALT_MAX`` is a land-detector limit, not a target check); the name follows the
+  ``GF_`` family, so setting it re-checks the stored mission like the other fence parameters.
 * The accepted ranges are ours. Only these parameters exist. What reads them: :mod:`flight.mavlink.failsafe`
   (GF_*, BAT_*_THR, COM_DL_LOSS_T, NAV_DLL_ACT), :mod:`flight.mavlink.navigator` (the rest, and the fence for
   commands).
@@ -62,6 +70,9 @@ PARAMS: tuple[ParamSpec, ...] = (
     ParamSpec("NAV_DLL_ACT", MAV_PARAM_TYPE_INT32, 2, 0, 6, "Data-link loss action (0 off, 1 hold, 2 RTL, 3 land)"),
     ParamSpec("COM_OF_LOSS_T", MAV_PARAM_TYPE_REAL32, 1.0, 0.1, 60.0, "Offboard setpoint loss timeout (s)"),
     ParamSpec("MPC_XY_CRUISE", MAV_PARAM_TYPE_REAL32, 5.0, 3.0, 20.0, "Horizontal cruise speed (m/s)"),
+    ParamSpec("GF_MIN_ALT", MAV_PARAM_TYPE_REAL32, 2.0, 0.0, 1000.0, "Floor for targets above home (m, 0 off)"),
+    ParamSpec("GF_PREDICT", MAV_PARAM_TYPE_INT32, 1, 0, 1, "Stop offboard velocity before the fence (1 on)"),
+    ParamSpec("SYS_FAILURE_EN", MAV_PARAM_TYPE_INT32, 0, 0, 1, "Allow MAV_CMD_INJECT_FAILURE (1 on)"),
 )
 
 

@@ -38,6 +38,10 @@ Missions (upload, download, clear, fences, Mission mode, MISSION_CURRENT at 1 Hz
 MAV_CMD_MISSION_START, MAV_CMD_DO_SET_MISSION_CURRENT) are :class:`~flight.mavlink.mission_service.MissionService`'s;
 its protocol timeouts run on the link clock as well.
 
+Failure injection (MAV_CMD_INJECT_FAILURE, guarded by ``SYS_FAILURE_EN``) is
+:class:`~flight.mavlink.failures.FailureInjector`'s; with the MAVLink signal failed the vehicle reads only the
+command that restores it and sends nothing but that command's ACK.
+
 Rates are one table for all peers (PX4 keeps one per link); SET_MESSAGE_INTERVAL changes it for everyone.
 
 The offboard setpoint timeout (``COM_OF_LOSS_T``) runs on the link clock too, for the same reason: clients stream
@@ -57,7 +61,10 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
+    FAILURE_TYPE_OK,
+    FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL,
     MAV_AUTOPILOT_PX4,
+    MAV_CMD_INJECT_FAILURE,
     MAV_PARAM_TYPE_INT32,
     MAV_SEVERITY_WARNING,
     MAV_STATE_ACTIVE,
@@ -70,6 +77,7 @@ from agentic_core.contracts.telemetry import TelemetrySample
 from flight.mavlink import snapshot as vehicle_snapshot
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
+from flight.mavlink.failures import FailureInjector
 from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
 from flight.mavlink.mission_service import MISSION_COMMANDS, MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator
@@ -154,6 +162,13 @@ __all__ = [
 ]
 
 
+def _restores_link(msg: Any) -> bool:
+    """Whether ``msg`` is the one command read while the MAVLink signal is failed: the injection that restores it."""
+    if msg.get_msgId() not in (MSG_COMMAND_LONG, MSG_COMMAND_INT) or msg.command != MAV_CMD_INJECT_FAILURE:
+        return False
+    return bool(msg.param1 == FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL and msg.param2 == FAILURE_TYPE_OK)
+
+
 def _readiness(sock: socket.socket) -> Callable[[int], object]:
     """``check(0)``, true when ``sock`` has a datagram (or an error) to read, without waiting.
 
@@ -193,6 +208,8 @@ class MavlinkVehicle(TelemetryBuilders):
         self.navigator = Navigator(simulator, self.params)
         self.navigator.notify = self.statustext
         self.failsafes = Failsafes(self.navigator, self.statustext)
+        self.failures = FailureInjector(self.navigator, self.statustext)
+        """MAV_CMD_INJECT_FAILURE (:mod:`flight.mavlink.failures`); with the MAVLink signal off the link is dead."""
         self.last_rx_s: float | None = None  # on the link clock: simulated time in lockstep, wall time in run()
         self._link_clock: Callable[[], float] = lambda: self.sim.time_s
         """Simulated time of the last valid message from any peer (None: none yet)."""
@@ -297,6 +314,7 @@ class MavlinkVehicle(TelemetryBuilders):
         :class:`~flight.sim.snapshot.SnapshotError` before anything changes)."""
         with self._lock:
             vehicle_snapshot.apply(self, snap)
+            self.failures.clear()  # the simulator is a fresh one: failures are not in snapshots
 
     # -- time -------------------------------------------------------------------------------------------------
 
@@ -313,6 +331,7 @@ class MavlinkVehicle(TelemetryBuilders):
             self.sim.step(self.tick_steps)
             self.navigator.update()
             self.failsafes.update(self.last_rx_s, self._link_clock())
+            self.failures.update()
             self.missions.tick(self.sim.time_s)
             self._send_streams()
             if self.on_tick:
@@ -419,6 +438,8 @@ class MavlinkVehicle(TelemetryBuilders):
                 self.stats.rx_bad_chunks += 1
             else:
                 valid.append(msg)
+        if self.failures.link_off:
+            valid = [m for m in valid if _restores_link(m)]
         if not valid:
             self.stats.rx_dropped += 1
             return
@@ -454,7 +475,7 @@ class MavlinkVehicle(TelemetryBuilders):
             ack = self._mav.command_ack_encode(
                 req.command, outcome.result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()
             )
-            self._send(ack, sender)
+            self._send(ack, sender, force=req.command == MAV_CMD_INJECT_FAILURE)  # also the link's own failure
             for reply in outcome.replies:
                 self._send(reply, sender)
         elif msg_id == MSG_PING:
@@ -488,6 +509,13 @@ class MavlinkVehicle(TelemetryBuilders):
                 self._setpoint_warned_s = now
                 reason = err.reason if isinstance(err, CommandDenied) else str(err)
                 self.statustext(f"Offboard setpoint ignored: {reason}")
+
+    def inject_failure(self, unit: int, failure_type: int, instance: int = 0, *, force: bool = False) -> None:
+        """MAV_CMD_INJECT_FAILURE in process (e.g. to give back a link the failure has cut); ``force`` ignores
+        ``SYS_FAILURE_EN``. Raises :class:`~flight.mavlink.navigator.CommandDenied` as the command would be
+        refused."""
+        with self._lock:
+            self.failures.inject(unit, failure_type, instance, enabled=True if force else None)
 
     # -- parameters -------------------------------------------------------------------------------------------
 
@@ -532,12 +560,15 @@ class MavlinkVehicle(TelemetryBuilders):
             out = self._destinations_cache = tuple(targets)
         return out
 
-    def _send(self, msg: Any, to: Address | None = None) -> None:
-        """Send ``msg`` to ``to``, or to the configured targets and every peer."""
-        self._transmit(msg.pack(self._mav), to)
+    def _send(self, msg: Any, to: Address | None = None, *, force: bool = False) -> None:
+        """Send ``msg`` to ``to``, or to the configured targets and every peer (nothing while an injected failure
+        has the link off, unless ``force``)."""
+        self._transmit(msg.pack(self._mav), to, force=force)
 
-    def _transmit(self, buf: bytes, to: Address | None = None) -> None:
+    def _transmit(self, buf: bytes, to: Address | None = None, *, force: bool = False) -> None:
         """Send a frame packed with the current sequence number, and count it as sent."""
+        if self.failures.link_off and not force:
+            return
         self._mav.seq = (self._mav.seq + 1) % 256
         sock, stats = self._sock, self.stats
         for addr in self._destinations() if to is None else (to,):

@@ -90,13 +90,18 @@ class Battery:
     def __init__(self, config: BatteryConfig | None = None) -> None:
         self.config = config or BatteryConfig()
         self.used_mah = (1.0 - self.config.initial_soc) * self.config.capacity_mah
+        self.soc_cap: float | None = None
+        """An injected failure (:mod:`flight.mavlink.failures`): the pack reports at most this state of charge, and
+        its voltage follows; None (the default) reports the true charge."""
         self.current_a = self.config.avionics_current_a
         self.voltage_v = self.open_circuit_voltage() - self.current_a * self.config.internal_resistance_ohm
 
     @property
     def soc(self) -> float:
-        """State of charge in ``[0, 1]``."""
-        return max(0.0, 1.0 - self.used_mah / self.config.capacity_mah)
+        """State of charge in ``[0, 1]`` (at most :attr:`soc_cap`)."""
+        soc = max(0.0, 1.0 - self.used_mah / self.config.capacity_mah)
+        cap = self.soc_cap
+        return soc if cap is None or soc < cap else max(0.0, cap)
 
     @property
     def percent(self) -> float:
@@ -128,4 +133,6 @@ class Battery:
         used = self.used_mah + current * dt / 3.6
         used = self.used_mah = used if used < c.capacity_mah else c.capacity_mah
         soc = 1.0 - used / c.capacity_mah  # :attr:`soc` and :meth:`open_circuit_voltage`, without two calls per tick
+        if self.soc_cap is not None and soc > self.soc_cap:
+            soc = self.soc_cap
         self.voltage_v = c.cells * cell_ocv(soc if soc > 0.0 else 0.0) - current * c.internal_resistance_ohm

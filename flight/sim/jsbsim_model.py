@@ -29,10 +29,14 @@ JSBSim properties used (names listed from the loaded model's property catalogue,
   ``velocities/v-down-fps``, ``attitude/phi-rad``, ``attitude/theta-rad``, ``attitude/psi-rad``,
   ``velocities/p-rad_sec``, ``velocities/q-rad_sec``, ``velocities/r-rad_sec``, ``gear/wow``,
   ``fcs/throttle-pos-norm[0..3]`` (the four ESC outputs), ``simulation/sim-time-sec``
+* failures: ``fcs/front-right/malfunction/fail_zero`` (and ``aft-left``, ``front-left``, ``aft-right``): the
+  actuator outputs zero while set (JSBSim's actuator malfunction properties)
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 import os
 import sys
@@ -98,8 +102,10 @@ def _quiet_stdio() -> Iterator[None]:
     """Silence JSBSim's C++ banner and warnings, which go straight to file descriptors 1 and 2."""
     try:
         fds = (sys.stdout.fileno(), sys.stderr.fileno())
-    except (AttributeError, OSError, ValueError):  # pragma: no cover - captured streams without descriptors
-        yield
+    except (AttributeError, OSError, ValueError):
+        # Streams replaced by Python objects without descriptors (a doctest): the binding then writes to them.
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            yield
         return
     sys.stdout.flush()
     sys.stderr.flush()
@@ -251,6 +257,11 @@ class F450Model:
         set_pitch(_clip(q_rps / RATE_PER_STICK, -1.0))
         set_yaw(_clip(r_rps / RATE_PER_STICK, -1.0))
 
+    def set_motor_failed(self, index: int, failed: bool) -> None:
+        """Zero one ESC's output (``index`` 0..3 in :attr:`ModelState.motor_outputs` order) through the actuator's
+        ``malfunction/fail_zero`` property, or give it back; the rate loop and mixer carry on unaware."""
+        self._fdm[f"fcs/{_ESC_NAMES[index]}/malfunction/fail_zero"] = 1.0 if failed else 0.0
+
     def set_wind(self, north_mps: float, east_mps: float, down_mps: float) -> None:
         """Steady wind: the velocity (m/s, NED) the air moves towards."""
         fdm = self._fdm
@@ -362,4 +373,7 @@ _CONTROL_PROPERTIES = (
     "fcs/elevator-cmd-norm",
     "fcs/rudder-cmd-norm",
 )
+_ESC_NAMES = ("front-right", "aft-left", "front-left", "aft-right")
+"""The ESC actuators of ``Effectors.xml`` as JSBSim names their properties (``fcs/<name>/malfunction/fail_zero``),
+in motor-output order; PX4's quad X numbers its motors in the same order (1 front right … 4 aft right)."""
 _GUST_PROPERTIES = ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps", "atmosphere/gust-down-fps")

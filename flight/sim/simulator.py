@@ -141,6 +141,10 @@ class Simulator:
         self._version = 0
         """Bumped by everything that can change :meth:`state` (steps, arming, setpoints, payload)."""
         self._state_cache: tuple[int, float, VehicleState] | None = None
+        self.gps_lost = False
+        """An injected GPS failure: :meth:`gps_fix` reports no fix (the flight model flies on regardless)."""
+        self.motors_failed: frozenset[int] = frozenset()
+        """Motors (0..3) whose output an injected failure holds at zero (:meth:`fail_motor`)."""
 
     # -- time ------------------------------------------------------------------------------------------------
 
@@ -283,6 +287,15 @@ class Simulator:
         """Descend where the vehicle is, touch down, cut the motors and disarm."""
         return self.set_setpoint(Land())
 
+    def fail_motor(self, index: int, failed: bool = True) -> None:
+        """Stop motor ``index`` (0..3: front right, aft left, front left, aft right) whatever the controller asks,
+        or give it back; the controller does not know (a quadrotor cannot fly on three motors)."""
+        if not 0 <= index < 4:
+            raise ValueError(f"motor index must be 0..3, not {index}")
+        self.model.set_motor_failed(index, failed)
+        self.motors_failed = self.motors_failed | {index} if failed else self.motors_failed - {index}
+        self._version += 1
+
     def release_payload(self) -> bool:
         """Release the payload. False if it was already released."""
         if self._payload_released:
@@ -340,10 +353,11 @@ class Simulator:
         """The current snapshot. Built once per change (several readers ask every tick; building one validates 23
         fields), keyed on everything that changes it, including a battery drained from outside."""
         cache = self._state_cache
-        if cache is not None and cache[0] == self._version and cache[1] == self.battery.used_mah:
+        soc = self.battery.soc
+        if cache is not None and cache[0] == self._version and cache[1] == soc:
             return cache[2]
         state = self._build_state()
-        self._state_cache = (self._version, self.battery.used_mah, state)
+        self._state_cache = (self._version, soc, state)
         return state
 
     def _build_state(self) -> VehicleState:
@@ -394,5 +408,6 @@ class Simulator:
             vd_mps=s.vd_mps + vd,
             eph_m=cfg.horizontal_std_m,
             epv_m=cfg.vertical_std_m,
-            satellites=cfg.satellites,
+            satellites=0 if self.gps_lost else cfg.satellites,
+            fix_type=0 if self.gps_lost else 3,
         )

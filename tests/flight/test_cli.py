@@ -51,7 +51,7 @@ def read_line(stream, timeout_s):
 def test_sim_runs_until_sigterm_and_stops_cleanly():
     gcs = free_udp_port()
     argv = ["--speed", "max", "--bind", "127.0.0.1:0", "--gcs", f"127.0.0.1:{gcs}", "--api", "none"]
-    argv += ["--home", "21.42,39.89,310", "--param", "MIS_TAKEOFF_ALT=3"]
+    argv += ["--home", "21.42,39.89,310", "--param", "MIS_TAKEOFF_ALT=3", "--param", "SYS_FAILURE_EN=1"]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "flight.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
@@ -67,6 +67,7 @@ def test_sim_runs_until_sigterm_and_stops_cleanly():
             async with await VehicleClient.connect(("127.0.0.1", int(found.group(1))), timeout_s=5.0) as client:
                 telemetry = await client.wait_telemetry(5.0)
                 assert telemetry is not None
+                assert await client.get_param("SYS_FAILURE_EN") == 1  # failure injection enabled from the command line
                 return telemetry
 
         telemetry = asyncio.run(talk())

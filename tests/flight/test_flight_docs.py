@@ -7,6 +7,7 @@ import pytest
 
 MODULES = [
     "flight.cli",
+    "flight.client.safety",
     "flight.client.streams",
     "flight.client.telemetry",
     "flight.mavlink.pacing",
