@@ -23,6 +23,8 @@ tool                       arguments                                            
                            ``mission_type`` (``mission``, ``fence``, ``rally``)
 ``flight.start_mission``   ``from_item``, ``wait`` (until the mission is complete)  ``flight:command``
 ``flight.status``          none: the latest telemetry                               ``flight:read``
+``flight.set_fence``       ``max_alt_m``; ``polygon`` or ``center``+``radius_m``;     ``flight:command``
+                           ``floor_m`` (the vehicle enforces them itself)
 =========================  =======================================================  ==================
 
 A ``target_id`` names an object of the world model: the tools are given a resolver (``targets``: id → latitude and
@@ -69,6 +71,7 @@ TIMEOUTS_S: dict[str, float] = {
     "flight.upload_mission": 120.0,
     "flight.start_mission": 3600.0,
     "flight.status": 10.0,
+    "flight.set_fence": 60.0,
 }
 """Each tool's own timeout (the executor's bound on one call; a mission step's ``timeout_s`` may shorten it)."""
 
@@ -294,6 +297,39 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
         client = await clients.get()
         return client.telemetry
 
+    async def set_fence(
+        max_alt_m: Positive,
+        polygon: list[LatLon] | None = None,
+        center: LatLon | None = None,
+        radius_m: Positive | None = None,
+        floor_m: NonNegative | None = None,
+    ) -> dict[str, Any]:
+        """Give the vehicle a mission's limits to enforce itself: an inclusion fence (a polygon, or a circle of
+        radius_m around center; neither clears it), the ceiling, the floor, the return altitude capped under the
+        ceiling; all read back.
+
+        Args:
+            max_alt_m: the ceiling, metres above home
+            polygon: the fence's corners, in order
+            center: the centre of a circular fence (with radius_m)
+            radius_m: the radius of a circular fence, metres
+            floor_m: the lowest a target may be above home, metres (take-off and landing aside)
+        """
+        if polygon is not None and center is not None:
+            raise ToolError("give a polygon or a circle (center and radius_m), not both")
+        if (center is None) != (radius_m is None):
+            raise ToolError("a circular fence needs both center and radius_m")
+        client = await clients.get()
+        result = await client.upload_fence(
+            polygon=[(p.lat, p.lon) for p in polygon] if polygon is not None else None,
+            circle=(center.lat, center.lon, radius_m) if center is not None and radius_m is not None else None,
+            max_alt_m=max_alt_m,
+            floor_m=floor_m,
+        )
+        if result.status != "ok":
+            raise ToolError(f"the vehicle did not take the fence ({result.status}): {result.reason}")
+        return {"items": result.items, "params": result.params}
+
     def spec(fn: Callable[..., Any], name: str, scope: str) -> ToolSpec:
         return spec_from_function(fn, name=name, scopes=[scope], timeout_s=TIMEOUTS_S[name], idempotent=False)
 
@@ -315,6 +351,7 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
         spec(upload_mission, "flight.upload_mission", SCOPE_COMMAND),
         spec(start_mission, "flight.start_mission", SCOPE_COMMAND),
         spec(status, "flight.status", SCOPE_READ),
+        spec(set_fence, "flight.set_fence", SCOPE_COMMAND),
     ]
 
 

@@ -35,9 +35,10 @@ from tools.function import spec_from_function
 
 from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
-from ..agent.envelope import Envelope
+from ..agent.envelope import FLOOR_M, Envelope
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
+from ..contracts.policy_graph import Circle
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
 from ..mission.compile import Reflector, abort_reflector
@@ -65,6 +66,9 @@ STOP_TOOLS = {"abort": "flight.hold", "rtl": "flight.rtl", "land": "flight.land"
 """What the aircraft does when the operator stops the run."""
 
 STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed"}
+
+DEFAULT_CEILING_M = 120.0
+"""The ceiling handed to the vehicle with a fence when the mission names none (a common legal limit)."""
 
 
 class MissionRun:
@@ -349,6 +353,22 @@ class MissionRun:
         if status.status != "ok":
             raise RunFailure(f"cannot reach the vehicle at {self.backend.address}: {status.error}")
 
+    def fence_vehicle(self) -> None:
+        """Hand the vehicle the mission's limits before take-off (fence items, ceiling, floor, return altitude under
+        the ceiling), so it enforces them itself, PX4's way; :class:`RunFailure` when it does not take them."""
+        limits = self.plan.limits
+        if limits.geofence is None and limits.max_altitude_m is None:
+            return
+        args: dict[str, Any] = {"max_alt_m": limits.max_altitude_m or DEFAULT_CEILING_M, "floor_m": FLOOR_M}
+        fence = limits.geofence
+        if isinstance(fence, Circle):
+            args.update(center={"lat": fence.center.lat, "lon": fence.center.lon}, radius_m=fence.radius_m)
+        elif fence is not None:
+            args["polygon"] = [{"lat": p.lat, "lon": p.lon} for p in fence]
+        result = self.dispatch.call("flight.set_fence", args)
+        if result.status != "ok":
+            raise RunFailure(f"the vehicle did not take the mission's limits: {result.error}")
+
     def prepare(self) -> None:
         """Get ready before take-off: the annotator loaded, the model's connection opened (a model server that does
         not answer is reported now rather than at the first event)."""
@@ -375,6 +395,7 @@ class MissionRun:
         try:
             self.backend.start()
             self.reach_vehicle()
+            self.fence_vehicle()
             self.prepare()
             with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(

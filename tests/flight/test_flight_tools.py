@@ -172,7 +172,11 @@ def test_the_tools_are_guarded_for_flying():
         raise AssertionError("not connected in this test")
 
     specs = {s.name: s for s in flight_tools(never)}
-    mission_tools = {"flight.upload_mission", "flight.start_mission"}  # no DSL action: whole plans
+    mission_tools = {
+        "flight.upload_mission",
+        "flight.start_mission",
+        "flight.set_fence",
+    }  # no DSL action: whole plans, limits
     assert set(FLIGHT_ACTIONS.values()) | {"flight.hold", "flight.status"} | mission_tools == set(specs)
     for name, spec in specs.items():
         assert not spec.idempotent and spec.retry.attempts == 1 and spec.cache_ttl_s is None
@@ -368,3 +372,21 @@ def test_asyncio_callers_share_the_client(executor):
     first, second = asyncio.run(two())
     assert first.status == second.status == "ok"
     assert executor.call("flight.status", {}).status == "ok"  # the executor's own loop: the same client
+
+
+def test_set_fence_refuses_a_fence_given_two_ways_and_half_a_circle():
+    async def never():
+        raise AssertionError("not connected: the arguments are refused first")
+
+    (fence,) = [s for s in flight_tools(never) if s.name == "flight.set_fence"]
+    executor = ToolExecutor(ToolRegistry(), default_caller=Caller(id="t", scopes=frozenset({"flight:*"})))
+    executor.registry.register(fence)
+    both = executor.call(
+        "flight.set_fence",
+        {"max_alt_m": 25, "polygon": [{"lat": 21.4, "lon": 39.8}] * 3, "center": {"lat": 21.4, "lon": 39.8},
+         "radius_m": 100},
+    )  # fmt: skip
+    half = executor.call("flight.set_fence", {"max_alt_m": 25, "center": {"lat": 21.4, "lon": 39.8}})
+    executor.close()
+    assert both.status == "error" and "not both" in (both.error or "")
+    assert half.status == "error" and "both center and radius_m" in (half.error or "")

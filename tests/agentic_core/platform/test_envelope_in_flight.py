@@ -62,3 +62,33 @@ def test_a_model_plan_past_the_fence_is_refused_before_it_flies(tmp_path: Path, 
     assert denied["args"]["north_m"] == 900 and "100 m outside the geofence" in denied["error"]
     farthest = max(math.hypot(t["north_m"], t["east_m"]) for t in telemetry(result.run_dir))
     assert farthest < 801.0
+
+
+LOW_CEILING = """
+plan_id: low-ceiling
+goal: Out and home under a 25 m ceiling; the vehicle's own return must stay under it too.
+limits:
+  geofence: {center: {lat: 21.4133, lon: 39.8933}, radius_m: 200}
+  max_altitude_m: 25
+steps:
+  - {id: up, action: takeoff, args: {altitude_m: 10}}
+  - {id: out, action: fly_to, depends_on: [up], args: {north_m: 120, east_m: 0, alt_m: 10}}
+  - {id: home, action: rtl, depends_on: [out]}
+"""
+
+
+def test_the_vehicle_is_given_the_mission_limits_and_returns_under_the_ceiling(tmp_path: Path) -> None:
+    mission = tmp_path / "low.yaml"
+    mission.write_text(LOW_CEILING, encoding="utf-8")
+    result = run_mission(
+        RunSettings(mission=mission, scene=NEAR, runs_dir=tmp_path / "runs", camera_hz=5.0), progress=None
+    )
+    assert result.summary.outcome == "completed"
+    records = trace(result.run_dir)
+    (fence,) = [r for r in of_kind(records, "tool") if r.get("name") == "flight.set_fence"]
+    assert fence["status"] == "ok"
+    tools = [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
+    assert tools.index("flight.set_fence") < tools.index("flight.takeoff")  # before anything flies
+    samples = telemetry(result.run_dir)
+    assert max(t["alt_m"] for t in samples) < 25.0  # PX4's return would climb to its RTL_RETURN_ALT (60 m)
+    assert samples[-1]["alt_m"] < 0.5 and math.hypot(samples[-1]["north_m"], samples[-1]["east_m"]) < 3.0
