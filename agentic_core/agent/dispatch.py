@@ -77,6 +77,12 @@ class Dispatcher:
         self.hold_over = hold_over
         self.envelope = envelope
         self.poll_s = poll_s
+        self.frame_driven = False
+        """Set when perception calls :meth:`spot` after every frame: the watch then looks in lockstep with the
+        camera, not at the dispatcher's polls."""
+        self._watch_lock = threading.Lock()
+        self._watching: Mapping[str, Any] | None = None
+        self._spotted: tuple[Trigger, Any] | None = None
         self._keyed = "idempotency_key" in inspect.signature(executor.call).parameters
 
     def __call__(self, tool: str, args: dict[str, Any], timeout_s: float | None) -> ToolResult | Interrupted:
@@ -127,21 +133,28 @@ class Dispatcher:
         self, tool: str, args: dict[str, Any], timeout_s: float | None, state: Mapping[str, Any], key: str | None
     ) -> ToolResult | Interrupted:
         while True:
+            with self._watch_lock:
+                self._watching, self._spotted = state, None
             worker = _Flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
             found: tuple[Trigger, Any] | None = None
             stop: str | None = None
-            while worker.running(self.poll_s):
-                stop = self._control_stop()
-                if stop is not None:
-                    break
-                found = self._new_event(state)
-                if found is not None:
-                    break
-            if stop is None and found is None:
-                result = worker.result()
-                self.published(tool, args, result, key)
-                return result
-            hold = self._stop(worker)  # the action ends, superseded by the hold: its result is the interruption's
+            try:
+                while worker.running(self.poll_s):
+                    stop = self._control_stop()
+                    if stop is not None:
+                        break
+                    found = self._take_spotted() if self.frame_driven else self._new_event(state)
+                    if found is not None:
+                        break
+                if stop is None and found is None:
+                    result = worker.result()
+                    self.published(tool, args, result, key)
+                    return result
+                hold = self._stop(worker)  # the action ends, superseded by the hold: its result is the interruption's
+            finally:
+                with self._watch_lock:
+                    self._watching = None
+                self.pace.urgent(False)
             if stop is not None:
                 return self._interrupted(tool, hold, Interrupted(stop))
             assert found is not None
@@ -178,6 +191,27 @@ class Dispatcher:
         if self.control.paused:
             return "paused by the operator"
         return None
+
+    def spot(self, *_: Any) -> None:
+        """After a camera frame (perception's thread, in lockstep with the simulation): look for an event the
+        reasoner has not judged while a watched action flies; when there is one, keep it for the watch and slow the
+        simulation until the aircraft is told to hold."""
+        with self._watch_lock:
+            state = self._watching
+            if state is None or self._spotted is not None:
+                return
+        found = self._new_event(state)
+        if found is None:
+            return
+        with self._watch_lock:
+            if self._watching is state and self._spotted is None:
+                self._spotted = found
+                self.pace.urgent(True)
+
+    def _take_spotted(self) -> tuple[Trigger, Any] | None:
+        with self._watch_lock:
+            found, self._spotted = self._spotted, None
+            return found
 
     def _new_event(self, state: Mapping[str, Any]) -> tuple[Trigger, Any] | None:
         """The first (trigger, event) the watch finds that the reasoner has not judged yet."""

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from agentic_core.contracts.geodesy import local_offset
@@ -67,6 +68,8 @@ class PerceptionLoop:
         self._lock = threading.Lock()
         self._world: WorldModel | None = None
         self.restored: WorldModel | None = None
+        self.on_world: list[Callable[[WorldModel], None]] = []
+        """Called with each new World Model, in the thread that took the frame (the watch looks here)."""
         self._last_seen: dict[str, tuple[float, float, str, float]] = {}
         """Every object id seen: where it was last, its class, and when (for targets and re-identification)."""
 
@@ -147,6 +150,8 @@ class PerceptionLoop:
             self.busy_s += done - start
             self.sensor_s += sensed - start
             self.last_sensor_s, self.last_pipeline_s = sensed - start, done - sensed
+        for hook in self.on_world:
+            hook(world)
         return world
 
     def warm(self, width_px: int = 640) -> None:

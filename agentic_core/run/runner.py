@@ -165,6 +165,9 @@ class MissionRun:
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
             hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target),
         )  # fmt: skip
+        if self.loop is not None:  # the watch looks at every frame, in lockstep with the camera
+            self.loop.on_world.append(self.dispatch.spot)
+            self.dispatch.frame_driven = True
         self.env = Environment(
             dispatch=self.dispatch,
             vehicle=self.view,

@@ -114,3 +114,17 @@ def test_the_setting_may_change_during_a_run() -> None:
         assert pace.speed() == 0.25
         with pace.waiting("tool"):
             assert pace.speed() == 0.25  # slower than real time stays slower
+
+
+def test_urgent_slows_the_simulation_whatever_is_awaited_until_cleared() -> None:
+    from agentic_core.agent.pacing import URGENT_SPEED
+
+    pace = Pace(None)
+    with pace.waiting("vehicle"):
+        assert pace.speed() is None
+        pace.urgent(True)
+        assert pace.speed() == URGENT_SPEED < 1.0
+        with pace.waiting("model"):
+            assert pace.speed() == URGENT_SPEED
+        pace.urgent(False)
+        assert pace.speed() is None
