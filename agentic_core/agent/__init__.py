@@ -2,6 +2,14 @@
 the reasoner and the operator; one trigger evaluation (``agentic_core.mission.triggers``) used at the scheduler's
 barriers and while a long action flies; the tier-2 gate; the dispatcher every action goes through; the control
 port; the event bus; pacing of simulated time.
+
+>>> from agentic_core.agent import ControlPort, EventBus
+>>> bus, seen = EventBus(), []
+>>> _ = bus.subscribe(lambda event: seen.append(event.kind))
+>>> port = ControlPort(on_command=lambda name, detail: bus.publish("control", command=name, **detail))
+>>> port.pause(by="console")
+>>> seen, port.paused
+(['control'], True)
 """
 
 from .bus import EventBus

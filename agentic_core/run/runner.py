@@ -36,6 +36,7 @@ from tools.function import spec_from_function
 from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
 from ..agent.envelope import FLOOR_M, Envelope
+from ..agent.failsafes import TelemetryFailsafes
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..contracts.policy_graph import Circle
@@ -144,6 +145,8 @@ class MissionRun:
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
         self.snapshots = SnapshotWriter(self.run_dir)
         self.control = ControlPort(on_command=self._on_command)
+        self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish)
+        self.backend.on_sample(self.failsafes)
         if settings.approval == "ask":
             ask: Operator = self._operator or TerminalOperator(
                 sys.stdin, self.progress or sys.stderr, timeout_s=settings.approval_timeout_s
