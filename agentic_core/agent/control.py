@@ -56,6 +56,7 @@ class ControlPort:
         self._paused = False
         self._stop: StopCommand | None = None
         self._stop_reason: str | None = None
+        self._stop_by: str | None = None
         self._questions: dict[str, Question] = {}
         self._ids = itertools.count(1)
         self._on_command = on_command
@@ -133,6 +134,12 @@ class ControlPort:
         with self._cond:
             return self._stop_reason
 
+    @property
+    def stopped_by(self) -> str | None:
+        """Who sent the stop command that stands."""
+        with self._cond:
+            return self._stop_by
+
     def wait_while_paused(self, poll_s: float = 0.1) -> None:
         """Block while paused, until resumed or a stop command arrives."""
         with self._cond:
@@ -179,7 +186,7 @@ class ControlPort:
     def _stop_with(self, command: StopCommand, reason: str | None, by: str) -> None:
         def change() -> None:
             if self._stop is None:
-                self._stop, self._stop_reason = command, reason
+                self._stop, self._stop_reason, self._stop_by = command, reason, by
 
         self._command(command, by, change, **({"reason": reason} if reason else {}))
 

@@ -14,17 +14,23 @@ line and field).
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
-from collections.abc import Callable, Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
 from flight.cli import parse_speed
 
 from ..contracts.errors import AgenticUAVError, report_error
-from .settings import RunResult
+
+if TYPE_CHECKING:
+    from .runner import MissionRun
 
 PROG = "agentic-uav run"
 
@@ -68,7 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from .runner import RunSettings, resume_run, run_mission
+    from .runner import MissionRun, RunSettings
 
     args = build_parser().parse_args(argv)
     progress = None if args.quiet else sys.stderr
@@ -83,7 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             overrides["approval"] = args.approval or "decline"
         if "speed" in vars(args):
             overrides["speed"] = args.speed
-        return _fly(lambda: resume_run(args.runs_dir, args.resume, progress=progress, **overrides))
+        return _fly(lambda: MissionRun.resume(args.runs_dir, args.resume, progress=progress, **overrides))
     if args.mission is None:
         print(f"{PROG}: error: give a MISSION, or --resume RUN_ID", file=sys.stderr)
         return 2
@@ -120,14 +126,42 @@ def main(argv: Sequence[str] | None = None) -> int:
         first = exc.errors()[0]
         print(f"{PROG}: error: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
         return 2
-    return _fly(lambda: run_mission(settings, progress=progress))
+    return _fly(lambda: MissionRun(settings, progress=progress))
 
 
-def _fly(start: Callable[[], RunResult]) -> int:
-    """Run ``start`` and print its outcome; the exit status says it: 0 completed or returned home, 1 anything else
-    that happened, 2 for bad input (one line naming it, no traceback)."""
+@contextmanager
+def _signals_stop(run: MissionRun) -> Iterator[None]:
+    """While the block runs, the first SIGINT or SIGTERM asks the run to stop (``abort`` by ``signal``); a second
+    one exits at once, quietly, with status 130."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum: int, _frame: Any) -> None:
+        if run.control.stop_requested() is not None:
+            print(f"\n{PROG}: stopped at once", file=sys.stderr, flush=True)
+            os._exit(130)
+        name = signal.Signals(signum).name
+        print(f"\n{PROG}: {name}: stopping the run (again to stop at once)", file=sys.stderr, flush=True)
+        run.control.abort(f"{name} received", by="signal")
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        result = start()
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _fly(make: Callable[[], MissionRun]) -> int:
+    """Build a run with ``make``, fly it and print its outcome; the exit status says it: 0 completed or returned
+    home, 1 anything else that happened, 2 for bad input (one line naming it, no traceback). Ctrl-C or SIGTERM
+    stops the run through its control port (outcome ``interrupted``, report written, resumable with
+    ``--resume``); a second one ends the process at once."""
+    try:
+        run = make()
+        with _signals_stop(run):
+            result = run.execute()
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)
     except ValueError as exc:  # a bad value found below our own checks

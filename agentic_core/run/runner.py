@@ -419,7 +419,8 @@ class MissionRun:
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
             if result.stopped is not None:
                 self._carry_out(result.stopped)
-                outcome = STOP_OUTCOMES[result.stopped]
+                signalled = self.control.stopped_by == "signal"
+                outcome = "interrupted" if signalled else STOP_OUTCOMES[result.stopped]
             elif result.over_time:
                 outcome = "interrupted"
                 self.bus.publish(

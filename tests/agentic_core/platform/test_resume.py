@@ -109,3 +109,38 @@ def test_a_killed_run_resumes_and_does_nothing_twice(
 def test_resuming_what_does_not_exist_is_a_clear_error(tmp_path: Path, smtp: Any) -> None:
     done = resume(tmp_path, "no-such-run", smtp)
     assert done.returncode == 2 and "no-such-run" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_signal_stops_the_run_cleanly_and_it_resumes(tmp_path: Path, smtp: Any, signum: int) -> None:
+    """Ctrl-C or SIGTERM mid-flight: no traceback, the aircraft holds, the report says ``interrupted``, exit 1; the
+    run then resumes and finishes the mission."""
+    runs = tmp_path / "runs"
+    proc = subprocess.Popen(
+        command(runs), cwd=REPO, env=environment(smtp), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+
+        def flying() -> bool:
+            folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
+            return bool(folders) and (folders[0] / "trace.jsonl").is_file() and on_patrol(trace(folders[0]))
+
+        wait_for(flying, timeout_s=120.0, what="the run to take off")
+        proc.send_signal(signum)
+        out, err = proc.communicate(timeout=120.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10.0)
+    assert proc.returncode == 1, err[-2000:]
+    assert "Traceback" not in err and "stopping the run" in err
+    (folder,) = [p for p in runs.iterdir() if p.is_dir()]
+    assert f"{folder.name}: interrupted" in out
+    assert "interrupted" in (folder / "report.md").read_text(encoding="utf-8")
+    records = trace(folder)
+    (stop,) = of_kind(records, "control")
+    assert stop["command"] == "abort" and stop["by"] == "signal"
+    done = resume(runs, folder.name, smtp)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert_served(folder, smtp)
