@@ -16,6 +16,7 @@ people motionless or isolated first, then the nearest to the subject, and says h
 from __future__ import annotations
 
 import math
+import threading
 import time
 from typing import Any, Protocol
 
@@ -109,15 +110,31 @@ class LLMReasoner:
         return Decision(assessment=None, error=f"{result.status}: {result.error or 'no assessment'}", **common)
 
 
+DEADLINE_S = 10.0
+"""How long the hybrid reasoner waits for its model before its rules' reading stands (a slow local model can take
+40 s; a casualty must not wait that long)."""
+
+
 class HybridReasoner:
-    """Rules on every frame; the model only on critical events, and never twice for the same situation."""
+    """Rules on every frame; the model only on critical events, never twice for the same situation, and never for
+    longer than ``deadline_s``: past it the rules' assessment stands, and the decision says so."""
 
     name = "hybrid"
 
-    def __init__(self, rules: RuleReasoner, model: LLMReasoner, *, escalate_at: Severity = "high") -> None:
+    def __init__(
+        self,
+        rules: RuleReasoner,
+        model: LLMReasoner,
+        *,
+        escalate_at: Severity = "high",
+        deadline_s: float | None = DEADLINE_S,
+    ) -> None:
+        if deadline_s is not None and not deadline_s > 0:
+            raise ValueError("deadline_s must be positive (or None: wait as long as the model takes)")
         self.rules = rules
         self.model = model
         self.escalate_at = escalate_at
+        self.deadline_s = deadline_s
         self.consulted = 0
         """Model calls made."""
         self.saved = 0
@@ -144,7 +161,7 @@ class HybridReasoner:
                     "completion_tokens": 0,
                 }
             )
-        decision = self.model.assess(world, focus or tier1.assessment.subject_id)
+        decision = self._ask(world, focus or tier1.assessment.subject_id, start)
         self.consulted += 1
         decision = decision.model_copy(
             update={"reasoner": self.name, "processing_time_s": time.perf_counter() - start, "escalated": True}
@@ -152,7 +169,7 @@ class HybridReasoner:
         if decision.ok:
             self._answers[key] = decision
             return decision
-        # The model failed: the rules' own reading stands, and the failure is kept on the record.
+        # The model failed or was too slow: the rules' own reading stands, and why is kept on the record.
         return tier1.model_copy(
             update={
                 "reasoner": self.name,
@@ -166,5 +183,24 @@ class HybridReasoner:
             }
         )
 
+    def _ask(self, world: WorldModel, focus: str | None, start: float) -> Decision:
+        """The model's decision, or a failed one when it has not answered within the deadline (its call goes on in
+        the background, and its late answer is dropped)."""
+        if self.deadline_s is None:
+            return self.model.assess(world, focus)
+        box: dict[str, Decision] = {}
+        worker = threading.Thread(
+            target=lambda: box.setdefault("decision", self.model.assess(world, focus)), name="hybrid-model", daemon=True
+        )
+        worker.start()
+        worker.join(self.deadline_s)
+        if "decision" in box:
+            return box["decision"]
+        waited = time.perf_counter() - start
+        return Decision(
+            reasoner=self.name, assessment=None, processing_time_s=waited, model_time_s=waited, llm_calls=1,
+            error=f"no answer within the {self.deadline_s:g} s deadline",
+        )  # fmt: skip
 
-__all__ = ["HybridReasoner", "LLMReasoner", "StructuredChat", "world_model_prompt"]
+
+__all__ = ["DEADLINE_S", "HybridReasoner", "LLMReasoner", "StructuredChat", "world_model_prompt"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -145,3 +146,32 @@ def test_make_reasoner_names_what_is_wrong(standin: StandIn) -> None:
         make_reasoner("llm", llm="bogus:thing", environ={})
     made = make_reasoner("hybrid", llm=f"openai-compatible:qwen@{standin.url}/v1", environ={})
     assert made.name == "hybrid"
+
+
+class _Slow:
+    """A model reasoner that takes ``delay_s`` to answer (what a 40 s local model is to a 1 s deadline)."""
+
+    name = "llm:slow"
+
+    def __init__(self, inner: LLMReasoner, delay_s: float) -> None:
+        self.inner, self.delay_s = inner, delay_s
+
+    def assess(self, world: WorldModel, focus: str | None = None) -> Any:
+        time.sleep(self.delay_s)  # the slowness under test
+        return self.inner.assess(world, focus)
+
+
+def test_hybrid_falls_back_to_its_rules_after_its_deadline(standin: StandIn, client: OpenAICompatibleClient) -> None:
+    standin.script(openai_completion(json.dumps(CRITICAL)))
+    hybrid = HybridReasoner(RuleReasoner(), _Slow(LLMReasoner(client), 3.0), deadline_s=0.5)  # type: ignore[arg-type]
+    started = time.monotonic()
+    decision = hybrid.assess(world(True))
+    assert time.monotonic() - started < 2.5  # the rules answered; the model was not waited for
+    assert decision.ok and decision.assessment is not None and decision.assessment.severity == "critical"
+    assert decision.error == "model failed, rules' assessment kept: no answer within the 0.5 s deadline"
+    assert decision.escalated and decision.llm_calls == 1
+
+
+def test_a_deadline_must_be_positive() -> None:
+    with pytest.raises(ValueError, match="deadline_s must be positive"):
+        HybridReasoner(RuleReasoner(), LLMReasoner.__new__(LLMReasoner), deadline_s=0)
