@@ -1,10 +1,9 @@
 """The ``flight.*`` tools: the mission DSL's flight actions (and the agent's) as guarded tools over a VehicleClient.
 
 Every action reaches the aircraft through the tools executor, so scopes, timeouts and the audit log apply to it.
-The input schemas mirror the mission DSL's argument models (``agentic_core.mission.model``: ``TakeoffArgs``,
-``FlyToArgs``, ``OrbitArgs``, ``HoverArgs``, ``LandArgs``, ``NoArgs``, ``DeployPayloadArgs``), which send their
-arguments by name with None left out and defaults filled in; ``flight`` must not import ``agentic_core``, so the
-names are repeated here and a test checks that the two agree.
+The arguments are those of :mod:`agentic_core.contracts.flight_args`, the models the mission DSL's are derived
+from (without the DSL's ``${...}`` templates): the parameters carry its value types and its cross-field rules
+(one destination, one centre, one landing place) are checked by its models.
 
 =========================  =======================================================  ==================
 tool                       arguments                                                scope
@@ -44,8 +43,19 @@ import threading
 from collections.abc import Awaitable, Callable
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field, ValidationError
 
+from agentic_core.contracts.flight_args import (
+    FlyToArgs,
+    LandArgs,
+    Latitude,
+    LatLon,
+    Longitude,
+    NonNegative,
+    Number,
+    OrbitArgs,
+    Positive,
+)
 from agentic_core.contracts.geodesy import local_offset, offset_position
 from tools import ToolError, ToolRegistry, ToolSpec
 from tools.function import spec_from_function
@@ -80,18 +90,16 @@ NEEDS_WORLD_MODEL = "target_id needs a world model, and this vehicle's tools wer
 TargetResolver = Callable[[str], "tuple[float, float] | None"]
 """Where a world-model object is: its id → (latitude, longitude), or None when there is no such object."""
 
-Latitude = Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False, description="latitude, degrees (WGS-84)")]
-Longitude = Annotated[float, Field(ge=-180, le=180, allow_inf_nan=False, description="longitude, degrees (WGS-84)")]
-Metres = Annotated[float, Field(allow_inf_nan=False)]
-Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Lat = Annotated[Latitude, Field(description="latitude, degrees (WGS-84)")]
+Lon = Annotated[Longitude, Field(description="longitude, degrees (WGS-84)")]
 
 
-class LatLon(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    lat: Latitude
-    lon: Longitude
+def _check(build: Callable[[], object]) -> None:
+    """Build an argument model to apply its cross-field rules; a broken rule is a ToolError saying which."""
+    try:
+        build()
+    except ValidationError as exc:
+        raise ToolError("; ".join(e["msg"].removeprefix("Value error, ") for e in exc.errors())) from None
 
 
 class _ClientSource:
@@ -153,10 +161,10 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
         return _done(await client.takeoff(altitude_m))
 
     async def fly_to(
-        lat: Latitude | None = None,
-        lon: Longitude | None = None,
-        north_m: Metres | None = None,
-        east_m: Metres | None = None,
+        lat: Lat | None = None,
+        lon: Lon | None = None,
+        north_m: Number | None = None,
+        east_m: Number | None = None,
         target_id: str | None = None,
         alt_m: NonNegative | None = None,
         speed_mps: Positive | None = None,
@@ -172,9 +180,7 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
             alt_m: height above home; default: keep the current one
             speed_mps: horizontal speed; default: the vehicle's cruise speed
         """
-        ways = [lat is not None or lon is not None, north_m is not None or east_m is not None, target_id is not None]
-        if sum(ways) != 1:
-            raise ToolError("give exactly one destination: lat and lon, north_m and east_m, or target_id")
+        _check(lambda: FlyToArgs(lat=lat, lon=lon, north_m=north_m, east_m=east_m, target_id=target_id))
         if target_id is not None:
             lat, lon = where(target_id)
         client = await clients.get()
@@ -182,7 +188,7 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
             return _done(await client.goto(lat, lon, alt_m, speed_mps=speed_mps, action="fly_to"))
         if north_m is not None and east_m is not None:
             return _done(await client.goto_local(north_m, east_m, alt_m, speed_mps=speed_mps, action="fly_to"))
-        raise ToolError("lat and lon go together, as do north_m and east_m")
+        raise AssertionError("FlyToArgs lets no other destination through")
 
     async def orbit(
         radius_m: Positive,
@@ -200,8 +206,7 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
             turns: how many times round
             alt_m: height above home; default: keep the current one
         """
-        if (center is None) == (target_id is None):
-            raise ToolError("give exactly one of center or target_id")
+        _check(lambda: OrbitArgs(center=center, target_id=target_id, radius_m=radius_m))
         if center is None and target_id is not None:
             lat, lon = where(target_id)
             center = LatLon(lat=lat, lon=lon)
@@ -219,8 +224,8 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
         return _done(await client.hover(duration_s))
 
     async def land(
-        lat: Latitude | None = None,
-        lon: Longitude | None = None,
+        lat: Lat | None = None,
+        lon: Lon | None = None,
         target_id: str | None = None,
         offset_m: NonNegative = 0.0,
     ) -> FlightResult:
@@ -232,10 +237,7 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
             target_id: an object id of the world model to land beside
             offset_m: keep this distance from the target when landing (only with target_id)
         """
-        if (lat is None) != (lon is None):
-            raise ToolError("lat and lon go together")
-        if target_id is not None and lat is not None:
-            raise ToolError("give lat and lon, or target_id, not both")
+        _check(lambda: LandArgs(lat=lat, lon=lon, target_id=target_id))
         client = await clients.get()
         if target_id is not None:
             lat, lon = beside(client.telemetry, *where(target_id), offset_m)
@@ -388,7 +390,6 @@ __all__ = [
     "SCOPE_READ",
     "TIMEOUTS_S",
     "ClientFactory",
-    "LatLon",
     "TargetResolver",
     "beside",
     "flight_tools",

@@ -22,15 +22,17 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
 
+from . import flight_args
+
 TEMPLATE_PATTERN = r"^\$\{.+\}$"
 Template = Annotated[str, StringConstraints(pattern=TEMPLATE_PATTERN)]
 """A value computed when the step runs: ``"${params.altitude_m + 10}"``."""
 
-Number = Annotated[float, Field(allow_inf_nan=False)] | Template
-Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)] | Template
-NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)] | Template
-Latitude = Annotated[float, Field(ge=-90, le=90, allow_inf_nan=False)] | Template
-Longitude = Annotated[float, Field(ge=-180, le=180, allow_inf_nan=False)] | Template
+Number = flight_args.Number | Template
+Positive = flight_args.Positive | Template
+NonNegative = flight_args.NonNegative | Template
+Latitude = flight_args.Latitude | Template
+Longitude = flight_args.Longitude | Template
 StepId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 OnFail = Literal["trigger_reflection", "retry", "skip", "abort", "rtl"]
 
@@ -41,9 +43,10 @@ class Contract(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)  # "30" is not a number here: as in the JSON Schema
 
 
-class LatLon(Contract):
-    lat: Latitude = Field(description="latitude, degrees (WGS-84)")
-    lon: Longitude = Field(description="longitude, degrees (WGS-84)")
+# The flight actions' arguments are flight_args' models with ${...} templates allowed; no docstrings where the
+# plain model has none (a docstring is part of the JSON Schema).
+class LatLon(flight_args.LatLonOf[Template], Contract):
+    pass
 
 
 class Circle(Contract):
@@ -104,35 +107,12 @@ class Param(Contract):
 
 
 # --- arguments of each action ---
-class TakeoffArgs(Contract):
-    altitude_m: Positive = Field(default=10.0, description="climb to this height above home")
+class TakeoffArgs(flight_args.TakeoffArgsOf[Template], Contract):
+    pass
 
 
-class FlyToArgs(Contract):
+class FlyToArgs(flight_args.FlyToArgsOf[Template], Contract):
     """Exactly one way of saying where: ``lat``/``lon``, local ``north_m``/``east_m``, or a world-model object."""
-
-    lat: Latitude | None = None
-    lon: Longitude | None = None
-    north_m: Number | None = None
-    east_m: Number | None = None
-    target_id: str | None = Field(default=None, description="an object id of the world model, e.g. P-12")
-    alt_m: NonNegative | None = Field(default=None, description="height above home; default: keep the current one")
-    speed_mps: Positive | None = None
-
-    @model_validator(mode="after")
-    def _one_destination(self) -> FlyToArgs:
-        ways = [
-            self.lat is not None or self.lon is not None,
-            self.north_m is not None or self.east_m is not None,
-            self.target_id is not None,
-        ]
-        if sum(ways) != 1:
-            raise ValueError("give exactly one destination: lat and lon, north_m and east_m, or target_id")
-        if ways[0] and (self.lat is None or self.lon is None):
-            raise ValueError("lat and lon go together")
-        if ways[1] and (self.north_m is None or self.east_m is None):
-            raise ValueError("north_m and east_m go together")
-        return self
 
 
 class SurveyArgs(Contract):
@@ -144,47 +124,24 @@ class SurveyArgs(Contract):
     speed_mps: Positive | None = None
 
 
-class OrbitArgs(Contract):
-    center: LatLon | None = None
-    target_id: str | None = None
-    radius_m: Positive
-    turns: Positive = 1.0
-    alt_m: NonNegative | None = None
-
-    @model_validator(mode="after")
-    def _one_center(self) -> OrbitArgs:
-        if (self.center is None) == (self.target_id is None):
-            raise ValueError("give exactly one of center or target_id")
-        return self
-
-
-class HoverArgs(Contract):
-    duration_s: Positive
-
-
-class LandArgs(Contract):
-    """Land here (no arguments), at a position, or beside a world-model object (``offset_m`` away from it)."""
-
-    lat: Latitude | None = None
-    lon: Longitude | None = None
-    target_id: str | None = None
-    offset_m: NonNegative = Field(default=0.0, description="keep this distance from the target when landing")
-
-    @model_validator(mode="after")
-    def _one_place(self) -> LandArgs:
-        if (self.lat is None) != (self.lon is None):
-            raise ValueError("lat and lon go together")
-        if self.lat is not None and self.target_id is not None:
-            raise ValueError("give lat and lon, or target_id, not both")
-        return self
-
-
-class NoArgs(Contract):
+class OrbitArgs(flight_args.OrbitArgsOf[Template, LatLon], Contract):
     pass
 
 
-class DeployPayloadArgs(Contract):
-    payload: str = "rescue_kit"
+class HoverArgs(flight_args.HoverArgsOf[Template], Contract):
+    pass
+
+
+class LandArgs(flight_args.LandArgsOf[Template], Contract):
+    """Land here (no arguments), at a position, or beside a world-model object (``offset_m`` away from it)."""
+
+
+class NoArgs(flight_args.NoArgs, Contract):
+    pass
+
+
+class DeployPayloadArgs(flight_args.DeployPayloadArgs, Contract):
+    pass
 
 
 class AnalyzeSceneArgs(Contract):

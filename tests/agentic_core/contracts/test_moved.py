@@ -51,9 +51,6 @@ SAME_NAME_OTHER_THING = {
     "flight/mavlink/geofence.py: Circle",  # the vehicle's stored fence circle, local metres
     "flight/sim/controller.py: Limits",  # the simulated controller's speed and tilt limits
     "agentic_core/reasoning/llm/messages.py: ToolCall",  # a model server's call (OpenAI/Ollama wire), not a message's
-    # KNOWN EXCEPTION, still to remove (issue 14 part 2): flight/tools.py mirrors the DSL's argument types as
-    # function parameters, and its LatLon with them; the mission's models accept ${...} templates, the tools not.
-    "flight/tools.py: LatLon",
 }
 
 
