@@ -13,17 +13,13 @@ its snapshot, and no side effect twice (each call's idempotency key is in the au
 
 from __future__ import annotations
 
-import gc
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
 from flight.camera import CameraSpec
 from flight.sim.detector import SimulatedCamera
-from flight.sim.scene_file import load_scene
 from flight.sim.scene_model import Scene
 from flight.tools import register_flight_tools
 from flight.vehicle import VehicleClient
@@ -42,19 +38,16 @@ from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..contracts.policy_graph import Circle
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
-from ..mission.compile import Reflector, abort_reflector
-from ..mission.model import PolicyGraph, Trigger
+from ..mission.model import Trigger
 from ..mission.params import parse_param
 from ..mission.triggers import object_id, trigger_events
-from ..mission.validate import load_mission
 from ..perception.world_model import WorldModel
 from ..reasoning.assessment import Decision
-from ..reasoning.model_reasoners import StructuredChat
-from ..reasoning.planning import LLMPlanner
 from ..reasoning.reasoners import Reasoner, make_reasoner
-from ..reasoning.reflection import LLMReflector
+from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
+from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
 from .plan_review import review
@@ -97,7 +90,7 @@ class MissionRun:
         )
         register_builtins(self.registry, config)
         scene_path = settings.scene or default_scene(settings.mission)
-        self.scene: Scene | None = _load_scene(scene_path) if scene_path else None
+        self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
         self.pace = Pace(settings.speed)
         self.backend: Backend = (
             LinkBackend(settings.connect, camera_hz=settings.camera_hz)
@@ -128,10 +121,9 @@ class MissionRun:
         register_flight_tools(self.registry, self._connect, targets=self._target)
         self.registry.register(spec_from_function(self._analyze_scene, name="perception.analyze_scene",
                                                   scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
-        self.plan = _load_mission(settings.mission, self.registry)
+        self.plan = load_run_mission(settings.mission, self.registry)
         self.reasoner: Reasoner = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
-        self._param_values = dict(initial_state(self.plan, self.params).get("params") or {})
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.trace = TraceWriter(self.run_dir / "trace.jsonl")
         earlier = read_jsonl(self.run_dir / "trace.jsonl") if self.resuming else []
@@ -157,12 +149,7 @@ class MissionRun:
         )
         self.gate = Gate(self.reasoner, self._world_source(), self, self.bus.publish, self.pace,
                          on_decision=self._log_world)  # fmt: skip
-        client = self._model_client()
-        self.planner = (
-            LLMPlanner(client, self.plan, self._tools_for_plans(), record=self._exchange("plan"))
-            if client is not None
-            else None
-        )
+        self.model = ModelSide(self.reasoner, self.plan, self.registry, self.gate, self.bus.publish, self.pace)
         self.dispatch = Dispatcher(
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
@@ -178,7 +165,7 @@ class MissionRun:
             approve=None if settings.approval == "ask" else policy_approval(settings.approval == "approve",
                                                                               self.bus.publish),
             gate=self.gate,
-            planner=self._plan if self.planner is not None else None,
+            planner=self.model.plan if self.model.planner is not None else None,
             review=lambda steps: review(steps, self.registry, AGENT),
         )  # fmt: skip
 
@@ -214,7 +201,7 @@ class MissionRun:
         self.last_sample = sample
 
     def _world_source(self) -> WorldSource:
-        return self.loop if self.loop is not None else _NoWorld()
+        return self.loop if self.loop is not None else NoWorld()
 
     def _home(self) -> tuple[float, float] | None:
         """The vehicle's home as it reports it (the scene's until it has)."""
@@ -290,48 +277,6 @@ class MissionRun:
             "subject": {"id": last.subject_id, "lat": subject[0], "lon": subject[1]} if subject and last else None,
         }
 
-    # ---- the model: planning and reflection ----
-
-    def _model_client(self) -> StructuredChat | None:
-        """The reasoner's model client (llm, hybrid), which also plans and reflects; None for yolo and rules."""
-        client: StructuredChat | None = getattr(self.reasoner, "client", None) or getattr(
-            getattr(self.reasoner, "model", None), "client", None
-        )
-        return client
-
-    def _reflector(self) -> Reflector:
-        """A model's reflection when the reasoner has a model (llm, hybrid); else the default, which aborts."""
-        client = self._model_client()
-        if client is None:
-            return abort_reflector
-        reflect = LLMReflector(client, self.plan, record=self._exchange("reflection"))
-
-        def paced(failure: Any) -> Any:
-            with self.pace.waiting("model"):
-                return reflect(failure)
-
-        return paced
-
-    def _exchange(self, kind: str) -> Any:
-        def record(entry: dict[str, Any]) -> None:
-            self.bus.publish(kind, **entry, summary=f"{kind} by {entry.get('model')}: {entry.get('outcome')}")
-
-        return record
-
-    def _tools_for_plans(self) -> list[Any]:
-        """The tools a model's plan may name: those the agent holds every scope of."""
-        return [
-            self.registry.describe(n) for n in self.registry.names() if not AGENT.missing(self.registry.get(n).scopes)
-        ]
-
-    def _plan(self, trigger: Trigger, event: Any) -> list[dict[str, Any]] | None:
-        """The model's response plan for an event a trigger fired on (``plan: reasoner``); the mission checks it."""
-        assert self.planner is not None
-        assessment = self.gate.assessment(trigger.id, event)
-        self.bus.publish("log", level="info", summary=f"planning the response to {trigger.id} on {object_id(event)}")
-        with self.pace.waiting("model"):
-            return self.planner(assessment, event)
-
     # ---- events ----
 
     def _on_command(self, name: str, detail: dict[str, Any]) -> None:
@@ -380,8 +325,7 @@ class MissionRun:
         not answer is reported now rather than at the first event)."""
         if self.loop is not None:
             self.loop.warm()
-        client = self._model_client()
-        warm = getattr(client, "warm", None)
+        warm = getattr(self.model.client, "warm", None)
         if callable(warm):
             problem = warm()
             if problem is not None:
@@ -405,7 +349,7 @@ class MissionRun:
             self.prepare()
             with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
-                    self.plan, self.env, checkpointer=saver, reflector=self._reflector(), tools=self.registry
+                    self.plan, self.env, checkpointer=saver, reflector=self.model.reflector(), tools=self.registry
                 )
                 config = {"configurable": {"thread_id": self.run_id}, "recursion_limit": 10_000}
                 loop = AgentLoop(
@@ -493,52 +437,6 @@ class MissionRun:
                               if self.scene and k in self.scene.ground_truth.casualties},
             alert_sent_s=sent[0].get("sim_t") if sent else None,
         )  # fmt: skip
-
-
-class _NoWorld:
-    """The world source of a run without a scene: an empty World Model."""
-
-    @property
-    def world(self) -> WorldModel:
-        return WorldModel.model_validate(
-            {"timestamp": 0.0, "ego_pose": {"north": 0, "east": 0, "down": 0, "lat": 0, "lon": 0, "alt": 0}}
-        )
-
-    def target(self, object_id: str) -> tuple[float, float] | None:
-        return None
-
-    def resolve(self, object_id: str) -> str | None:
-        return None
-
-
-def _load_mission(path: Path, registry: ToolRegistry) -> PolicyGraph:
-    from ..mission.source import MissionError
-
-    try:
-        return load_mission(path, tools=registry)
-    except MissionError as exc:
-        raise RunError(str(exc)) from None
-
-
-def _load_scene(path: Path) -> Scene:
-    from flight.sim.scene_file import SceneFileError
-
-    try:
-        return load_scene(path)
-    except SceneFileError as exc:
-        raise RunError(str(exc)) from None
-
-
-@contextmanager
-def setup_frozen() -> Iterator[None]:
-    """Leave everything that exists now (a run's set-up: the scene, the vehicle, the compiled mission, the models)
-    out of the garbage collector's passes until the block ends (``gc.freeze``; undone at the end)."""
-    gc.collect()
-    gc.freeze()
-    try:
-        yield
-    finally:
-        gc.unfreeze()
 
 
 def run_mission(

@@ -1,0 +1,74 @@
+"""The model's other jobs in a run (llm and hybrid reasoners): writing the response plan for a trigger marked
+``plan: reasoner`` and reflecting on a failed step — both published as events, both paced as model waits."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from tools import ToolRegistry
+
+from ..agent.gate import Gate
+from ..agent.pacing import Pace
+from ..agent.ports import Publish
+from ..mission.compile import Reflector, abort_reflector
+from ..mission.model import PolicyGraph, Trigger
+from ..mission.triggers import object_id
+from ..reasoning.model_reasoners import StructuredChat
+from ..reasoning.planning import LLMPlanner
+from ..reasoning.reasoners import Reasoner
+from ..reasoning.reflection import LLMReflector
+from .settings import AGENT
+
+
+class ModelSide:
+    """The reasoner's model client (None for yolo and rules) as planner and reflector of one run."""
+
+    def __init__(
+        self, reasoner: Reasoner, plan: PolicyGraph, registry: ToolRegistry, gate: Gate, publish: Publish, pace: Pace
+    ) -> None:
+        self.mission = plan
+        self.gate = gate
+        self.publish = publish
+        self.pace = pace
+        self.client: StructuredChat | None = getattr(reasoner, "client", None) or getattr(
+            getattr(reasoner, "model", None), "client", None
+        )
+        self.planner = (
+            LLMPlanner(self.client, plan, _tools_for_plans(registry), record=self._exchange("plan"))
+            if self.client is not None
+            else None
+        )
+
+    def reflector(self) -> Reflector:
+        """A model's reflection when the reasoner has a model (llm, hybrid); else the default, which aborts."""
+        if self.client is None:
+            return abort_reflector
+        reflect = LLMReflector(self.client, self.mission, record=self._exchange("reflection"))
+
+        def paced(failure: Any) -> Any:
+            with self.pace.waiting("model"):
+                return reflect(failure)
+
+        return paced
+
+    def plan(self, trigger: Trigger, event: Any) -> list[dict[str, Any]] | None:
+        """The model's response plan for an event a trigger fired on (``plan: reasoner``); the mission checks it."""
+        assert self.planner is not None
+        assessment = self.gate.assessment(trigger.id, event)
+        self.publish("log", level="info", summary=f"planning the response to {trigger.id} on {object_id(event)}")
+        with self.pace.waiting("model"):
+            return self.planner(assessment, event)
+
+    def _exchange(self, kind: str) -> Any:
+        def record(entry: dict[str, Any]) -> None:
+            self.publish(kind, **entry, summary=f"{kind} by {entry.get('model')}: {entry.get('outcome')}")
+
+        return record
+
+
+def _tools_for_plans(registry: ToolRegistry) -> list[Any]:
+    """The tools a model's plan may name: those the agent holds every scope of."""
+    return [registry.describe(n) for n in registry.names() if not AGENT.missing(registry.get(n).scopes)]
+
+
+__all__ = ["ModelSide"]
