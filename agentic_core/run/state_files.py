@@ -40,7 +40,7 @@ class Snapshot(BaseModel):
 
 
 def write_record(run_dir: Path, record: RunRecord) -> None:
-    _atomic_write(run_dir / RUN_FILE, record.model_dump_json(indent=2))
+    atomic_write(run_dir / RUN_FILE, record.model_dump_json(indent=2))
 
 
 def read_record(runs_dir: Path, run_id: str) -> RunRecord:
@@ -78,11 +78,13 @@ class SnapshotWriter:
 
     def write(self, snapshot: Snapshot) -> None:
         with self._lock:
-            _atomic_write(self.path, snapshot.model_dump_json())
+            atomic_write(self.path, snapshot.model_dump_json())
             self.written += 1
 
 
-def _atomic_write(path: Path, text: str) -> None:
+def atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` so that a kill mid-write leaves the old file, never a torn one (a temporary
+    file beside it, synced, then renamed over it)."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
     with tmp.open("w", encoding="utf-8") as out:
         out.write(text)
@@ -110,6 +112,7 @@ __all__ = [
     "RunRecord",
     "Snapshot",
     "SnapshotWriter",
+    "atomic_write",
     "read_jsonl",
     "read_record",
     "read_snapshot",

@@ -36,6 +36,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from agentic_core.contracts.errors import InputError
 from agentic_core.reasoning.assessment import Assessment, Severity
+from agentic_core.run.state_files import atomic_write
 
 TIMING_FIELDS = frozenset({"processing_time_s", "model_time_s", "perception_time_s"})
 """Wall-clock measurements: the only fields two runs of the same campaign may differ in (for rule systems)."""
@@ -180,7 +181,7 @@ def read_records(path: Path, *, repair: bool = False) -> list[DecisionRecord]:
 
 def write_jsonl(path: Path, records: Iterable[DecisionRecord]) -> None:
     """Write records as JSON Lines atomically (a temporary file renamed over ``path``)."""
-    _atomic_write(path, "".join(r.model_dump_json() + "\n" for r in records))
+    atomic_write(path, "".join(r.model_dump_json() + "\n" for r in records))
 
 
 def write_csv(path: Path, records: Iterable[DecisionRecord]) -> None:
@@ -190,7 +191,7 @@ def write_csv(path: Path, records: Iterable[DecisionRecord]) -> None:
     writer.writeheader()
     for record in records:
         writer.writerow(csv_row(record))
-    _atomic_write(path, buffer.getvalue())
+    atomic_write(path, buffer.getvalue())
 
 
 def iter_jsonl(path: Path) -> Iterator[dict[str, Any]]:
@@ -209,15 +210,6 @@ def _first_error(exc: ValidationError) -> str:
     error = exc.errors()[0]
     where = ".".join(str(p) for p in error.get("loc", ())) or "record"
     return f"{where}: {error.get('msg', 'invalid')}"
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", encoding="utf-8") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 __all__ = [

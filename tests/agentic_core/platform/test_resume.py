@@ -42,12 +42,7 @@ def kill_when(runs: Path, smtp: Any, condition: Condition, *extra: str) -> Path:
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:
-
-        def met() -> bool:
-            folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
-            return bool(folders) and (folders[0] / "trace.jsonl").is_file() and condition(trace(folders[0]))
-
-        wait_for(met, timeout_s=120.0, what="the moment to kill the run")
+        wait_for_trace(runs, condition, "the moment to kill the run")
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10.0)
     finally:
@@ -56,6 +51,16 @@ def kill_when(runs: Path, smtp: Any, condition: Condition, *extra: str) -> Path:
             proc.wait(timeout=10.0)
     (folder,) = [p for p in runs.iterdir() if p.is_dir()]
     return folder
+
+
+def wait_for_trace(runs: Path, condition: Condition, what: str) -> None:
+    """Wait until the one run folder under ``runs`` has a trace that meets ``condition``."""
+
+    def met() -> bool:
+        folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
+        return bool(folders) and (folders[0] / "trace.jsonl").is_file() and condition(trace(folders[0]))
+
+    wait_for(met, timeout_s=120.0, what=what)
 
 
 def resume(runs: Path, run_id: str, smtp: Any, answers: str = "") -> subprocess.CompletedProcess[str]:
@@ -121,12 +126,7 @@ def test_a_signal_stops_the_run_cleanly_and_it_resumes(tmp_path: Path, smtp: Any
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-
-        def flying() -> bool:
-            folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
-            return bool(folders) and (folders[0] / "trace.jsonl").is_file() and on_patrol(trace(folders[0]))
-
-        wait_for(flying, timeout_s=120.0, what="the run to take off")
+        wait_for_trace(runs, on_patrol, "the run to take off")
         proc.send_signal(signum)
         out, err = proc.communicate(timeout=120.0)
     finally:
