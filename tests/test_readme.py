@@ -43,4 +43,4 @@ def test_control_port_example_runs_as_documented(tmp_path: Path, monkeypatch: py
     for name in ("missions", "scenes"):
         (tmp_path / name).symlink_to(repo / name)
     monkeypatch.chdir(tmp_path)
-    assert _run_block("run.control.rtl")[-1] == "returned"  # after what JSBSim prints as it loads
+    assert _run_block("home_once_up")[-1] == "returned"  # after what JSBSim prints as it loads
