@@ -65,7 +65,8 @@ def test_a_slow_model_at_full_speed_serves_the_casualty(tmp_path: Path, smtp: An
     assert interrupted and interrupted[0]["trigger"] == "collapsed_person"
 
 
-@pytest.mark.parametrize(("reasoner", "latency_s"), [("llm", 1.5), ("hybrid", 5.0)])
+@pytest.mark.parametrize("reasoner", ["llm", "hybrid"])
+@pytest.mark.parametrize("latency_s", [1.5, 5.0])
 def test_a_slow_model_at_real_time_serves_the_casualty(tmp_path: Path, smtp: Any, reasoner: str, latency_s: float):
     run_dir = fly(tmp_path, reasoner, latency_s, 1.0, until_kit=True)
     records = assert_served(run_dir, smtp)
