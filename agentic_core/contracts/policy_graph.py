@@ -321,6 +321,9 @@ class Trigger(Contract):
     )
 
 
+OnAbort = Literal["rtl", "land", "hold"]
+
+
 class PolicyGraph(Contract):
     """A mission: the plan the Action Layer executes (paper §3, Reasoning Layer output)."""
 
@@ -333,6 +336,15 @@ class PolicyGraph(Contract):
     dependencies: dict[str, list[str]] = Field(
         default_factory=dict, description="the paper's form of depends_on: {step_id: [step_id, ...]}"
     )
+    on_abort: OnAbort = Field(
+        default="rtl",
+        description="what the aircraft does when the mission aborts (a failed step's abort, or the operator's): "
+        "return to launch (rtl), land where it is (land), or hold where it is (hold)",
+    )
+
+
+ON_ABORT_TOOLS: dict[str, str] = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}
+"""The flight tool that carries out each ``on_abort``."""
 
 
 def step_args(step: StepBase) -> dict[str, Any]:
@@ -358,6 +370,7 @@ for _model in (RepeatStep, BranchStep, Trigger, PolicyGraph):
 __all__ = [
     "ACTIONS",
     "ACTION_TOOLS",
+    "ON_ABORT_TOOLS",
     "STEP_MODELS",
     "TEMPLATE_PATTERN",
     "AnalyzeSceneArgs",
@@ -383,6 +396,7 @@ __all__ = [
     "NotifyArgs",
     "NotifyStep",
     "Number",
+    "OnAbort",
     "OnFail",
     "OrbitArgs",
     "OrbitStep",

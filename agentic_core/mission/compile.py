@@ -24,7 +24,7 @@ from ..contracts.failure import Failure
 from ..graph import END, START, Command, CompiledStateGraph, Send, StateGraph
 from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
-from .model import PolicyGraph, RepeatStep, Step, Trigger
+from .model import ON_ABORT_TOOLS, PolicyGraph, RepeatStep, Step, Trigger
 from .state import FINISHED, MissionState
 from .steps import (
     Environment,
@@ -387,17 +387,19 @@ class MissionRuntime:
         return list(dict.fromkeys(found))
 
     def abort(self, state: MissionState) -> dict[str, Any]:
-        """Stop where the aircraft is (``flight.hold``): an aborted mission leaves it hovering for the operator,
-        never flying on to a step that no longer makes sense."""
+        """Carry out the mission's ``on_abort`` (return to launch by default; land, or hold where it is): an
+        aborted mission never flies on to a step that no longer makes sense, and never leaves the aircraft to
+        chance."""
         failed = sorted(k for k, v in (state.get("status") or {}).items() if v == "failed")
         if any(entry.get("step") == ABORT for entry in state.get("log") or []):
             return {"halt": "abort"}
+        tool = ON_ABORT_TOOLS[self.plan.on_abort]
         try:
-            result = self.env.dispatch("flight.hold", {}, None)
-            hold = {"hold": result.status, "error": result.error}
+            result = self.env.dispatch(tool, {}, None)
+            done = {"action": self.plan.on_abort, "result": result.status, "error": result.error}
         except Exception as exc:  # the last resort must not raise past the mission
-            hold = {"hold": "error", "error": f"{type(exc).__name__}: {exc}"}
-        return {"halt": "abort", "log": [{"step": ABORT, "status": "aborted", "after": failed, **hold}]}
+            done = {"action": self.plan.on_abort, "result": "error", "error": f"{type(exc).__name__}: {exc}"}
+        return {"halt": "abort", "log": [{"step": ABORT, "status": "aborted", "after": failed, **done}]}
 
     def rtl(self, state: MissionState) -> dict[str, Any]:
         if any(entry.get("step") == RTL for entry in state.get("log") or []):

@@ -9,6 +9,7 @@ True
 from agentic_core.contracts.policy_graph import (
     ACTION_TOOLS,
     ACTIONS,
+    ON_ABORT_TOOLS,
     STEP_MODELS,
     TEMPLATE_PATTERN,
     AnalyzeSceneArgs,
@@ -34,6 +35,7 @@ from agentic_core.contracts.policy_graph import (
     NotifyArgs,
     NotifyStep,
     Number,
+    OnAbort,
     OnFail,
     OrbitArgs,
     OrbitStep,
@@ -59,6 +61,7 @@ from agentic_core.contracts.policy_graph import (
 __all__ = [
     "ACTIONS",
     "ACTION_TOOLS",
+    "ON_ABORT_TOOLS",
     "STEP_MODELS",
     "TEMPLATE_PATTERN",
     "AnalyzeSceneArgs",
@@ -84,6 +87,7 @@ __all__ = [
     "NotifyArgs",
     "NotifyStep",
     "Number",
+    "OnAbort",
     "OnFail",
     "OrbitArgs",
     "OrbitStep",

@@ -13,6 +13,7 @@ its snapshot, and no side effect twice (each call's idempotency key is in the au
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
@@ -35,7 +36,7 @@ from ..agent.envelope import FLOOR_M, Envelope
 from ..agent.failsafes import TelemetryFailsafes
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
-from ..contracts.policy_graph import Circle
+from ..contracts.policy_graph import ON_ABORT_TOOLS, Circle
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
 from ..mission.model import Trigger
@@ -56,8 +57,8 @@ from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .trace import TelemetryLog, TraceWriter
 
-STOP_TOOLS = {"abort": "flight.hold", "rtl": "flight.rtl", "land": "flight.land"}
-"""What the aircraft does when the operator stops the run."""
+STOP_TOOLS = {"rtl": "flight.rtl", "land": "flight.land"}
+"""What the aircraft does when the operator stops the run (``abort``: what the mission's ``on_abort`` says)."""
 
 STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed"}
 
@@ -377,20 +378,38 @@ class MissionRun:
             self.bus.publish("log", level="error", error=f"{type(exc).__name__}: {exc}", summary=f"failed: {exc}")
             outcome = "failed"
         finally:
-            self.bus.publish("run", event="end", outcome=outcome, summary=f"end: {outcome}")
+            ended = self.where_it_ended()
+            self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
         summary = self._summary(outcome, time.monotonic() - wall0)
+        summary.notes.append(f"The aircraft ended {ended}.")
         track = self.track()
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)
 
     def _carry_out(self, command: str) -> None:
-        """What the operator's stop asks of the aircraft (nothing to do for a landing on the ground, disarmed)."""
+        """What a stop asks of the aircraft: an operator's ``abort`` does what the mission's ``on_abort`` says; a
+        stop by signal (Ctrl-C, SIGTERM) holds where it is, so that ``--resume`` goes on from there; ``rtl`` and
+        ``land`` as said (nothing to do for a landing on the ground, disarmed)."""
         view = self.view()
         if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
             self.bus.publish("log", level="info", summary="land: the aircraft is on the ground already")
             return
-        self.dispatch.call(STOP_TOOLS[command], {})
+        if command == "abort":
+            tool = "flight.hold" if self.control.stopped_by == "signal" else ON_ABORT_TOOLS[self.plan.on_abort]
+        else:
+            tool = STOP_TOOLS[command]
+        self.dispatch.call(tool, {})
+
+    def where_it_ended(self) -> str:
+        """Where the aircraft is now, as its telemetry says, in words (for the trace and the report)."""
+        sample = self.last_sample
+        if sample is None:
+            return "where it was: no telemetry was heard"
+        away = f"{math.hypot(sample.north_m, sample.east_m):.1f} m from home"
+        if sample.landed_state == "on_ground" or (not sample.armed and sample.alt_m < 0.5):
+            return f"on the ground, {'armed' if sample.armed else 'disarmed'}, {away}"
+        return f"in the air at {sample.alt_m:.1f} m, {away} (mode {sample.mode})"
 
     def track(self) -> list[TrackPoint]:
         """The flight as ``telemetry.jsonl`` recorded it (every resumed part included)."""

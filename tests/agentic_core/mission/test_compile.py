@@ -119,6 +119,7 @@ def test_retries_exhausted_then_the_policy() -> None:
 POLICY = """
 plan_id: policies
 goal: test on_fail
+on_abort: hold
 steps:
   - {id: first, action: hover, args: {duration_s: 1}}
   - {id: risky, action: call_tool, tool: svc.flaky, depends_on: [first], on_fail: POLICY}
@@ -141,7 +142,21 @@ def test_on_fail_policies(policy: str, halt: str | None, after_runs: bool, rtl_s
     assert out.get("halt") == halt
     assert (rec.tools().count("flight.hover") == 2) is after_runs
     assert ("flight.rtl" in rec.tools()) is rtl_sent
+    assert ("flight.hold" in rec.tools()) is (halt == "abort")  # the mission's on_abort: hold
     assert out["status"]["risky"] == ("skipped" if policy == "skip" else "failed")
+
+
+@pytest.mark.parametrize(("on_abort", "tool"), [(None, "flight.rtl"), ("rtl", "flight.rtl"), ("land", "flight.land"),
+                                               ("hold", "flight.hold")])  # fmt: skip
+def test_an_aborted_mission_does_what_its_on_abort_says(on_abort: str | None, tool: str) -> None:
+    """By default an aborted mission returns to launch; ``on_abort`` may say land or hold instead."""
+    rec = Recorder({"svc.flaky": flaky(99)})
+    text = POLICY.replace("POLICY", "abort").replace("on_abort: hold\n", f"on_abort: {on_abort}\n" if on_abort else "")
+    out = run(text, rec)
+    assert out["halt"] == "abort" and rec.tools()[-1] == tool
+    assert [t for t in rec.tools() if t in ("flight.rtl", "flight.land", "flight.hold")] == [tool]
+    aborted = next(e for e in out["log"] if e.get("step") == "__abort__")
+    assert aborted["action"] == (on_abort or "rtl") and aborted["after"] == ["risky"]
 
 
 def test_reflection_splices_revised_steps_and_dependents_wait_for_them() -> None:

@@ -20,6 +20,7 @@ def test_a_halting_failure_stops_what_would_start_beside_it(policy: str) -> None
         f"""
 plan_id: p
 goal: g
+on_abort: hold
 steps:
   - {{id: check, action: call_tool, tool: svc.check, on_fail: {policy}}}
   - {{id: up, action: takeoff}}
@@ -115,7 +116,7 @@ steps:
         rec,
         env={"vehicle": lambda: {"battery_pct": 10}},
     )
-    assert rec.tools() == ["flight.hold"] and "is false" in out["errors"]["patrol"]  # aborted: hold where it is
+    assert rec.tools() == ["flight.rtl"] and "is false" in out["errors"]["patrol"]  # aborted: on_abort (rtl)
 
 
 def test_a_dispatcher_that_raises_fails_the_step_and_its_policy_applies() -> None:
@@ -325,7 +326,7 @@ steps:
         rec,
         reflector=lambda failure: [revision],
     )
-    assert out["halt"] == "abort" and rec.tools() == ["svc.a", "flight.hold"]
+    assert out["halt"] == "abort" and rec.tools() == ["svc.a", "flight.rtl"]
     assert any(why in str(e.get("error")) for e in out["log"] if e.get("status") == "revision rejected")
 
 
@@ -474,5 +475,6 @@ steps:
 """,
         rec,
     )
-    assert out["halt"] == "abort" and rec.tools() == ["flight.takeoff", "svc.check", "flight.hold"]
-    assert next(e for e in out["log"] if e.get("step") == "__abort__")["hold"] == "ok"
+    assert out["halt"] == "abort" and rec.tools() == ["flight.takeoff", "svc.check", "flight.rtl"]
+    aborted = next(e for e in out["log"] if e.get("step") == "__abort__")
+    assert aborted["action"] == "rtl" and aborted["result"] == "ok"

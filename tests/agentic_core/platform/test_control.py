@@ -8,6 +8,8 @@ import math
 import threading
 from pathlib import Path
 
+import pytest
+
 from agentic_core.run.runner import MissionRun, RunSettings
 from tests.waiting import wait_for
 
@@ -63,8 +65,15 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
     assert flown.count("incidents.log") == 2 and flown[-1] == "flight.rtl"  # the whole pass was flown after all
 
 
-def test_an_abort_from_another_thread_ends_the_mission_holding_in_the_air(tmp_path: Path) -> None:
-    run = patrol(tmp_path)
+@pytest.mark.parametrize("on_abort", [None, "hold", "land"])
+def test_an_abort_from_another_thread_does_what_the_mission_says(tmp_path: Path, on_abort: str | None) -> None:
+    """The operator's abort ends the mission; the aircraft then does the mission's ``on_abort``: return home by
+    default, or hold, or land where it is — and the trace and the report say where it ended."""
+    mission = tmp_path / "patrol.yaml"
+    mission.write_text(PATROL.read_text(encoding="utf-8") + (f"\non_abort: {on_abort}\n" if on_abort else ""))
+    settings = RunSettings(mission=mission, scene=NORMAL, runs_dir=tmp_path / "runs", params={"rounds": "1"},
+                           camera_hz=5.0)  # fmt: skip
+    run = MissionRun(settings)
 
     def operator() -> None:
         wait_for(lambda: flying_a_leg(run), timeout_s=120.0, what="the first leg")
@@ -77,5 +86,14 @@ def test_an_abort_from_another_thread_ends_the_mission_holding_in_the_air(tmp_pa
     (command,) = of_kind(records, "control")
     assert command["command"] == "abort" and command["reason"] == "the operator saw smoke"
     last = telemetry(result.run_dir)[-1]
-    assert last["alt_m"] > 20.0 and last["mode"] == "hold"
-    assert "flight.rtl" not in [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
+    done = [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
+    end = next(r for r in of_kind(records, "run") if r.get("event") == "end")
+    if on_abort == "hold":
+        assert last["alt_m"] > 20.0 and last["mode"] == "hold" and "in the air" in end["ended"]
+    elif on_abort == "land":
+        assert done[-1] == "flight.land" and "flight.rtl" not in done and last["alt_m"] < 0.5
+        assert end["ended"].startswith("on the ground")
+    else:
+        assert done[-1] == "flight.rtl" and last["alt_m"] < 0.5 and math.hypot(last["north_m"], last["east_m"]) < 3
+        assert end["ended"].startswith("on the ground")
+    assert f"The aircraft ended {end['ended']}." in (result.run_dir / "report.md").read_text(encoding="utf-8")
