@@ -2,11 +2,26 @@
 
 from __future__ import annotations
 
-from agentic_core.contracts.errors import AgenticUAVError, InputError, RunFailure
+from collections.abc import Sequence
+
+from agentic_core.contracts.errors import AgenticUAVError, RunFailure
+from agentic_core.contracts.problems import LocatedProblem, ProblemsError
 
 
-class ToolDefinitionError(InputError):
-    """A tool is defined wrongly: a bad name, schema, rate string or signature. Raised at registration."""
+class ToolDefinitionError(ProblemsError):
+    """A tool is defined wrongly: a bad name, schema, rate string or signature. Raised at registration.
+
+    A definition file's problems are located (``file:line:col: message``, one per line); a definition made in code
+    is one message without a place.
+
+    >>> print(ToolDefinitionError([LocatedProblem("api.yaml", 3, 5, "tools[0].method: unknown method 'FETCH'")]))
+    api.yaml:3:5: tools[0].method: unknown method 'FETCH'
+    >>> ToolDefinitionError("tool 'x': no name").problems[0].file
+    ''
+    """
+
+    def __init__(self, problems: str | Sequence[LocatedProblem]) -> None:
+        super().__init__([LocatedProblem("", None, None, problems)] if isinstance(problems, str) else problems)
 
 
 class UnknownToolError(AgenticUAVError, KeyError):

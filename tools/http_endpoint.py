@@ -31,7 +31,7 @@ crash) and never appears in a message. A JSON answer is returned parsed; any oth
 transport failures and HTTP 408/425/429/5xx; others retry only what cannot have been acted on (no connection,
 HTTP 429 or 503). Every other status from 300 up is an error quoting it and the start of the body. A call
 with an idempotency key sends it as the ``Idempotency-Key`` header. A bad file
-raises :class:`ToolDefinitionError` listing every problem as ``file:line:column: field: message``.
+raises :class:`ToolDefinitionError` listing every problem as ``file:line:col: field: message``.
 
 >>> from tools import ToolExecutor, ToolRegistry
 >>> endpoint = HttpEndpoint(name="roads.status", url="https://roads.example/{region}", params={
@@ -67,6 +67,8 @@ import httpx
 import jsonschema
 from jsonschema.exceptions import SchemaError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+
+from agentic_core.contracts.problems import LocatedProblem
 
 from .errors import ToolDefinitionError
 from .http_call import PLACEHOLDER, EndpointCall
@@ -285,7 +287,8 @@ def _validate(item: Any) -> tuple[HttpEndpoint | None, list[tuple[Loc, str]]]:
 
 def load_http_tools(path: str | Path, *, transport: httpx.AsyncBaseTransport | None = None) -> list[ToolSpec]:
     """The tools a description file defines; a :class:`ToolDefinitionError` lists every problem in it, one per
-    line, as ``file:line:column: field: message``. ``transport`` replaces the network (tests, proxies)."""
+    line, as ``file:line:col: field: message`` (its ``problems``, in file order). ``transport`` replaces the
+    network (tests, proxies)."""
     source = YamlSource.read(path)
     data = source.data
     problems = source.duplicate_keys()
@@ -301,18 +304,18 @@ def load_http_tools(path: str | Path, *, transport: httpx.AsyncBaseTransport | N
             if endpoint is None:
                 continue
             if endpoint.name in first:
-                earlier = source.where(("tools", first[endpoint.name], "name")).rsplit(":", 2)[-2]
+                earlier, _ = source.position(("tools", first[endpoint.name], "name"))
                 problems.append((("tools", index, "name"), f"{endpoint.name!r} is already defined (line {earlier})"))
             first.setdefault(endpoint.name, index)
             endpoints.append((index, endpoint))
     if problems:
-        raise ToolDefinitionError("\n".join(source.problem(loc, message) for loc, message in problems))
+        raise ToolDefinitionError([source.problem(loc, message) for loc, message in problems])
     specs = []
     for index, endpoint in endpoints:
         try:
             specs.append(http_tool(endpoint, transport=transport))
         except ToolDefinitionError as exc:  # checked above; kept so a gap still names the entry
-            raise ToolDefinitionError(source.problem(("tools", index), str(exc))) from None
+            raise ToolDefinitionError([source.problem(("tools", index), str(exc))]) from None
     return specs
 
 
@@ -327,7 +330,8 @@ def register_http_tools(
     specs = load_http_tools(path, transport=transport)
     taken = [spec.name for spec in specs if spec.name in registry]
     if taken and not replace:
-        raise ToolDefinitionError(f"{path}: tools already registered: {', '.join(taken)} (pass replace=True)")
+        taken_list = f"tools already registered: {', '.join(taken)} (pass replace=True)"
+        raise ToolDefinitionError([LocatedProblem(str(path), None, None, taken_list)])
     return [registry.register(spec, replace=replace).name for spec in specs]
 
 

@@ -11,10 +11,13 @@ import importlib
 import importlib.util
 import sys
 from collections.abc import Iterable
+from dataclasses import replace
 from importlib.metadata import entry_points
 from pathlib import Path
 from types import ModuleType
 from typing import Any
+
+from agentic_core.contracts.problems import LocatedProblem
 
 from .errors import ToolDefinitionError
 from .registry import ToolRegistry
@@ -27,7 +30,7 @@ def _import_file(path: Path) -> ModuleType:
     name = f"agentic_uavs_user_tools_{abs(hash(path.resolve()))}"
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
-        raise ToolDefinitionError(f"{path}: cannot be imported as a Python module")
+        raise ToolDefinitionError([LocatedProblem(str(path), None, None, "cannot be imported as a Python module")])
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
@@ -40,13 +43,15 @@ def _register_object(registry: ToolRegistry, value: Any, origin: str) -> list[st
         if not names and callable(getattr(value, "register", None)):
             return _register_object(registry, value.register, origin)
         if not names:
-            raise ToolDefinitionError(f"{origin}: defines no @tool functions and no register(registry) function")
+            message = "defines no @tool functions and no register(registry) function"
+            raise ToolDefinitionError([LocatedProblem(origin, None, None, message)])
         return names
     if callable(value):
         before = set(registry.names())
         value(registry)
         return sorted(set(registry.names()) - before)
-    raise ToolDefinitionError(f"{origin}: is neither a module of tools nor a register(registry) callable")
+    message = "is neither a module of tools nor a register(registry) callable"
+    raise ToolDefinitionError([LocatedProblem(origin, None, None, message)])
 
 
 def load_tools(registry: ToolRegistry, source: str) -> list[str]:
@@ -56,12 +61,14 @@ def load_tools(registry: ToolRegistry, source: str) -> list[str]:
     try:
         return _load(registry, source)
     except ToolDefinitionError as exc:
-        text = str(exc)
-        raise ToolDefinitionError(text if text.startswith(source) else f"{source}: {text}") from None
+        raise ToolDefinitionError([p if p.file else replace(p, file=source) for p in exc.problems]) from None
     except SyntaxError as exc:
-        raise ToolDefinitionError(f"{exc.filename}:{exc.lineno}:{exc.offset or 0}: {exc.msg}") from None
+        line = exc.lineno if exc.lineno and exc.lineno > 0 else None
+        col = exc.offset if line is not None and exc.offset and exc.offset > 0 else None
+        raise ToolDefinitionError([LocatedProblem(exc.filename or source, line, col, exc.msg)]) from None
     except Exception as exc:
-        raise ToolDefinitionError(f"{source}: cannot load it: {type(exc).__name__}: {exc}") from None
+        message = f"cannot load it: {type(exc).__name__}: {exc}"
+        raise ToolDefinitionError([LocatedProblem(source, None, None, message)]) from None
 
 
 def _load(registry: ToolRegistry, source: str) -> list[str]:

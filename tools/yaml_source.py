@@ -1,11 +1,17 @@
 """YAML (or JSON) files read with their node positions, so a problem found in the data can name its line and column.
 
+Problems are :class:`~agentic_core.contracts.problems.LocatedProblem` (``file:line:col: field: message``), found
+with the one YAML position helper, :func:`~agentic_core.contracts.yaml_positions.position_at`.
+
 >>> import tempfile
 >>> path = Path(tempfile.mkdtemp()) / "f.yaml"
 >>> _ = path.write_text("tools:\\n  - name: a.b\\n    method: FETCH\\n")
 >>> source = YamlSource.read(path)
->>> source.data["tools"][0]["method"], source.where(("tools", 0, "method")).endswith("f.yaml:3:5")
-('FETCH', True)
+>>> source.data["tools"][0]["method"], source.position(("tools", 0, "method"))
+('FETCH', (3, 5))
+>>> problem = source.problem(("tools", 0, "method"), "unknown method")
+>>> (problem.line, problem.col), str(problem).endswith("f.yaml:3:5: tools[0].method: unknown method")
+((3, 5), True)
 """
 
 from __future__ import annotations
@@ -16,6 +22,9 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+
+from agentic_core.contracts.problems import LocatedProblem
+from agentic_core.contracts.yaml_positions import position_at
 
 from .errors import ToolDefinitionError
 
@@ -44,65 +53,47 @@ class YamlSource:
         """Read and parse a file; an unreadable file or a syntax error is a :class:`ToolDefinitionError` naming
         the line and column."""
         path = Path(path)
+        file = str(path)
         try:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
-            raise ToolDefinitionError(f"{path}: cannot read it: {exc}") from None
+            raise ToolDefinitionError([LocatedProblem(file, None, None, f"cannot read it: {exc}")]) from None
         loader = yaml.SafeLoader(text)
         try:
             root = loader.get_single_node()
             return cls(path, root, loader.construct_document(root) if root is not None else None)
         except yaml.MarkedYAMLError as exc:
             mark = exc.problem_mark or exc.context_mark
-            where = f"{path}:{mark.line + 1}:{mark.column + 1}" if mark else str(path)
-            raise ToolDefinitionError(f"{where}: not valid YAML or JSON: {exc.problem or exc.context}") from None
+            line, col = (mark.line + 1, mark.column + 1) if mark else (None, None)
+            message = f"not valid YAML or JSON: {exc.problem or exc.context}"
+            raise ToolDefinitionError([LocatedProblem(file, line, col, message)]) from None
         except yaml.YAMLError as exc:
-            raise ToolDefinitionError(f"{path}: not valid YAML or JSON: {exc}") from None
+            raise ToolDefinitionError([LocatedProblem(file, None, None, f"not valid YAML or JSON: {exc}")]) from None
         finally:
             loader.dispose()
 
-    def mark(self, loc: Loc) -> yaml.Mark | None:
-        """Where the field at ``loc`` is written: its key for a mapping entry, the item for a list entry; the
-        deepest enclosing node when the field is missing."""
-        if self.root is None:
-            return None
-        node, mark = self.root, self.root.start_mark
-        for part in loc:
-            if isinstance(node, yaml.MappingNode):
-                keys = [kv for kv in node.value if isinstance(kv[0], yaml.ScalarNode) and kv[0].value == str(part)]
-                entry = keys[0] if keys else None
-                if entry is None:
-                    break
-                mark, node = entry[0].start_mark, entry[1]
-            elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and 0 <= part < len(node.value):
-                node = node.value[part]
-                mark = node.start_mark
-            else:
-                break
-        return mark
+    def position(self, loc: Loc) -> tuple[int, int]:
+        """Line and column of the field at ``loc``: its key for a mapping entry, the item for a list entry, the
+        nearest enclosing value when the field is missing; the file's start when it is empty."""
+        return (1, 1) if self.root is None else position_at(self.root, loc, key=True)
 
-    def where(self, loc: Loc) -> str:
-        """``file:line:column`` of the field at ``loc``."""
-        mark = self.mark(loc)
-        return f"{self.path}:{mark.line + 1}:{mark.column + 1}" if mark is not None else f"{self.path}:1:1"
-
-    def problem(self, loc: Loc, message: str) -> str:
-        """``file:line:column: field: message``."""
-        return f"{self.where(loc)}: {dotted(loc)}: {message}"
+    def problem(self, loc: Loc, message: str) -> LocatedProblem:
+        """The problem ``message`` of the field at ``loc``: ``file:line:col: field: message``."""
+        line, col = self.position(loc)
+        return LocatedProblem(str(self.path), line, col, f"{dotted(loc)}: {message}")
 
     def duplicate_keys(self) -> list[tuple[Loc, str]]:
-        """Keys written twice in one mapping (a YAML loader silently keeps the last)."""
+        """Keys written twice in one mapping, at the last one (which a YAML loader silently keeps)."""
         found: list[tuple[Loc, str]] = []
 
         def walk(node: yaml.Node, loc: Loc) -> None:
             if isinstance(node, yaml.MappingNode):
-                seen: set[str] = set()
+                first: dict[str, int] = {}
                 for key, value in node.value:
                     name = str(key.value)
-                    if name in seen:
-                        again = f"again at line {key.start_mark.line + 1}"
-                        found.append(((*loc, name), f"{name!r} is written twice ({again}; the last one would win)"))
-                    seen.add(name)
+                    if name in first:
+                        found.append(((*loc, name), f"{name!r} is written twice (first at line {first[name]})"))
+                    first.setdefault(name, key.start_mark.line + 1)
                     walk(value, (*loc, name))
             elif isinstance(node, yaml.SequenceNode):
                 for index, item in enumerate(node.value):

@@ -150,7 +150,7 @@ def _read_json(p: Path, source: str) -> RawTable:
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InputError(f"invalid JSON: {exc.msg} (column {exc.colno})", source=source, line=exc.lineno) from None
+        raise InputError(f"invalid JSON: {exc.msg}", source=source, line=exc.lineno, col=exc.colno) from None
     if isinstance(data, Mapping):
         for key in ("records", "results", "rows", "data"):
             if isinstance(data.get(key), list):
@@ -174,7 +174,7 @@ def _read_jsonl(p: Path, source: str) -> RawTable:
             try:
                 row = json.loads(line)
             except json.JSONDecodeError as exc:
-                raise InputError(f"invalid JSON: {exc.msg} (column {exc.colno})", source=source, line=number) from None
+                raise InputError(f"invalid JSON: {exc.msg}", source=source, line=number, col=exc.colno) from None
             if not isinstance(row, Mapping):
                 raise InputError(f"expected a JSON object, got {type(row).__name__}", source=source, line=number)
             rows.append(row)
@@ -224,17 +224,17 @@ def _read_csv_slow(p: Path, source: str, delimiter: str) -> RawTable:
             columns: list[list[str]] = [[] for _ in header]
             lines = array("q")
             chunk: list[list[str]] = []
+            previous = reader.line_num
             for row in reader:
+                start, previous = previous + 1, reader.line_num  # a quoted cell may span lines: where it starts
                 if not row or (len(row) == 1 and not row[0].strip() and width > 1):
                     continue
                 if len(row) != width:
                     raise InputError(
-                        f"expected {width} fields (as in the header), found {len(row)}",
-                        source=source,
-                        line=reader.line_num,
+                        f"expected {width} fields (as in the header), found {len(row)}", source=source, line=start
                     )
                 chunk.append(row)
-                lines.append(reader.line_num)
+                lines.append(start)
                 if len(chunk) >= 65536:
                     _flush(columns, chunk)
             _flush(columns, chunk)

@@ -53,7 +53,7 @@ def test_non_numeric_cell(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     path = tmp_path / "bad.csv"
     path.write_text("group,x\na,1\na,2\nb,3\nb,three\nb,4\n", encoding="utf-8")
     assert main([str(path)]) == 2
-    assert f"{path}, line 5, column 2 'x': non-numeric value 'three'" in capsys.readouterr().err
+    assert f"{path}:5:2: column 'x': non-numeric value 'three'" in capsys.readouterr().err
 
 
 def test_usage_errors_and_help(capsys: pytest.CaptureFixture[str]) -> None:

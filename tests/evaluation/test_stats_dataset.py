@@ -129,7 +129,8 @@ def test_non_numeric_value_names_line_and_column(tmp_path: Path) -> None:
         load_dataset(path)
     err = info.value
     assert (err.line, err.column, err.column_index) == (4, "x", 2)
-    assert str(err) == f"{path}, line 4, column 2 'x': non-numeric value 'fast' in a numeric column"
+    assert str(err) == f"{path}:4:2: column 'x': non-numeric value 'fast' in a numeric column"
+    assert [(p.file, p.line, p.col) for p in err.problems] == [(str(path), 4, 2)]
 
 
 def test_fewer_than_two_groups(tmp_path: Path) -> None:
@@ -140,16 +141,17 @@ def test_fewer_than_two_groups(tmp_path: Path) -> None:
 
 def test_empty_group_value(tmp_path: Path) -> None:
     path = write(tmp_path, "e.csv", "group,x\na,1\n,2\nb,3\n")
-    with pytest.raises(InputError, match=r"line 3, column 1 'group': empty group value"):
+    with pytest.raises(InputError, match=r"e\.csv:3:1: column 'group': empty group value"):
         load_dataset(path)
 
 
 def test_ragged_row_and_bad_json(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match=r"line 3: expected 2 fields \(as in the header\), found 3"):
+    with pytest.raises(InputError, match=r"r\.csv:3: expected 2 fields \(as in the header\), found 3"):
         load_dataset(write(tmp_path, "r.csv", "group,x\na,1\nb,2,3\n"))
-    with pytest.raises(InputError, match=r"r\.jsonl, line 2: invalid JSON"):
-        load_dataset(write(tmp_path, "r.jsonl", '{"group": "a", "x": 1}\n{"group": "b", x}\n'))
-    with pytest.raises(InputError, match=r"record 2, field 'x': non-numeric value 'oops'"):
+    bad_line = '{"group": "b", x}'
+    with pytest.raises(InputError, match=rf"r\.jsonl:2:{bad_line.index('x}') + 1}: invalid JSON"):
+        load_dataset(write(tmp_path, "r.jsonl", '{"group": "a", "x": 1}\n' + bad_line + "\n"))
+    with pytest.raises(InputError, match=r"r\.json: record 2, field 'x': non-numeric value 'oops'"):
         load_dataset(
             write(tmp_path, "r.json", json.dumps([{"g": "a", "x": 1}, {"g": "b", "x": "oops"}, {"g": "b", "x": 2}])),
             group="g",
@@ -157,7 +159,7 @@ def test_ragged_row_and_bad_json(tmp_path: Path) -> None:
 
 
 def test_infinite_and_ambiguous_groups(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match=r"line 3, column 2 'x': non-finite value 'inf'"):
+    with pytest.raises(InputError, match=r"i\.csv:3:2: column 'x': non-finite value 'inf'"):
         load_dataset(write(tmp_path, "i.csv", "group,x\na,1\nb,inf\n"))
     with pytest.raises(InputError, match=r"several columns could hold the groups \(team, site\)"):
         load_dataset(write(tmp_path, "a.csv", "team,site,x\nr,n,1\ns,m,2\nr,m,3\n"))

@@ -285,19 +285,19 @@ def test_load_errors_name_file_line_column_and_field(tmp_path: Path) -> None:
     )
     assert problems(path) == [
         "endpoints.yaml:3:5: tools[0].method: 'FETCH' is not one of GET, POST, PUT, PATCH, DELETE",
-        "endpoints.yaml:6:5: tools[0].timeout_s: Input should be a valid number, unable to parse string as a number"
-        " (got 'ten')",
-        "endpoints.yaml:9:5: tools[0].metod: unknown field; did you mean 'method'?",
         "endpoints.yaml:4:5: tools[0].url: placeholder {region} is not a declared param (add it to params.properties)",
         "endpoints.yaml:5:13: tools[0].query[0]: 'radius' is not a declared param",
+        "endpoints.yaml:6:5: tools[0].timeout_s: Input should be a valid number, unable to parse string as a number"
+        " (got 'ten')",
+        "endpoints.yaml:7:5: tools[0].cache_ttl_s: only idempotent endpoints may cache results: add 'idempotent: true'",
         "endpoints.yaml:8:5: tools[0].rate_limit: rate limit '5 per second': write it as COUNT/UNIT, e.g. '10/s',"
         " '30/min', '500/h'",
-        "endpoints.yaml:7:5: tools[0].cache_ttl_s: only idempotent endpoints may cache results: add 'idempotent: true'",
+        "endpoints.yaml:9:5: tools[0].metod: unknown field; did you mean 'method'?",
         "endpoints.yaml:10:5: tools[1].name: required field missing",
         "endpoints.yaml:10:5: tools[1].url: required field missing",
-        "endpoints.yaml:17:5: tools[2].auth: give 'header' or 'query', not both",
         "endpoints.yaml:16:15: tools[2].params.properties.lat.type: not valid JSON Schema: 'numbr' is not valid under"
         " any of the given schemas",
+        "endpoints.yaml:17:5: tools[2].auth: give 'header' or 'query', not both",
     ]
 
 
@@ -327,9 +327,9 @@ def test_load_errors_of_the_file_as_a_whole(tmp_path: Path) -> None:
     extras: true
     """
     assert problems(write(tmp_path, text, "twice.yaml")) == [
-        "twice.yaml:3:5: tools[0].url: 'url' is written twice (again at line 4; the last one would win)",
-        "twice.yaml:7:1: extras: unknown top-level field (only 'tools')",
+        "twice.yaml:4:5: tools[0].url: 'url' is written twice (first at line 3)",
         "twice.yaml:5:5: tools[1].name: 'a.one' is already defined (line 2)",
+        "twice.yaml:7:1: extras: unknown top-level field (only 'tools')",
     ]
     with pytest.raises(ToolDefinitionError, match=r"nowhere\.yaml: cannot read it"):
         load_http_tools(tmp_path / "nowhere.yaml")
