@@ -159,10 +159,10 @@ def _line(record: AuditRecord) -> bytes:
 
 class JsonlAuditLog:
     """Appends one JSON object a line, each in one unbuffered write, so a crash loses at most the call in
-    progress; a side-effect call's line is fsync'd before ``write`` returns. ``find`` indexes the file on its
-    first look-up, then the lines appended since (by any process): only keys, tool names and byte offsets are
-    held in memory, and the record found is read back from the file. A line that is not a record (a write cut
-    short by a crash) is skipped with an :class:`AuditLogWarning`."""
+    progress; a side-effect call's line (not a replay's) is fsync'd before ``write`` returns. ``find`` indexes the
+    file on its first look-up, then the lines appended since (by any process): only keys, tool names and byte
+    offsets are held in memory, and the record found is read back from the file. A line that is not a record (a
+    write cut short by a crash) is skipped with an :class:`AuditLogWarning`."""
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
@@ -199,7 +199,7 @@ class JsonlAuditLog:
             view = memoryview(data)
             while view:
                 view = view[os.write(self._fd, view) :]
-            if record.side_effects:
+            if record.side_effects and record.replay_of is None:  # a replay did nothing to lose
                 os.fsync(self._fd)
 
     def find(self, idempotency_key: str, tool: str | None = None) -> AuditRecord | None:
@@ -325,7 +325,7 @@ class SqliteAuditLog:
         row["output"] = json.dumps(row["output"], default=repr) if record.output_kept else None
         insert = f"INSERT INTO tool_calls ({', '.join(_COLUMNS)}) VALUES ({', '.join('?' * len(_COLUMNS))})"
         with self._lock:
-            if not record.side_effects:
+            if not record.side_effects or record.replay_of is not None:
                 self._db.execute(insert, [row[c] for c in _COLUMNS])
                 return
             self._db.execute("PRAGMA synchronous=FULL")

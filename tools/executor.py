@@ -457,7 +457,7 @@ class ToolExecutor:
                 cached=cached,
                 error=error,
                 stages=[f"{s.name}:{s.outcome}" for s in call.stages],
-                idempotency_key=call.key,
+                idempotency_key=call.key if call.key is None or key_problem(call.key) is None else None,
                 side_effects=side_effects,
                 output=kept,
                 output_kept=output_kept,

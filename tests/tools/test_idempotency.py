@@ -330,7 +330,9 @@ def test_a_bad_key_is_refused_before_the_tool_runs(
     result = make_executor(registry, audit=audit).call("alerts.page", {}, idempotency_key=key)
     assert (result.status, result.error, counter.runs) == ("error", f"invalid call: {message}", 0)
     assert stage_names(result) == ["lookup:passed", "validate_args:failed", "audit:passed"]
-    assert audit.records[0].idempotency_key is None
+    unknown = make_executor(registry, audit=audit).call("alerts.pager", {}, idempotency_key=key)
+    assert unknown.status == "error" and "did you mean 'alerts.page'" in str(unknown.error)
+    assert [r.idempotency_key for r in audit.records] == [None, None]  # a bad key is never recorded as one
 
 
 class UnreadableAudit(MemoryAuditLog):

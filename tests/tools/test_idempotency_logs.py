@@ -25,6 +25,7 @@ from tools import (
     read_audit_log,
 )
 from tools.audit import AuditLogWarning
+from tools.audit_index import KeyIndex
 from tools.idempotency import KEPT_OUTPUT_LIMIT_BYTES
 
 from .conftest import Counter, stage
@@ -147,6 +148,8 @@ def test_a_side_effect_record_is_fsynced_before_the_call_returns(
         assert len(synced) == 1  # every side-effect call, with a key or without
         executor.call("alerts.page", {}, idempotency_key=KEY)
         assert len(synced) == 2
+        assert executor.call("alerts.page", {}, idempotency_key=KEY).replayed
+        assert len(synced) == 2  # a replay acted on nothing: no need to force it to disk
 
 
 # bounds ---------------------------------------------------------------------------------------------------------------
@@ -260,3 +263,22 @@ def test_an_sqlite_log_written_before_keys_existed_is_upgraded(tmp_path: Path) -
     old, new = read_audit_log(path)
     assert (old.call_id, old.idempotency_key, old.side_effects, old.output_kept) == ("old-1", None, False, False)
     assert found is not None and found == new and new.output == {"n": 1}
+
+
+def test_the_key_index_keeps_each_tool_of_a_key_apart() -> None:
+    index: KeyIndex[str] = KeyIndex()
+    index.add(KEY, "alerts.page", "p-error", False, 1)
+    index.add(KEY, "alerts.mail", "m-ok", True, 2)
+    index.add(KEY, "alerts.page", "p-ok", True, 3)
+    index.add(KEY, "alerts.mail", "m-later", False, 4)
+    index.add(KEY, "incidents.log", "i-error", False, 5)
+    assert [index.best(KEY, t) for t in ("alerts.page", "alerts.mail", "incidents.log")] == ["p-ok", "m-ok", "i-error"]
+    assert index.best(KEY) == "m-ok"  # the first completed call, whatever its tool
+    index.discard(KEY, "alerts.mail", "m-ok")
+    assert index.best(KEY, "alerts.mail") is None and index.best(KEY) == "p-ok"
+    index.discard(KEY, "alerts.page", "not-this-one")
+    assert index.best(KEY, "alerts.page") == "p-ok"
+    index.discard(KEY, "alerts.page", "p-ok")
+    assert index.best(KEY) == "i-error" and len(index) == 1
+    index.discard(KEY, "incidents.log", "i-error")
+    assert index.best(KEY) is None and len(index) == 0
