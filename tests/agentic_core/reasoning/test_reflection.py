@@ -21,6 +21,7 @@ MISSION = """
 plan_id: p
 goal: photograph the gate
 limits: {geofence: {center: {lat: 21.4133, lon: 39.8933}, radius_m: 500}, max_altitude_m: 60}
+on_abort: hold
 steps:
   - {id: up, action: takeoff}
   - {id: shoot, action: call_tool, tool: camera.photo, depends_on: [up], on_fail: trigger_reflection}
