@@ -124,11 +124,6 @@ class PerceptionLoop:
                 best = (gap, obj.id)
         return best[1] if best is not None else None
 
-    def on_tick(self, state: VehicleState) -> None:
-        """The vehicle's tick hook: take a frame if one is due at the vehicle's time."""
-        if self.camera.due(state.time_s):
-            self.observe(state)
-
     def observe(self, source: VehicleState | CameraPose, time_s: float | None = None) -> WorldModel:
         """Take one frame from a vehicle state (or a camera pose at ``time_s``) and bring the World Model up to
         date with it; returns the new model."""

@@ -114,7 +114,7 @@ class MissionRun:
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
             self.loop.restore(WorldModel.model_validate(snapshot.world))
         self.last_sample: TelemetrySample | None = None
-        self._clock0 = snapshot.sim_t or 0.0 if snapshot is not None else 0.0
+        self._clock0 = snapshot.sim_t if snapshot is not None and snapshot.sim_t is not None else 0.0
         self._client: VehicleClient | None = None
         self.backend.on_sample(self._on_sample)
         if self.loop is not None:
