@@ -10,6 +10,8 @@ import re
 
 from .patterns import F, G, has, rules
 
+_arguments_follow = has(r"^[\W_]{0,3}\s*[{(]")
+
 # --- tool calls -----------------------------------------------------------------------------------------------------
 TOOL_CALL = rules(
     "tool_call",
@@ -72,7 +74,14 @@ TOOL_CALL = rules(
         r"(?:[_.][a-z0-9]+)+`? "
         r"(?:tool |function |command |action |api )?(?:with|using|passing|and|to|on|now|immediately)\b",
         "call invoke execute run trigger use",
-        0.45,
+        lambda m: 0.6 if _arguments_follow(m.string[m.end() : m.end() + 12]) else 0.45,
+        "raw",
+    ),
+    (
+        "dotted_call",
+        r"\b[a-z][a-z0-9_]{1,30}(?:\.|__)[a-z][a-z0-9_]{1,40}\([ \t]*[a-z_][a-z0-9_]{0,30}[ \t]*=[^=]",
+        "(",
+        0.55,
         "raw",
     ),
     (

@@ -11,6 +11,7 @@ from __future__ import annotations
 import codecs
 import re
 import secrets
+from bisect import bisect_left
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
@@ -20,15 +21,20 @@ from agentic_core.contracts.tool_result import Finding, InjectionReport
 
 from .actions import DECODED_RULES, ENCODED, EXFILTRATION, REVERSED_WORDS, ROT13_WORDS, SECRET_REQUEST, TOOL_CALL
 from .decoding import blobs, despaced, invisible_hits, unescaped
+from .impersonation import AUTHORITY, ROLE_PLAY
+from .multilingual import MULTILINGUAL
 from .normalize import INVISIBLE_RE, Views, make_views
 from .patterns import OVERRIDE, ROLE_MARKER, Rule
+from .structure import Call, calls, calls_in_text
 
 DEFAULT_THRESHOLD: float = 0.5
 MIN_LENGTH = 6  # shorter strings ("[INST]" is the shortest cue) are not scanned
 MAX_DEPTH = 2  # decode at most twice (base64 inside hex, say)
 MAX_FINDINGS_PER_RULE = 20
 MAX_BLOBS = 256  # decoded segments rescanned per string
-RULES: tuple[Rule, ...] = OVERRIDE + ROLE_MARKER + TOOL_CALL + SECRET_REQUEST + EXFILTRATION + ENCODED
+RULES: tuple[Rule, ...] = (
+    OVERRIDE + AUTHORITY + ROLE_PLAY + MULTILINGUAL + ROLE_MARKER + TOOL_CALL + SECRET_REQUEST + EXFILTRATION + ENCODED
+)
 
 
 @dataclass(slots=True)
@@ -38,6 +44,7 @@ class _Hit:
     start: int
     end: int
     weight: float
+    excerpt: str | None = None  # for a structured call, which has no span of text
 
 
 _NEGATION = re.compile(r"(?:\bnot|n't|\bnever|\bdont|\bnor)[\W_]{1,3}(?:[^\W_]{1,12}[\W_]{1,3})?$")
@@ -106,8 +113,33 @@ def _may_be_spaced(raw: str) -> bool:
     return b"a a a a" in shape or b"a  a  a  a" in shape
 
 
+class _Follows:
+    """Whether ``regex`` matches within ``reach`` characters after a position, in the same line of ``view``.
+
+    The first few questions search the window; past them, every match in the view is found once and looked up.
+    """
+
+    DIRECT = 32
+
+    def __init__(self, regex: re.Pattern[str], view: str, reach: int) -> None:
+        self.regex, self.view, self.reach, self.asked = regex, view, reach, 0
+        self.starts: list[int] | None = None
+
+    def after(self, end: int) -> bool:
+        self.asked += 1
+        line_end = self.view.find("\n", end, end + self.reach)
+        limit = line_end if line_end >= 0 else end + self.reach
+        if self.starts is None and self.asked <= self.DIRECT:
+            return self.regex.search(self.view, end, limit) is not None
+        if self.starts is None:
+            self.starts = [m.start() for m in self.regex.finditer(self.view)]
+        k = bisect_left(self.starts, end)
+        return k < len(self.starts) and self.starts[k] < limit
+
+
 def _run(rule: Rule, view: str, span: Callable[[int, int], tuple[int, int]], hits: list[_Hit]) -> None:
     starts: set[int] = set()  # where an earlier alternative of the rule already matched
+    follows = _Follows(rule.then, view, rule.reach) if rule.then is not None else None
     for regex, edge in rule.regexes:
         kept, pos, search = 0, 0, regex.search
         while kept < MAX_FINDINGS_PER_RULE and (m := search(view, pos)) is not None:
@@ -120,6 +152,8 @@ def _run(rule: Rule, view: str, span: Callable[[int, int], tuple[int, int]], hit
                 continue
             starts.add(start)
             weight = rule.weigh(m) if rule.weigh is not None else rule.weight
+            if follows is not None and not follows.after(m.end()):
+                continue
             if rule.negatable and weight > 0.0:  # what comes before: "never share ...", "pilots must ignore ..."
                 before = max(0, start - 24)
                 if _NEGATION.search(view, before, start):
@@ -246,7 +280,14 @@ def _report(found: list[tuple[_Hit, str, str]], threshold: float) -> InjectionRe
         return InjectionReport.model_validate(empty)  # validating is faster than model_construct here
     score = _combine(hit for hit, _, _ in found)
     findings = [
-        Finding(kind=h.kind, excerpt=_excerpt(text[h.start : h.end]), start=h.start, end=h.end, weight=h.weight, path=p)
+        Finding(
+            kind=h.kind,
+            excerpt=h.excerpt if h.excerpt is not None else _excerpt(text[h.start : h.end]),
+            start=h.start,
+            end=h.end,
+            weight=h.weight,
+            path=p,
+        )
         for h, text, p in found
     ]
     return InjectionReport(score=score, flagged=score >= threshold, findings=findings, threshold=threshold)
@@ -255,6 +296,15 @@ def _report(found: list[tuple[_Hit, str, str]], threshold: float) -> InjectionRe
 def _scan_into(text: str, path: str, found: list[tuple[_Hit, str, str]]) -> None:
     if _worth_scanning(text):
         found += [(hit, text, path) for hit in sorted(_hits(text), key=lambda h: (h.start, h.end))]
+        if text[:1] in "{[" or text[:1].isspace():  # JSON text: a tool call may be in its structure
+            _calls_into(calls_in_text(text), path, 0, len(text), found)
+
+
+def _calls_into(shaped: list[Call], path: str, start: int, end: int, found: list[tuple[_Hit, str, str]]) -> None:
+    """Hits for call-shaped objects; a call inside JSON text gets the text's path and its own after it."""
+    for call in shaped[:MAX_FINDINGS_PER_RULE]:
+        where = path + call.path[1:]
+        found.append((_Hit("structured_tool_call", "tool_call", start, end, call.weight, call.excerpt), "", where))
 
 
 def scan(text: str, *, threshold: float = DEFAULT_THRESHOLD) -> InjectionReport:
@@ -315,6 +365,8 @@ def scan_value(value: object, *, threshold: float = DEFAULT_THRESHOLD, path: str
             elif isinstance(item, (dict, list, tuple, Mapping, BaseModel)):
                 pending.append((item, _child(where, key)))
         stack.extend(reversed(pending))
+    if not isinstance(value, str):
+        _calls_into(calls(value), path, 0, 0, found)
     return _report(found, threshold)
 
 

@@ -23,10 +23,13 @@ INVISIBLE_CLASS = (
 )
 INVISIBLE_RE = re.compile(f"[{INVISIBLE_CLASS}]")
 
-# Lower-case Cyrillic and Greek letters that pass for Latin ones (after case folding).
+# Lower-case Cyrillic and Greek letters that pass for Latin ones (after case folding); the Urdu and Persian forms
+# of Arabic letters (yeh, keheh, heh goal, teh marbuta goal, alef maksura) as the Arabic ones, so that one pattern
+# reads both scripts; the tatweel (a stretching stroke, no letter) removed.
 _CONFUSABLES = str.maketrans(
-    "аеорсухіјѕԁɡԛԝвкмнтıαεικνορτυχωγ",
-    "aeopcyxijsdgqwbkmhtiaeiknoptuxwy",
+    "аеорсухіјѕԁɡԛԝвкмнтıαεικνορτυχωγ\u06cc\u06a9\u06c1\u06c3\u0649",
+    "aeopcyxijsdgqwbkmhtiaeiknoptuxwy\u064a\u0643\u0647\u0629\u064a",
+    "\u0640",
 )
 # Leetspeak digits and signs read as letters; applied to the "lex" view only, so numbers and URLs stay intact.
 _LEET_BYTES = bytes.maketrans(b"013457@$", b"oieastas")

@@ -35,6 +35,8 @@ class Rule:
     weigh: Weigh | None
     lex: bool  # run on the leetspeak-read view (else on the folded view)
     negatable: bool  # dropped when a negation ("do not", "never") comes just before
+    then: re.Pattern[str] | None = None  # a match counts only when this follows it in the same line, within reach
+    reach: int = 100
 
 
 _WORD = re.compile(r"[a-z]+")
