@@ -15,6 +15,8 @@ from typing import Any, Literal, Self
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from tools.security import wrap_untrusted
+
 Role = Literal["system", "user", "assistant", "tool"]
 ToolChoiceKeyword = Literal["auto", "none", "required"]
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
@@ -67,12 +69,16 @@ class ToolCall(BaseModel):
         return json.dumps(self.arguments, ensure_ascii=False)
 
 
-def _tool_content(value: Any) -> str:
+def _tool_content(value: Any, untrusted: bool, source: str | None) -> str:
     if isinstance(value, str):
-        return value
-    if isinstance(value, BaseModel):
-        return value.model_dump_json()
-    return json.dumps(value, ensure_ascii=False, default=str)
+        text = value
+    elif isinstance(value, BaseModel):
+        text = value.model_dump_json()
+        untrusted = untrusted or getattr(value, "untrusted", False) is True  # a ToolResult the executor marked
+        source = getattr(value, "tool", None) or source
+    else:
+        text = json.dumps(value, ensure_ascii=False, default=str)
+    return wrap_untrusted(text, source=f"the tool {source or 'unknown'}") if untrusted else text
 
 
 class Message(BaseModel):
@@ -121,12 +127,15 @@ class Message(BaseModel):
         return cls(role="assistant", content=text, tool_calls=list(tool_calls))
 
     @classmethod
-    def tool(cls, call: ToolCall | str, output: Any, *, name: str | None = None) -> Message:
+    def tool(cls, call: ToolCall | str, output: Any, *, name: str | None = None, untrusted: bool = False) -> Message:
         """The answer to a tool call: ``output`` as text (a string as it is, anything else as JSON, a pydantic
-        model such as a ``ToolResult`` by its JSON dump)."""
+        model such as a ``ToolResult`` by its JSON dump). Untrusted output (``untrusted=True``, or a ``ToolResult``
+        the executor marked untrusted) is fenced as data (``tools.security.wrap_untrusted``)."""
+        tool_name = name or (call.name if isinstance(call, ToolCall) else None)
+        content = _tool_content(output, untrusted, tool_name)
         if isinstance(call, ToolCall):
-            return cls(role="tool", content=_tool_content(output), tool_call_id=call.id, name=name or call.name)
-        return cls(role="tool", content=_tool_content(output), tool_call_id=call, name=name)
+            return cls(role="tool", content=content, tool_call_id=call.id, name=tool_name)
+        return cls(role="tool", content=content, tool_call_id=call, name=name)
 
 
 class ToolDefinition(BaseModel):
