@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -57,13 +58,14 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     try:
         registry = registry_from_args(args)
-    except ToolDefinitionError as exc:
+        home = _validate_home(args)
+    except (ToolDefinitionError, ValueError) as exc:
         print(f"agentic-uav validate: error: {exc}", file=sys.stderr)
         return 2
     failed = 0
     for name in args.files:
         try:
-            plan = load_mission(Path(name), tools=registry)
+            plan = load_mission(Path(name), tools=registry, home=home)
         except MissionError as exc:
             failed += 1
             print(exc, file=sys.stderr)
@@ -74,6 +76,28 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         extra = f" (+{nested} nested or in triggers)" if nested else ""
         print(f"{name}: ok: plan {plan.plan_id!r}, {steps}{extra}, {triggers}; tools checked against {len(registry)}")
     return 2 if failed else 0
+
+
+def _validate_home(args: argparse.Namespace) -> tuple[float, float]:
+    """Where ``validate`` measures north/east positions from: ``--home``, else the ``--scene``'s home, else the
+    simulator's default home (where ``agentic-uav run`` takes off without a scene)."""
+    if args.home is not None:
+        lat, sep, lon = args.home.partition(",")
+        try:
+            home = float(lat), float(lon)
+        except ValueError:
+            home = (math.nan, math.nan)
+        if not sep or not (-90 <= home[0] <= 90 and -180 <= home[1] <= 180):
+            raise ValueError(f"--home takes LAT,LON in degrees, got {args.home!r}")
+        return home
+    if args.scene is not None:
+        from flight.sim.scene_file import load_scene
+
+        scene = load_scene(Path(args.scene))  # a bad scene file is bad input: main reports it, exit 2
+        return scene.home.lat_deg, scene.home.lon_deg
+    from flight.sim.environment import DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG
+
+    return DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
@@ -159,6 +183,12 @@ def build_parser() -> argparse.ArgumentParser:
     validate = sub.add_parser("validate", help="check mission files; every problem as file:line:col: message")
     validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files")
     add_source_options(validate)
+    validate.add_argument(
+        "--home", metavar="LAT,LON", help="where north/east positions are measured from (default: the scene's home)"
+    )
+    validate.add_argument(
+        "--scene", metavar="SCENE", help="take home from this scene file (default: the simulator's default home)"
+    )
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="show how a mission runs: its supersteps, or the compiled graph")

@@ -124,7 +124,7 @@ class Dispatcher:
         replayed = bool(getattr(result, "replayed", False))
         self.publish(
             "tool", name=tool, args=args, status=result.status, error=result.error, latency_s=result.latency_s,
-            key=key, replayed=replayed,
+            key=key, replayed=replayed, **_delivery(result),
             summary=f"{tool} {result.status}" + (" (replayed)" if replayed else "")
             + (f": {result.error}" if result.error else ""),
         )  # fmt: skip
@@ -226,6 +226,12 @@ class Dispatcher:
         self.publish("tool", name=tool, status="interrupted", trigger=outcome.trigger, hold=hold.status,
                      summary=f"{tool} stopped: {outcome.reason}")  # fmt: skip
         return outcome
+
+
+def _delivery(result: ToolResult) -> dict[str, Any]:
+    """How an alert went out (``delivered_via``: smtp, outbox, webhook, log), for the outcome's accounting."""
+    via = result.output.get("delivered_via") if isinstance(result.output, dict) else None
+    return {"delivered_via": via} if isinstance(via, str) else {}
 
 
 def _refused(tool: str, problems: list[str]) -> ToolResult:

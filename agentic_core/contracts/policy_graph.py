@@ -341,6 +341,17 @@ class PolicyGraph(Contract):
         description="what the aircraft does when the mission aborts (a failed step's abort, or the operator's): "
         "return to launch (rtl), land where it is (land), or hold where it is (hold)",
     )
+    scopes: list[Annotated[str, StringConstraints(pattern=r"^[a-z_*][a-z0-9_]*:[a-z_*][a-z0-9_]*$")]] | None = Field(
+        default=None,
+        description="the scopes the agent holds for this mission (e.g. flight:command, alerts:send); default: those "
+        "its steps' and triggers' tools need, and nothing more",
+    )
+    allow_tools: list[
+        Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)+$")]
+    ] = Field(
+        default_factory=list,
+        description="tools a model's plan or revision may call besides those the mission's own steps use",
+    )
 
 
 ON_ABORT_TOOLS: dict[str, str] = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}

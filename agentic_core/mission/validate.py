@@ -3,7 +3,7 @@
 Checks, in order: YAML syntax; the schema (mapped back to the line of the offending field); duplicate step
 ids; ``depends_on`` naming steps that do not exist or that cannot be waited for; dependency cycles (printed as
 the cycle); steps that can never run; expressions (syntax and unknown names); tools unknown to the registry;
-and limits a step already breaks (a ``fly_to`` outside the geofence or above the maximum altitude).
+and limits a step already breaks, through the flight envelope (:mod:`~agentic_core.mission.limits_check`).
 
 >>> from agentic_core.mission.validate import load_mission
 >>> load_mission("plan_id: P-1\\ngoal: hover\\nsteps:\\n  - {id: up, action: takeoff}\\n").plan_id
@@ -18,13 +18,11 @@ from dataclasses import dataclass
 from pathlib import Path as FilePath
 from typing import Any, NamedTuple
 
-from pydantic import BaseModel, ValidationError
-
-from agentic_core.contracts.geodesy import distance_m
+from pydantic import ValidationError
 
 from .expressions import Expression, ExpressionError, find_templates
-from .geometry import Polygon
-from .model import BranchStep, Circle, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
+from .limits_check import LimitsCheck
+from .model import BranchStep, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
 from .schema_errors import schema_problems, suggest
 from .source import MissionError, Path, Problem, SourceMap, load_document
 from .steps import SCOPE_ROOTS
@@ -59,20 +57,12 @@ def iter_steps(plan: PolicyGraph) -> Iterator[StepSite]:
         yield from walk_steps(trigger.steps, ("triggers", t, "steps"), f"trigger:{trigger.id}")
 
 
-def _fields(model: Any) -> dict[str, Any]:
-    """A model's field values without pydantic's slow ``__getattr__`` for absent names (None gives {})."""
-    return model.__dict__ if isinstance(model, BaseModel) else {}
-
-
 def _template_path(where: str) -> Path:
     """``points[2].lat`` or ``['odd key']`` (as find_templates writes them) -> a document path."""
     parts: list[str | int] = []
     for name, index, quoted in re.findall(r"([A-Za-z_]\w*)|\[(\d+)\]|\['((?:[^'\\]|\\.)*)'\]", where):
         parts.append(name or (int(index) if index else quoted))
     return tuple(parts)
-
-
-_NUMBER = (int, float)
 
 
 def _has_cycle(preds: Mapping[str, Iterable[str]]) -> bool:
@@ -109,16 +99,21 @@ class _Checker:
     """The semantic checks, run on a mission that passed the schema."""
 
     def __init__(
-        self, plan: PolicyGraph, smap: SourceMap, tools: ToolCatalog | None, outer_ids: tuple[str, ...] = ()
+        self,
+        plan: PolicyGraph,
+        smap: SourceMap,
+        tools: ToolCatalog | None,
+        outer_ids: tuple[str, ...] = (),
+        home: tuple[float, float] | None = None,
     ) -> None:
         self.plan = plan
+        self.home = home  # where north/east positions are measured from (None: they are checked in flight)
         self.smap = smap
         self.tools = tools
         self.outer_ids = outer_ids  # steps of the running mission a revision may read
         self.problems: list[Problem] = []
         self.sites = list(iter_steps(plan))
         self.by_id: dict[str, StepSite] = {}
-        self._fence: Polygon | None = None
         # the dependency graph, edges from a dependency to the step waiting for it; predecessors in the order
         # the edges were added (a dict: an edge given twice counts once)
         self.preds: dict[str, dict[str, None]] = {}
@@ -395,58 +390,19 @@ class _Checker:
                 self.add((*site.path, "args", *where), message)
 
     def check_limits(self) -> None:
-        limits = self.plan.limits
-        if limits.max_altitude_m is None and limits.geofence is None:
+        check = LimitsCheck(self.plan, self.home)
+        if not check.active:
             return
         for site in self.sites:
-            args = _fields(_fields(site.step).get("args"))  # the fields of an args model; {} for a dict or None
-            for field in ("altitude_m", "alt_m"):
-                value = args.get(field)
-                if limits.max_altitude_m is not None and isinstance(value, _NUMBER) and value > limits.max_altitude_m:
-                    self.add(
-                        (*site.path, "args", field),
-                        f"{site.step.action} to {value:g} m is above the mission's max_altitude_m "
-                        f"({limits.max_altitude_m:g} m)",
-                    )
-            if limits.geofence is None:
-                continue  # every point is inside
-            for label, point, path in self.points_of(site, args):
-                if not self.inside_geofence(point):
-                    self.add(
-                        path, f"{site.step.action} {label} ({point[0]:.6f}, {point[1]:.6f}) is outside the geofence"
-                    )
-
-    def points_of(self, site: StepSite, args: Mapping[str, Any]) -> Iterator[tuple[str, tuple[float, float], Path]]:
-        """The positions a step's arguments (``args``, the fields of its args model) name, with their paths."""
-        lat, lon = args.get("lat"), args.get("lon")
-        if isinstance(lat, _NUMBER) and isinstance(lon, _NUMBER):
-            yield "destination", (float(lat), float(lon)), (*site.path, "args", "lat")
-        polygon = args.get("polygon")
-        if isinstance(polygon, list):
-            for j, p in enumerate(polygon):
-                if isinstance(p.lat, _NUMBER) and isinstance(p.lon, _NUMBER):
-                    yield f"polygon point {j}", (float(p.lat), float(p.lon)), (*site.path, "args", "polygon", j)
-        center = args.get("center")
-        if center is not None and isinstance(center.lat, _NUMBER) and isinstance(center.lon, _NUMBER):
-            yield "center", (float(center.lat), float(center.lon)), (*site.path, "args", "center")
-
-    def inside_geofence(self, point: tuple[float, float]) -> bool:
-        fence = self.plan.limits.geofence
-        if fence is None:
-            return True
-        if isinstance(fence, Circle):
-            if not isinstance(fence.center.lat, _NUMBER) or not isinstance(fence.center.lon, _NUMBER):
-                return True
-            return distance_m(point[0], point[1], float(fence.center.lat), float(fence.center.lon)) <= fence.radius_m
-        if self._fence is None:
-            if not all(isinstance(p.lat, _NUMBER) and isinstance(p.lon, _NUMBER) for p in fence):
-                return True  # a vertex given as ${...} is only known when the mission runs
-            self._fence = Polygon([(float(p.lat), float(p.lon)) for p in fence])
-        return self._fence.contains(point)
+            for path, message in check.step(site.step, site.path):
+                self.add(path, message)
 
 
-def validate_document(data: Any, smap: SourceMap, tools: ToolCatalog | None = None) -> PolicyGraph:
-    """Validate parsed mission data; raises :class:`MissionError` with every problem found."""
+def validate_document(
+    data: Any, smap: SourceMap, tools: ToolCatalog | None = None, home: tuple[float, float] | None = None
+) -> PolicyGraph:
+    """Validate parsed mission data; raises :class:`MissionError` with every problem found. ``home`` (lat, lon)
+    places north/east positions for the limits check."""
     if not isinstance(data, Mapping):
         kind = type(data).__name__
         raise MissionError(
@@ -456,7 +412,7 @@ def validate_document(data: Any, smap: SourceMap, tools: ToolCatalog | None = No
         plan = PolicyGraph.model_validate(data)
     except ValidationError as exc:
         raise MissionError([*smap.problems, *schema_problems(data, smap, exc)]) from None
-    problems = [*smap.problems, *_Checker(plan, smap, tools).run()]
+    problems = [*smap.problems, *_Checker(plan, smap, tools, home=home).run()]
     if problems:
         raise MissionError(problems)
     return plan
@@ -491,11 +447,18 @@ def _line_col(raw: bytes, index: int) -> tuple[int, int]:
     return before.count(b"\n") + 1, index - (before.rfind(b"\n") + 1) + 1
 
 
-def load_mission(source: str | FilePath, *, file: str | None = None, tools: ToolCatalog | None = None) -> PolicyGraph:
+def load_mission(
+    source: str | FilePath,
+    *,
+    file: str | None = None,
+    tools: ToolCatalog | None = None,
+    home: tuple[float, float] | None = None,
+) -> PolicyGraph:
     """Load and validate a mission from a path, or from YAML/JSON text (then ``file`` names it in messages).
 
     ``tools`` (a ``tools.ToolRegistry``) is what ``call_tool`` steps are checked against: the tool exists and the
-    written arguments fit its schema; without it tools are not checked.
+    written arguments fit its schema; without it tools are not checked. ``home`` (lat, lon) is where north/east
+    positions are measured from, so they are checked against the limits too; without it they are checked in flight.
     """
     if isinstance(source, FilePath) or (
         isinstance(source, str) and "\n" not in source and source.endswith((".yaml", ".yml", ".json"))
@@ -513,4 +476,4 @@ def load_mission(source: str | FilePath, *, file: str | None = None, tools: Tool
     else:
         text, name = str(source), file or "<mission>"
     data, smap = load_document(text, name)
-    return validate_document(data, smap, tools)
+    return validate_document(data, smap, tools, home)

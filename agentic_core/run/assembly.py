@@ -34,11 +34,11 @@ class NoWorld:
         return None
 
 
-def load_run_mission(path: Path, registry: ToolRegistry) -> PolicyGraph:
+def load_run_mission(path: Path, registry: ToolRegistry, home: tuple[float, float] | None = None) -> PolicyGraph:
     from ..mission.source import MissionError
 
     try:
-        return load_mission(path, tools=registry)
+        return load_mission(path, tools=registry, home=home)
     except MissionError as exc:
         raise RunError(str(exc)) from None
 

@@ -3,8 +3,9 @@
 
 The vehicle is the in-process simulator, or with ``--connect udp://HOST:PORT`` any MAVLink vehicle (``agentic-uav
 sim`` in another process, PX4 SITL). Exit status: 0 when the mission completed or returned home, 1 when it was
-aborted or failed, 2 for bad input (a mission, scene or option that cannot be used; the message names the file,
-line and field).
+aborted or failed (a critical event that got no alert fails the run), 2 for bad input (a mission, scene or option
+that cannot be used; the message names the file, line and field), 3 when it is ``degraded``: every critical event
+got its alert, but an alert reached only the outbox.
 
 >>> args = build_parser().parse_args(["missions/hajj_emergency.yaml", "--speed", "max", "--param", "rounds=1"])
 >>> args.speed, args.param, args.reasoner, args.resume
@@ -28,6 +29,7 @@ from pydantic import ValidationError
 from flight.cli import parse_speed
 
 from ..contracts.errors import AgenticUAVError, report_error
+from .responses import DEGRADED_EXIT
 
 if TYPE_CHECKING:
     from .runner import MissionRun
@@ -155,7 +157,8 @@ def _signals_stop(run: MissionRun) -> Iterator[None]:
 
 def _fly(make: Callable[[], MissionRun]) -> int:
     """Build a run with ``make``, fly it and print its outcome; the exit status says it: 0 completed or returned
-    home, 1 anything else that happened, 2 for bad input (one line naming it, no traceback). Ctrl-C or SIGTERM
+    home, 3 degraded (an alert reached only the outbox), 1 anything else that happened, 2 for bad input (one line
+    naming it, no traceback). Ctrl-C or SIGTERM
     stops the run through its control port (outcome ``interrupted``, report written, resumable with
     ``--resume``); a second one ends the process at once."""
     try:
@@ -170,6 +173,8 @@ def _fly(make: Callable[[], MissionRun]) -> int:
     summary = result.summary
     print(f"{summary.run_id}: {summary.outcome}: {summary.mission} in {summary.sim_duration_s:.0f} s of flight; "
           f"report: {result.report}")  # fmt: skip
+    if summary.outcome == "degraded":
+        return DEGRADED_EXIT
     return 0 if summary.outcome in ("completed", "returned") else 1
 
 

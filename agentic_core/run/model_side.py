@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from tools import ToolRegistry
+from tools import Caller, ToolRegistry
 
 from ..agent.gate import Gate
 from ..agent.pacing import Pace
@@ -17,6 +17,7 @@ from ..reasoning.model_reasoners import StructuredChat
 from ..reasoning.planning import LLMPlanner
 from ..reasoning.reasoners import Reasoner
 from ..reasoning.reflection import LLMReflector
+from .privilege import plan_tools
 from .settings import AGENT
 
 
@@ -24,7 +25,15 @@ class ModelSide:
     """The reasoner's model client (None for yolo and rules) as planner and reflector of one run."""
 
     def __init__(
-        self, reasoner: Reasoner, plan: PolicyGraph, registry: ToolRegistry, gate: Gate, publish: Publish, pace: Pace
+        self,
+        reasoner: Reasoner,
+        plan: PolicyGraph,
+        registry: ToolRegistry,
+        gate: Gate,
+        publish: Publish,
+        pace: Pace,
+        *,
+        caller: Caller = AGENT,
     ) -> None:
         self.mission = plan
         self.gate = gate
@@ -34,7 +43,9 @@ class ModelSide:
             getattr(reasoner, "model", None), "client", None
         )
         self.planner = (
-            LLMPlanner(self.client, plan, _tools_for_plans(registry), record=self._exchange("plan"))
+            LLMPlanner(
+                self.client, plan, _tools_for_plans(registry, caller, plan_tools(plan)), record=self._exchange("plan")
+            )
             if self.client is not None
             else None
         )
@@ -66,9 +77,11 @@ class ModelSide:
         return record
 
 
-def _tools_for_plans(registry: ToolRegistry) -> list[Any]:
-    """The tools a model's plan may name: those the agent holds every scope of."""
-    return [registry.describe(n) for n in registry.names() if not AGENT.missing(registry.get(n).scopes)]
+def _tools_for_plans(registry: ToolRegistry, caller: Caller, allowed: frozenset[str]) -> list[Any]:
+    """The tools a model's plan may name: the mission's own (and ``allow_tools``) the agent holds every scope of."""
+    return [
+        registry.describe(n) for n in registry.names() if n in allowed and not caller.missing(registry.get(n).scopes)
+    ]
 
 
 __all__ = ["ModelSide"]

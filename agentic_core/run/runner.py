@@ -52,7 +52,9 @@ from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
 from .plan_review import review
+from .privilege import mission_caller, plan_tools, tool_problems
 from .report import RunSummary, TrackPoint, write_report
+from .responses import ResponseLedger
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .trace import TelemetryLog, TraceWriter
@@ -122,7 +124,8 @@ class MissionRun:
         register_flight_tools(self.registry, self._connect, targets=self._target)
         self.registry.register(spec_from_function(self._analyze_scene, name="perception.analyze_scene",
                                                   scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
-        self.plan = load_run_mission(settings.mission, self.registry)
+        self.plan = load_run_mission(settings.mission, self.registry, self._home())
+        self.agent = mission_caller(self.plan, self.registry)  # the scopes this mission needs, no more
         self.reasoner: Reasoner = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
@@ -133,6 +136,9 @@ class MissionRun:
         self.bus.subscribe(self._after_tool)  # first: a tool's effect is in the snapshot before it is in the trace
         self.bus.subscribe(self.trace)
         self.bus.subscribe(self._say)
+        self.responses = ResponseLedger()  # critical event -> response: the outcome says whether each got one
+        self.responses.replay(earlier)
+        self.bus.subscribe(self.responses)
         self.telemetry = TelemetryLog(self.run_dir / "telemetry.jsonl", hz=settings.telemetry_hz)
         self.backend.on_sample(self.telemetry)
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
@@ -146,11 +152,12 @@ class MissionRun:
             )
             self.control.answer_with(ask)
         self.executor = ToolExecutor(
-            self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=AGENT
+            self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=self.agent
         )
         self.gate = Gate(self.reasoner, self._world_source(), self, self.bus.publish, self.pace,
                          on_decision=self._log_world)  # fmt: skip
-        self.model = ModelSide(self.reasoner, self.plan, self.registry, self.gate, self.bus.publish, self.pace)
+        self.model = ModelSide(self.reasoner, self.plan, self.registry, self.gate, self.bus.publish, self.pace,
+                               caller=self.agent)  # fmt: skip
         self.dispatch = Dispatcher(
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
@@ -167,7 +174,7 @@ class MissionRun:
                                                                               self.bus.publish),
             gate=self.gate,
             planner=self.model.plan if self.model.planner is not None else None,
-            review=lambda steps: review(steps, self.registry, AGENT),
+            review=lambda steps: review(steps, self.registry, self.agent) + tool_problems(steps, plan_tools(self.plan)),
         )  # fmt: skip
 
     @classmethod
@@ -378,11 +385,12 @@ class MissionRun:
             self.bus.publish("log", level="error", error=f"{type(exc).__name__}: {exc}", summary=f"failed: {exc}")
             outcome = "failed"
         finally:
+            outcome = self.responses.outcome(outcome)  # every critical event answered, or the run says otherwise
             ended = self.where_it_ended()
             self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
         summary = self._summary(outcome, time.monotonic() - wall0)
-        summary.notes.append(f"The aircraft ended {ended}.")
+        summary.notes += [*self.responses.notes(), f"The aircraft ended {ended}."]
         track = self.track()
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)

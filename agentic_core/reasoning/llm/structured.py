@@ -15,6 +15,7 @@ from pydantic import BaseModel, ValidationError
 
 from .client import LLMClient
 from .messages import ChatRequest, Message, ResponseSchema
+from .output_cap import cap_text, cap_value, max_output_chars
 from .result import LLMResult
 
 FENCE = re.compile(r"^\s*```(?:json)?\s*\n(.*?)\n?\s*```\s*$", re.DOTALL)
@@ -39,10 +40,11 @@ def response_schema(
 
 
 def validate_output(
-    content: str | None, output: type[BaseModel] | dict[str, Any] | ResponseSchema
+    content: str | None, output: type[BaseModel] | dict[str, Any] | ResponseSchema, max_chars: int | None = None
 ) -> tuple[Any, str | None]:
     """``(value, None)`` for a reply that is JSON matching ``output`` (a model instance for a model class), else
-    ``(None, what is wrong)``. A reply wrapped in a Markdown code fence is read inside the fence.
+    ``(None, what is wrong)``. A reply wrapped in a Markdown code fence is read inside the fence. Its text is
+    capped (:mod:`.output_cap`) at ``max_chars`` (default: the cap in force) before it is validated.
 
     >>> validate_output('{"severity": "high"}', {"type": "object", "required": ["severity"]})
     ({'severity': 'high'}, None)
@@ -59,6 +61,7 @@ def validate_output(
         value = json.loads(text)
     except json.JSONDecodeError as exc:
         return None, f"the reply is not JSON ({exc.msg} at line {exc.lineno} column {exc.colno})"
+    value = cap_value(value, max_output_chars() if max_chars is None else max_chars)
     if isinstance(output, type) and issubclass(output, BaseModel):
         try:
             return output.model_validate(value), None
@@ -165,21 +168,26 @@ def _structured(
     current = request.model_copy(update={"response_schema": schema})
     result = yield current
     total = result
+    limit = max_output_chars()
     for round_ in range(repairs + 1):
         if not result.ok or (result.tool_calls and not (result.content or "").strip()):
             return total
-        value, problem = validate_output(result.content, target)
+        value, problem = validate_output(result.content, target, limit)
         if problem is None:
-            return total.model_copy(update={"parsed": value, "repaired": round_ > 0 or total.repaired})
+            content = cap_text(result.content or "", limit)
+            return total.model_copy(
+                update={"parsed": value, "content": content, "repaired": round_ > 0 or total.repaired}
+            )
         if round_ == repairs:
             what = f" after {repairs} correction{'s' if repairs != 1 else ''}" if repairs else ""
             error = f"the reply does not match the schema {schema.name!r}{what}: {problem}"
-            return total.model_copy(update={"status": "invalid_output", "error": error})
+            content = cap_text(result.content or "", limit)
+            return total.model_copy(update={"status": "invalid_output", "error": error, "content": content})
         feedback = Message.user(
             f"Your reply does not match the required JSON schema {schema.name!r}: {problem}. "
             "Reply again with only the corrected JSON, nothing else."
         )
-        current = current.with_messages(Message.assistant(result.content or ""), feedback)
+        current = current.with_messages(Message.assistant(cap_text(result.content or "", limit)), feedback)
         result = yield current
         total = _combined(total, result)
     return total

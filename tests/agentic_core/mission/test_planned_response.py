@@ -67,7 +67,7 @@ def test_the_reasoners_plan_runs_instead_of_the_triggers_steps() -> None:
     [
         ([{"id": "x", "action": "teleport"}], "mission language"),
         ([{"id": "far", "action": "fly_to", "args": {"lat": 21.5, "lon": 39.8933}}], "geofence"),
-        ([{"id": "high", "action": "fly_to", "args": {"north_m": 0, "east_m": 0, "alt_m": 500}}], "altitude"),
+        ([{"id": "high", "action": "fly_to", "args": {"north_m": 0, "east_m": 0, "alt_m": 500}}], "ceiling"),
         ([{"id": "x", "action": "call_tool", "tool": "nope.nothing"}], "unknown tool"),
         ([{"id": "up", "action": "hover", "args": {"duration_s": 1}}], "up"),  # reuses the mission's id
     ],

@@ -309,7 +309,7 @@ def test_huge_numbers_are_problems_not_tracebacks(text: str) -> None:
     ("revision", "why"),
     [
         ({"id": "far", "action": "fly_to", "args": {"lat": 0, "lon": 0}}, "outside the geofence"),
-        ({"id": "high", "action": "takeoff", "args": {"altitude_m": 5000}}, "above the mission's max_altitude_m"),
+        ({"id": "high", "action": "takeoff", "args": {"altitude_m": 5000}}, "above the ceiling of 60 m"),
         ({"id": "odd", "action": "hover", "preconditions": ["wnd < 3"], "args": {"duration_s": 1}}, "unknown name"),
     ],
 )

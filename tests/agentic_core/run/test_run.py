@@ -141,7 +141,8 @@ def test_the_operator_is_asked_and_a_no_sends_the_aircraft_home_without_dropping
     assert [r["status"] for r in records(result, "approval") if "answer" not in r] == ["asked"]
     (approval,) = [r for r in records(result, "approval") if "answer" in r]
     assert approval["via"] == "operator" and approval["answer"] is False and approval["said"] == "n"
-    assert tools[-1] == "flight.rtl" and result.summary.outcome == "completed"
+    # no mail server in this test: the alert reached only the outbox, and the run says so
+    assert tools[-1] == "flight.rtl" and result.summary.outcome == "degraded"
 
 
 def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Path, smtp: Any) -> None:

@@ -1,0 +1,62 @@
+"""Least privilege for one run: the agent holds only the scopes its mission needs, and a model's plan may call only
+the tools the mission itself uses or lists in ``allow_tools``.
+
+The scopes are the mission's ``scopes:`` when it declares them, else those of every tool its steps and triggers
+call (plus what the run itself sends the vehicle: status, the fence, hold, return, land). A model that proposes a
+webhook to an arbitrary URL in a mission that never posts one is refused with the reason, before any of it runs.
+
+>>> from agentic_core.mission.validate import load_mission
+>>> plan = load_mission("plan_id: P\\ngoal: g\\nsteps: [{id: up, action: takeoff}, {id: look, action: analyze_scene}]")
+>>> sorted(mission_tools(plan) - RUN_TOOLS)
+['flight.takeoff', 'perception.analyze_scene']
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from tools import Caller, ToolRegistry
+
+from ..mission.model import ACTION_TOOLS, ON_ABORT_TOOLS, PolicyGraph, Step
+from ..mission.validate import iter_steps, walk_steps
+
+RUN_TOOLS = frozenset({"flight.status", "flight.set_fence", "flight.hold", *ON_ABORT_TOOLS.values()})
+"""What the run itself calls, whatever the mission: reach the vehicle, hand it the fence, stop, come home, land."""
+
+
+def step_tool(step: Step) -> str | None:
+    """The tool a step calls (``call_tool``'s own, an action's, none for the control steps)."""
+    return getattr(step, "tool", None) if step.action == "call_tool" else ACTION_TOOLS.get(step.action)
+
+
+def mission_tools(plan: PolicyGraph) -> frozenset[str]:
+    """Every tool the mission's own steps and triggers call, and what the run calls for it."""
+    return frozenset({t for site in iter_steps(plan) if (t := step_tool(site.step)) is not None} | RUN_TOOLS)
+
+
+def plan_tools(plan: PolicyGraph) -> frozenset[str]:
+    """The tools a model's plan or revision may call: the mission's own and its ``allow_tools``."""
+    return mission_tools(plan) | frozenset(plan.allow_tools)
+
+
+def mission_caller(plan: PolicyGraph, registry: ToolRegistry, name: str = "agent") -> Caller:
+    """The agent as the mission's caller: its declared ``scopes``, else what the tools of :func:`plan_tools` ask."""
+    if plan.scopes is not None:
+        return Caller(id=name, scopes=frozenset(plan.scopes))
+    needed = {scope for tool in plan_tools(plan) if tool in registry for scope in registry.get(tool).scopes}
+    return Caller(id=name, scopes=frozenset(needed))
+
+
+def tool_problems(steps: Iterable[Step], allowed: frozenset[str]) -> list[str]:
+    """A reason for each step of a model's plan calling a tool outside ``allowed`` (empty: none does)."""
+    problems = []
+    for site in walk_steps(list(steps)):
+        tool = step_tool(site.step)
+        if tool is not None and tool not in allowed:
+            problems.append(
+                f"step {site.step.id!r}: {tool} is not a tool of this mission (its steps' tools and allow_tools)"
+            )
+    return problems
+
+
+__all__ = ["RUN_TOOLS", "mission_caller", "mission_tools", "plan_tools", "step_tool", "tool_problems"]
