@@ -27,8 +27,22 @@ from .result import ToolStatus
 REDACTED = "[redacted]"
 _SECRET_WORDS = re.compile(
     r"(?:^|_)(?:pass(?:word|wd|phrase)?|secrets?|(?:\w+_)?tokens?|api_?key|apikey|auth(?:orization)?|credentials?|"
-    r"private_key|cookies?|session_id|bearer)(?:$|_)"
+    r"private_key|cookies?|session_id|bearer|jwt|access_?key|secret_?key|signing_?key|pass_?code|pin_?code|otp)(?:$|_)"
 )
+_SECRET_SHAPES = re.compile(
+    r"(?:Bearer\s+)?(?:eyJ[A-Za-z0-9_-]{5,}\.[A-Za-z0-9_-]{5,}\.[A-Za-z0-9_-]{5,}"  # a JWT
+    r"|[0-9a-fA-F]{32,}"  # a hex key of 128 bits or more
+    r"|(?=[A-Za-z0-9+/_-]*[0-9])(?=[A-Za-z0-9+/_-]*[A-Z])(?=[A-Za-z0-9+/_-]*[a-z])[A-Za-z0-9+/_-]{40,}={0,2})"
+)
+
+
+def looks_secret(value: str) -> bool:
+    """Whether a whole string has the shape of a credential: a JWT, a long hex key, a long base64 key.
+
+    >>> looks_secret("eyJhbGciOiJIUzI1NiJ9.eyJzdWIiOiJwaWxvdCJ9.c2lnbmF0dXJlLXNpZ25hdHVyZQ"), looks_secret("hover")
+    (True, False)
+    """
+    return bool(_SECRET_SHAPES.fullmatch(value.strip()))
 
 
 def is_secret_key(key: object) -> bool:
@@ -71,11 +85,14 @@ class AuditLogWarning(AgenticUAVError, UserWarning):
 
 
 def redact(value: Any, sensitive: frozenset[str] = frozenset()) -> Any:
-    """``value`` with the values of secret-looking keys (and of ``sensitive`` ones) replaced, at any depth."""
+    """``value`` with the values of secret-looking keys (and of ``sensitive`` ones), and strings shaped like keys
+    or tokens, replaced, at any depth."""
     if isinstance(value, Mapping):
         return {k: REDACTED if (k in sensitive or is_secret_key(k)) else redact(v, sensitive) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [redact(v, sensitive) for v in value]
+    if isinstance(value, str) and looks_secret(value):
+        return REDACTED
     return value
 
 

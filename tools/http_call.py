@@ -13,6 +13,7 @@ from urllib.parse import quote, quote_plus, urlsplit
 
 import httpx
 
+from .egress import MAX_REDIRECTS, AsyncEgressTransport, EgressPolicy, fenced
 from .errors import ToolError, TransientToolError
 from .idempotency import header_value
 
@@ -102,7 +103,12 @@ class EndpointCall:
                 headers[endpoint.auth.header or "Authorization"] = f"{scheme} {secret}" if scheme else secret
         try:
             async with (
-                httpx.AsyncClient(timeout=endpoint.timeout_s, transport=self.transport) as client,
+                httpx.AsyncClient(
+                    timeout=endpoint.timeout_s,
+                    transport=self.transport or AsyncEgressTransport(EgressPolicy.from_env()),
+                    follow_redirects=True,
+                    max_redirects=MAX_REDIRECTS,
+                ) as client,
                 client.stream(endpoint.method, url, params=query, json=body or None, headers=headers) as response,
             ):
                 content = await self._read(response)
@@ -145,7 +151,7 @@ class EndpointCall:
             raise TransientToolError(where)
         if status >= 300:
             excerpt = " ".join(text[:EXCERPT_CHARS].split())
-            raise ToolError(f"{where}: {excerpt}" if excerpt else where)
+            raise ToolError(f"{where}: {fenced(excerpt, EXCERPT_CHARS)}" if excerpt else where)
         content_type = response.headers.get("content-type")
         media = (content_type or "").split(";", 1)[0].strip().lower()
         if media == "application/json" or media.endswith("+json"):

@@ -23,6 +23,7 @@ from typing import Any
 
 import yaml
 
+from agentic_core.contracts.input_files import InputFileError, check_input_file
 from agentic_core.contracts.problems import LocatedProblem
 from agentic_core.contracts.yaml_positions import position_at
 
@@ -55,7 +56,10 @@ class YamlSource:
         path = Path(path)
         file = str(path)
         try:
+            check_input_file(path, "tool file")
             text = path.read_text(encoding="utf-8")
+        except InputFileError as exc:
+            raise ToolDefinitionError([LocatedProblem(file, None, None, exc.reason)]) from None
         except (OSError, UnicodeDecodeError) as exc:
             raise ToolDefinitionError([LocatedProblem(file, None, None, f"cannot read it: {exc}")]) from None
         loader = yaml.SafeLoader(text)

@@ -59,37 +59,89 @@ class SourceMap:
         return Problem(self.file, line, col, message)
 
 
-def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> Any:
-    """Construct the value of ``node``, noting duplicate keys and refusing aliases that refer to themselves.
+ALIAS_BUDGET = 100_000
+"""How many values YAML aliases and merge keys may repeat in one document: a few kilobytes of nested aliases
+("billion laughs") would otherwise expand to billions of values."""
+
+
+@dataclass
+class _Walk:
+    """The state of building one document: the nodes being built (an alias inside itself), the collections built
+    once already (a second visit is an alias), the values aliases may still repeat, and merged-mapping sizes."""
+
+    smap: SourceMap
+    active: set[int] = field(default_factory=set)
+    built: set[int] = field(default_factory=set)
+    left: int = ALIAS_BUDGET
+    sizes: dict[int, int] = field(default_factory=dict)
+
+    def charge(self, node: yaml.Node, count: int) -> None:
+        self.left -= count
+        if self.left < 0:
+            line, col = node_position(node)
+            message = (
+                f"YAML aliases repeat more than {ALIAS_BUDGET:,} values (the anchor here is expanded again and again: "
+                "a 'billion laughs' document); write the values out or use fewer nested aliases"
+            )
+            raise MissionError([Problem(self.smap.file, line, col, message)])
+
+    def merged_size(self, node: yaml.MappingNode) -> int:
+        """The number of entries ``node`` has once its merge keys are flattened, without flattening it."""
+        stack: list[tuple[yaml.Node, bool]] = [(node, False)]
+        while stack:
+            current, ready = stack.pop()
+            if id(current) in self.sizes or not isinstance(current, yaml.MappingNode | yaml.SequenceNode):
+                continue
+            merged = (
+                [v for k, v in current.value if k.tag == _MERGE_TAG] if isinstance(current, yaml.MappingNode) else []
+            )
+            parts = [n for v in merged for n in (v.value if isinstance(v, yaml.SequenceNode) else [v])]
+            if not ready:
+                stack.append((current, True))
+                stack.extend((p, False) for p in parts if id(p) not in self.active)
+                continue
+            own = len(current.value) - len(merged)
+            self.sizes[id(current)] = own + sum(self.sizes.get(id(p), 0) for p in parts)
+        return self.sizes.get(id(node), 0)
+
+
+def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, walk: _Walk) -> Any:
+    """Construct the value of ``node``, noting duplicate keys, refusing aliases that refer to themselves and
+    charging every value an alias repeats to the document's alias budget.
 
     Values that are plain strings (most of a mission) are taken straight off their node, without a call per
     value; PyYAML's constructors run only for the other scalars (numbers, booleans, null, ...)."""
     if isinstance(node, yaml.ScalarNode):
         return _scalar(node, loader)
+    active = walk.active
     if id(node) in active:
         line, col = node_position(node)
         raise MissionError(
             [Problem(smap.file, line, col, "a YAML alias refers to itself: the document would be infinite")]
         )
+    if id(node) in walk.built:
+        walk.charge(node, len(node.value))
+    walk.built.add(id(node))
     active.add(id(node))
     out: Any
     if isinstance(node, yaml.MappingNode):
-        out = _mapping(node, smap, loader, active)
+        out = _mapping(node, smap, loader, walk)
     else:
         out = [
             item.value
             if item.tag == _STR_TAG and isinstance(item, yaml.ScalarNode)
-            else _build(item, smap, loader, active)
+            else _build(item, smap, loader, walk)
             for item in node.value
         ]
     active.discard(id(node))
     return out
 
 
-def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, active: set[int]) -> dict[Any, Any]:
+def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, walk: _Walk) -> dict[Any, Any]:
     """The dict of a mapping node. Duplicate keys (among the keys as written: merged ones may be overridden) are
     noted in ``smap.problems``, their positions looked up only then; merge keys (``<<: *defaults``) are
-    flattened by PyYAML, only when the mapping has one (or a ``=`` key, which flattening turns into text)."""
+    flattened by PyYAML, only when the mapping has one (or a ``=`` key, which flattening turns into text), and
+    only when what they would add fits the alias budget."""
     seen: dict[str, yaml.Node] = {}
     flatten = False
     for key_node, _ in node.value:
@@ -108,6 +160,7 @@ def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, a
             smap.problems.append(Problem(smap.file, line, col, message))
         seen[key] = key_node
     if flatten:
+        walk.charge(node, max(0, walk.merged_size(node) - len(node.value)))
         loader.flatten_mapping(node)
     out: dict[Any, Any] = {}
     for key_node, value_node in node.value:
@@ -123,7 +176,7 @@ def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, a
         if value_node.tag == _STR_TAG and isinstance(value_node, yaml.ScalarNode):
             out[key] = value_node.value
         else:
-            out[key] = _build(value_node, smap, loader, active)
+            out[key] = _build(value_node, smap, loader, walk)
     return out
 
 
@@ -209,7 +262,7 @@ def _parse(text: str, smap: SourceMap) -> Any:
         node = loader.get_single_node()
         if node is None:
             raise MissionError([Problem(smap.file, 1, 1, "the file is empty; a mission needs plan_id, goal and steps")])
-        return _build(node, smap, loader, set())
+        return _build(node, smap, loader, _Walk(smap))
     finally:
         loader.dispose()
 

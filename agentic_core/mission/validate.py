@@ -20,6 +20,8 @@ from typing import Any, NamedTuple
 
 from pydantic import ValidationError
 
+from agentic_core.contracts.input_files import InputFileError, check_input_file
+
 from .expressions import Expression, ExpressionError, find_templates
 from .limits_check import LimitsCheck
 from .model import BranchStep, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
@@ -210,28 +212,41 @@ class _Checker:
                 self.preds.setdefault(dep, {})
 
     def report_cycles(self) -> None:
-        """Each dependency cycle (printed as the cycle) and the steps that wait for one. Only a mission that has
-        a cycle pays for networkx, which enumerates them."""
+        """One dependency cycle (printed as the cycle) per group of steps that wait for each other (a strongly
+        connected component), and the steps that wait for one: linear time, however many cycles the steps make
+        (12 mutually dependent steps make millions). Only a mission that has a cycle pays for networkx."""
         import networkx as nx
 
         graph = nx.DiGraph()
-        for site in self.sites:  # nodes and edges in the order the checks met them, so cycles come in that order
+        for site in self.sites:
             graph.add_node(site.step.id)
             graph.add_edges_from((dep, site.step.id) for dep, _ in self.deps_of(site) if self.waitable(site, dep))
+
+        def place(step_id: str) -> tuple[int, int]:
+            return self.smap.at((*self.by_id[step_id].path, "id"))
+
+        groups = sorted((sorted(c, key=place) for c in nx.strongly_connected_components(graph) if len(c) > 1),
+                        key=lambda group: place(group[0]))  # fmt: skip
         in_cycle: set[str] = set()
-        for cycle in nx.simple_cycles(graph):
-            if len(cycle) < 2 or set(cycle) <= in_cycle:
-                continue
-            in_cycle |= set(cycle)
-            first = min(cycle, key=lambda s: self.smap.at((*self.by_id[s].path, "id")))
+        for group in groups:
+            in_cycle |= set(group)
+            cycle = [u for u, _ in nx.find_cycle(graph.subgraph(group), source=group[0])]
+            first = min(cycle, key=place)
             i = cycle.index(first)
             ordered = [*cycle[i:], *cycle[:i]]
             text = " -> ".join([*ordered, ordered[0]])  # edges run from a dependency to the step that waits for it
+            more = f"; {len(group)} steps wait for each other: {', '.join(group)}" if len(group) > len(cycle) else ""
             self.add(
                 (*self.by_id[first].path, "depends_on"),
-                f"dependency cycle: {text} (each must finish before the next, so none can start)",
+                f"dependency cycle: {text} (each must finish before the next, so none can start{more})",
             )
-        blocked = set().union(*(nx.descendants(graph, n) for n in in_cycle)) if in_cycle else set()
+        blocked: set[str] = set()
+        frontier = list(in_cycle)
+        while frontier:
+            for successor in graph.successors(frontier.pop()):
+                if successor not in blocked:
+                    blocked.add(successor)
+                    frontier.append(successor)
         for step_id in sorted(blocked):
             if step_id not in in_cycle:
                 self.add(
@@ -466,7 +481,10 @@ def load_mission(
         path = FilePath(source)
         name = file or str(path)
         try:
+            check_input_file(path, "mission")
             text = path.read_text(encoding="utf-8")
+        except InputFileError as exc:
+            raise MissionError([Problem(name, 1, 1, exc.reason)]) from None
         except OSError as exc:
             raise MissionError([Problem(name, 1, 1, f"cannot read the file: {exc.strerror or exc}")]) from None
         except UnicodeDecodeError as exc:

@@ -35,6 +35,8 @@ TRUE_TOKENS = frozenset({"true", "yes"})
 FALSE_TOKENS = frozenset({"false", "no"})
 GROUP_NAMES = ("group", "condition", "treatment", "arm", "config", "configuration", "method", "model")
 MAX_GROUP_LEVELS = 50
+MAX_GROUPS = 100
+"""The most groups ``eval stats`` compares: its pairwise tests grow with the square of the number of groups."""
 MAX_CATEGORICAL_LEVELS = 20
 BINARY_LEVELS = ("false", "true")
 
@@ -139,6 +141,8 @@ class Dataset:
         labels = tuple(str(g) for g in groups)
         if len(labels) < 2:
             raise InputError(f"needs at least 2 groups, got {len(labels)}", source=source)
+        if len(labels) > MAX_GROUPS:
+            raise InputError(_too_many_groups(), source=source)
         arrays = [np.asarray(v, dtype=np.float64).ravel() for v in groups.values()]
         for lab, arr in zip(labels, arrays, strict=True):
             if np.isinf(arr).any():
@@ -317,9 +321,18 @@ def _parse_groups(raw: RawTable, name: str) -> tuple[list[str], IntArray]:
             raise raw.error("empty group value", row, name)
         code = lookup.get(text)
         if code is None:
+            if len(lookup) == MAX_GROUPS:
+                raise raw.error(_too_many_groups(), row, name)
             code = lookup[text] = len(lookup)
         codes[row] = code
     return list(lookup), codes
+
+
+def _too_many_groups() -> str:
+    return (
+        f"more than {MAX_GROUPS} groups: the pairwise comparisons would number in the thousands; "
+        "is this the group column? (name the right one with --group, or split the file)"
+    )
 
 
 def _format_number(x: float) -> str:
@@ -485,6 +498,8 @@ def _categorical(raw: RawTable, name: str, texts: Sequence[str | None], explicit
             continue
         code = lookup.get(text)
         if code is None:
+            if len(lookup) == MAX_GROUPS:
+                raise raw.error(_too_many_groups(), row, name)
             code = lookup[text] = len(lookup)
         codes[row] = code
     n_levels = len(lookup)

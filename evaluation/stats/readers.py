@@ -21,6 +21,8 @@ from typing import Any, Literal
 
 import numpy as np
 
+from agentic_core.contracts import json_depth as bounded_json
+from agentic_core.contracts.input_files import InputFileError, check_input_file
 from evaluation.stats._typing import FloatArray
 from evaluation.stats.errors import InputError
 
@@ -81,6 +83,7 @@ def read_path(path: str | os.PathLike[str], *, fast: bool = True) -> RawTable:
         raise InputError("is a directory, not a results file", source=source)
     suffix = p.suffix.lower()
     try:
+        check_input_file(p, "results file")
         if suffix in {".jsonl", ".ndjson"}:
             return _read_jsonl(p, source)
         if suffix == ".json":
@@ -93,6 +96,8 @@ def read_path(path: str | os.PathLike[str], *, fast: bool = True) -> RawTable:
         return _read_csv(p, source, fast)
     except UnicodeDecodeError as exc:
         raise InputError(f"not UTF-8 text ({exc.reason} at byte {exc.start})", source=source) from None
+    except InputFileError as exc:
+        raise InputError(exc.reason, source=source) from None
     except OSError as exc:
         raise InputError(f"cannot read the file: {exc.strerror or exc}", source=source) from None
 
@@ -148,9 +153,11 @@ def _read_json_any(p: Path, source: str) -> RawTable:
 def _read_json(p: Path, source: str) -> RawTable:
     text = p.read_text(encoding="utf-8-sig")
     try:
-        data = json.loads(text)
+        data = bounded_json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(f"invalid JSON: {exc.msg}", source=source, line=exc.lineno, col=exc.colno) from None
+    except bounded_json.JsonTooDeep as exc:
+        raise InputError(str(exc), source=source) from None
     if isinstance(data, Mapping):
         for key in ("records", "results", "rows", "data"):
             if isinstance(data.get(key), list):
@@ -172,9 +179,11 @@ def _read_jsonl(p: Path, source: str) -> RawTable:
             if not line.strip():
                 continue
             try:
-                row = json.loads(line)
+                row = bounded_json.loads(line)
             except json.JSONDecodeError as exc:
                 raise InputError(f"invalid JSON: {exc.msg}", source=source, line=number, col=exc.colno) from None
+            except bounded_json.JsonTooDeep as exc:
+                raise InputError(str(exc), source=source, line=number) from None
             if not isinstance(row, Mapping):
                 raise InputError(f"expected a JSON object, got {type(row).__name__}", source=source, line=number)
             rows.append(row)

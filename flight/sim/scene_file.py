@@ -31,6 +31,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
+from agentic_core.contracts.input_files import InputFileError, check_input_file
 from agentic_core.contracts.problems import LocatedProblem, ProblemsError
 from agentic_core.contracts.yaml_positions import node_position, position_at
 from flight.sim.scene_model import Path, Scene, describe_path, scene_problems
@@ -59,7 +60,10 @@ def load_scene(source: str | os.PathLike[str], *, file: str | None = None) -> Sc
     path = FilePath(source)
     name = file or str(source)
     try:
+        check_input_file(path, "scene")
         raw = path.read_bytes()
+    except InputFileError as exc:
+        raise SceneFileError([SceneProblem(name, 1, 1, exc.reason)]) from None
     except OSError as exc:
         raise SceneFileError([SceneProblem(name, 1, 1, f"cannot read the file: {exc.strerror or exc}")]) from None
     try:

@@ -365,3 +365,25 @@ def test_secret_argument_names_are_told_apart_from_ordinary_ones(key: str, secre
     from tools.audit import is_secret_key
 
     assert is_secret_key(key) is secret
+
+
+def test_secrets_are_redacted_by_name_and_by_shape() -> None:
+    from tools.audit import REDACTED, redact
+
+    jwt = "eyJhbGciOiJIUzI1NiIsInR5cCI6IkpXVCJ9.eyJzdWIiOiJvcGVyYXRvciJ9.SflKxwRJSMeKKF2QT4fwpMeJf36POk6yJV_adQssw5c"
+    args = {
+        "jwt": "anything",
+        "access_key": "AKIA-short",
+        "passcode": "1234",
+        "signing_key": "k",
+        "note": jwt,
+        "nested": [{"header": f"Bearer {jwt}"}, "a" * 8 + "0123456789abcdef" * 2, "Kx9" * 15],
+        "heading_deg": 90,
+        "target": "casualty near the north gate",
+        "compass": "north",
+    }
+    out = redact(args)
+    for name in ("jwt", "access_key", "passcode", "signing_key", "note"):
+        assert out[name] == REDACTED, name
+    assert out["nested"][0]["header"] == REDACTED and out["nested"][1] == REDACTED and out["nested"][2] == REDACTED
+    assert (out["heading_deg"], out["target"], out["compass"]) == (90, "casualty near the north gate", "north")

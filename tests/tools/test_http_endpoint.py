@@ -24,6 +24,12 @@ EXAMPLE = Path(__file__).parents[2] / "tools" / "examples" / "http_tools.yaml"
 TOKEN = "tok-3f9a-very-secret"
 
 
+@pytest.fixture(autouse=True)
+def loopback_allowed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """These tests talk to a server on 127.0.0.1, which the egress policy refuses unless allowed."""
+    monkeypatch.setenv("AGENTIC_UAV_EGRESS_ALLOW", "127.0.0.1")
+
+
 class Tools:
     def __init__(self) -> None:
         self.registry = ToolRegistry()

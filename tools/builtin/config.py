@@ -15,6 +15,8 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, SecretStr, ValidationError
 
+from ..egress import EgressPolicy, parse_allow
+
 ENV_PREFIX = "AGENTIC_UAV_"
 
 
@@ -52,6 +54,9 @@ class BuiltinConfig(BaseModel):
       private CA): mail delivery; with no host, mail goes to the outbox.
     - ``AGENTIC_UAV_ALERT_RECIPIENTS``: the addresses ``alerts.notify`` mails when given none (comma-separated).
     - ``AGENTIC_UAV_WEBHOOK_URL``: where ``alerts.webhook`` posts when given no URL; unset, payloads go to the outbox.
+    - ``AGENTIC_UAV_EGRESS_ALLOW``: internal hosts outbound HTTP (webhooks, weather, HTTP endpoint tools) may reach
+      although the egress policy refuses internal addresses (comma-separated host names, addresses, networks such
+      as ``10.20.0.0/16``); see :mod:`tools.egress`.
     - ``AGENTIC_UAV_HTTP_TIMEOUT_S``: the network timeout of the weather, webhook and SMTP clients (10 s).
 
     ``weather_provider(lat, lon)`` is set in code only (the flight simulator's live wind); it is never serialised.
@@ -73,6 +78,7 @@ class BuiltinConfig(BaseModel):
     alert_recipients: list[str] = Field(default_factory=list)
     webhook_url: str | None = None
     http_timeout_s: float = Field(default=10.0, gt=0)
+    egress_allow: list[str] = Field(default_factory=list)
     weather_provider: Callable[[float, float], SimulatedWeather] | None = Field(default=None, exclude=True, repr=False)
 
     @classmethod
@@ -86,7 +92,7 @@ class BuiltinConfig(BaseModel):
             raw = env.get(ENV_PREFIX + name.upper(), "").strip()
             if raw:
                 split = [a.strip() for a in raw.replace(";", ",").split(",") if a.strip()]
-                values[name] = split if name in ("alert_recipients", "attachment_dirs") else raw
+                values[name] = split if name in ("alert_recipients", "attachment_dirs", "egress_allow") else raw
         values.update(overrides)
         try:
             return cls(**values)
@@ -97,10 +103,15 @@ class BuiltinConfig(BaseModel):
             raise ValueError(f"bad built-in tool settings: {problems}") from None
 
 
+def egress_policy(config: BuiltinConfig) -> EgressPolicy:
+    """The egress policy of the built-in tools' outbound HTTP."""
+    return EgressPolicy(allow=parse_allow(config.egress_allow))
+
+
 def may_attach(config: BuiltinConfig, path: str | Path) -> bool:
     """Whether ``path`` lies inside one of ``config.attachment_dirs`` (symbolic links resolved)."""
     target = Path(path).expanduser().resolve()
     return any(target.is_relative_to(Path(folder).expanduser().resolve()) for folder in config.attachment_dirs)
 
 
-__all__ = ["ENV_PREFIX", "MINA_AT_NOON", "BuiltinConfig", "SimulatedWeather", "may_attach"]
+__all__ = ["ENV_PREFIX", "MINA_AT_NOON", "BuiltinConfig", "SimulatedWeather", "egress_policy", "may_attach"]

@@ -22,10 +22,11 @@ from typing import Annotated, Any, Literal
 import httpx
 from pydantic import BaseModel, Field
 
+from ..egress import fenced, guarded_client
 from ..errors import ToolError, TransientToolError
 from ..function import spec_from_function
 from ..spec import ToolSpec
-from .config import MINA_AT_NOON, BuiltinConfig, SimulatedWeather
+from .config import MINA_AT_NOON, BuiltinConfig, SimulatedWeather, egress_policy
 
 VARIABLES = ("temperature_2m", "wind_speed_10m", "wind_direction_10m", "wind_gusts_10m", "visibility")
 MAX_HOURS = 384  # Open-Meteo forecasts 16 days at most
@@ -107,7 +108,7 @@ def _open_meteo(config: BuiltinConfig, base_url: str, lat: float, lon: float, ho
     }
     url = base_url.rstrip("/") + "/v1/forecast"
     try:
-        with httpx.Client(timeout=config.http_timeout_s) as client:
+        with guarded_client(egress_policy(config), config.http_timeout_s) as client:
             response = client.get(url, params=params)
     except httpx.TransportError as exc:
         raise TransientToolError(f"the weather service did not answer: {type(exc).__name__}: {exc}") from exc
@@ -117,7 +118,7 @@ def _open_meteo(config: BuiltinConfig, base_url: str, lat: float, lon: float, ho
     body = _json(response)
     if status >= 400:
         reason = body.get("reason") if isinstance(body, dict) else None
-        text = str(reason) if reason else response.text[:300]
+        text = fenced(str(reason) if reason else response.text, 300)
         raise ToolError(f"the weather service refused the request (HTTP {status}): {text}")
     if not isinstance(body, dict) or not isinstance(body.get("current"), dict):
         raise ToolError(f"the weather service answered HTTP {status} without the 'current' conditions")

@@ -22,9 +22,10 @@ from urllib.parse import urlsplit
 import httpx
 from pydantic import BaseModel, Field
 
+from ..egress import fenced, guarded_client
 from ..errors import ToolError, TransientToolError
 from ..idempotency import header_value
-from .config import BuiltinConfig
+from .config import BuiltinConfig, egress_policy
 from .outbox import discard_undelivered, keep_undelivered, now_iso, write_file
 
 EXCERPT_CHARS = 500
@@ -37,7 +38,9 @@ class WebhookReceipt(BaseModel):
     status: int | None = Field(default=None, description="the endpoint's HTTP status; null when kept in the outbox")
     endpoint: str | None = Field(default=None, description="scheme://host of the URL (its path may hold a secret)")
     path: str | None = Field(default=None, description="the .json written to the outbox")
-    response_excerpt: str | None = Field(default=None, description="the start of the endpoint's answer: outside text")
+    response_excerpt: str | None = Field(
+        default=None, description="the start of the endpoint's answer, fenced: outside text"
+    )
 
 
 def endpoint_of(url: str) -> str:
@@ -83,7 +86,7 @@ def _post(config: BuiltinConfig, target: str, body: str, idempotency_key: str | 
     if idempotency_key is not None:
         headers["Idempotency-Key"] = header_value(idempotency_key)
     try:
-        with httpx.Client(timeout=config.http_timeout_s) as client:
+        with guarded_client(egress_policy(config), config.http_timeout_s) as client:
             response = client.post(target, content=body.encode(), headers=headers)
     except (httpx.ConnectError, httpx.ConnectTimeout, httpx.PoolTimeout) as exc:
         raise TransientToolError(f"cannot reach the webhook {endpoint} (nothing was sent): {exc}") from None
@@ -92,12 +95,14 @@ def _post(config: BuiltinConfig, target: str, body: str, idempotency_key: str | 
             f"the link to the webhook {endpoint} broke after the payload went out ({type(exc).__name__}: {exc}); "
             "it may have arrived, so it was not sent again"
         ) from None
-    excerpt = response.text[:EXCERPT_CHARS]
+    excerpt = fenced(response.text, EXCERPT_CHARS) if response.text else ""
     status = response.status_code
     if status in (429, 503):
         raise TransientToolError(f"the webhook {endpoint} is busy (HTTP {status}); it did not take the payload")
     if status >= 300:
-        raise ToolError(f"the webhook {endpoint} answered HTTP {status} {response.reason_phrase}: {excerpt[:200]}")
+        raise ToolError(
+            f"the webhook {endpoint} answered HTTP {status} {response.reason_phrase}: {fenced(response.text, 200)}"
+        )
     return WebhookReceipt(delivered_via="webhook", status=status, endpoint=endpoint, response_excerpt=excerpt or None)
 
 

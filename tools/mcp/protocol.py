@@ -31,6 +31,7 @@ import json
 from collections.abc import Mapping
 from typing import Any, Literal, TypeGuard
 
+from agentic_core.contracts import json_depth as bounded_json
 from agentic_core.contracts.errors import AgenticUAVError
 
 from ..result import ToolResult
@@ -87,7 +88,7 @@ def encode(message: Any) -> str:
 def decode(text: str | bytes) -> Any:
     """A message's JSON; :class:`JsonRpcError` ``-32700`` when it is not JSON."""
     try:
-        return json.loads(text)
+        return bounded_json.loads(text)
     except (ValueError, UnicodeDecodeError) as exc:
         raise JsonRpcError(PARSE_ERROR, f"parse error: {exc}") from None
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import json
 from typing import Any, ClassVar, Literal
 
+from agentic_core.contracts import json_depth as bounded_json
+
 from .client import HTTPChatClient, Turn, synthesize_call_id
 from .config import LLMConfig
 from .messages import ChatRequest, Message, ToolCall
@@ -44,9 +46,11 @@ def parse_arguments(raw: Any) -> tuple[dict[str, Any], str | None, str | None]:
     if not raw.strip():
         return {}, raw, None
     try:
-        value = json.loads(raw)
+        value = bounded_json.loads(raw)
     except json.JSONDecodeError as exc:
         return {}, raw, f"arguments are not valid JSON ({exc.msg} at line {exc.lineno} column {exc.colno})"
+    except bounded_json.JsonTooDeep as exc:
+        return {}, raw[:200], f"arguments are not usable: {exc}"
     if not isinstance(value, dict):
         return {}, raw, f"arguments must be a JSON object, got {type(value).__name__}"
     return value, raw, None

@@ -13,6 +13,8 @@ from typing import Any, Protocol
 import jsonschema
 from pydantic import BaseModel, ValidationError
 
+from agentic_core.contracts import json_depth as bounded_json
+
 from .client import LLMClient
 from .messages import ChatRequest, Message, ResponseSchema
 from .output_cap import cap_text, cap_value, max_output_chars
@@ -58,9 +60,11 @@ def validate_output(
     fenced = FENCE.match(content)
     text = fenced.group(1) if fenced else content
     try:
-        value = json.loads(text)
+        value = bounded_json.loads(text)
     except json.JSONDecodeError as exc:
         return None, f"the reply is not JSON ({exc.msg} at line {exc.lineno} column {exc.colno})"
+    except bounded_json.JsonTooDeep as exc:
+        return None, f"the reply is not usable: {exc}"
     value = cap_value(value, max_output_chars() if max_chars is None else max_chars)
     if isinstance(output, type) and issubclass(output, BaseModel):
         try:

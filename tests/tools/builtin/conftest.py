@@ -32,6 +32,7 @@ def config(tmp_path: Path) -> BuiltinConfig:
         incidents_db=tmp_path / "incidents.db",
         attachment_dirs=[tmp_path],
         http_timeout_s=5,
+        egress_allow=["127.0.0.1"],  # the tests' HTTP servers; the egress policy refuses loopback otherwise
     )
 
 

@@ -37,7 +37,8 @@ def test_webhook_posts_json_and_reports_the_status(
     output = result.output
     assert output["delivered_via"] == "webhook" and output["status"] == 202
     assert output["endpoint"] == server.url and "T0KEN123" not in json.dumps(output)  # the path may be a secret
-    assert output["response_excerpt"] == "queued"
+    excerpt = output["response_excerpt"].splitlines()
+    assert excerpt[1] == "queued" and excerpt[0].startswith("<<<untrusted") and excerpt[-1] == "<<<end>>>"
     assert result.untrusted  # the endpoint's answer is outside text
 
 
