@@ -3,7 +3,7 @@
 
 >>> from agentic_core.contracts.policy_graph import Limits
 >>> Envelope(Limits(max_altitude_m=25), home=lambda: None).check("flight.takeoff", {"altitude_m": 30})
-['altitude_m 30 m is above the ceiling of 25 m']
+['altitude_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)']
 """
 
 from ..mission.envelope import FLOOR_M, Envelope

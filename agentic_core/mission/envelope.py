@@ -13,7 +13,7 @@ Checked: a destination (``lat``/``lon``, ``north_m``/``east_m`` from home, or ``
 >>> env.check("flight.fly_to", {"north_m": 100.0, "east_m": 0.0, "alt_m": 20.0})
 []
 >>> env.check("flight.fly_to", {"north_m": 215.0, "east_m": 0.0, "alt_m": 30.0})
-['the destination is 15 m outside the geofence', 'alt_m 30 m is above the ceiling of 25 m']
+['the destination is 15 m outside the geofence', 'alt_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)']
 """
 
 from __future__ import annotations
@@ -158,7 +158,9 @@ class Envelope:
             return
         ceiling = self.limits.max_altitude_m
         if ceiling is not None and height > ceiling:
-            problems.append((name, f"{name} {height:g} m is above the ceiling of {ceiling:g} m"))
+            problems.append(
+                (name, f"{name} {height:g} m is above the ceiling of {ceiling:g} m (limits.max_altitude_m)")
+            )
         if floor and height < self.floor_m:
             problems.append((name, f"{name} {height:g} m is below the floor of {self.floor_m:g} m above home"))
 

@@ -73,13 +73,15 @@ def test_a_landing_place_outside_is_refused() -> None:
 
 def test_heights_the_ceiling_and_the_floor() -> None:
     env = envelope(CIRCLE)
-    assert env.check("flight.takeoff", {"altitude_m": 30.0}) == ["altitude_m 30 m is above the ceiling of 25 m"]
+    assert env.check("flight.takeoff", {"altitude_m": 30.0}) == [
+        "altitude_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)"
+    ]
     assert env.check("flight.takeoff", {"altitude_m": 1.0}) == []  # take-off is exempt from the floor
     assert env.check("flight.fly_to", {"north_m": 0, "east_m": 0, "alt_m": 0.0}) == [
         "alt_m 0 m is below the floor of 2 m above home"
     ]
     assert env.check("flight.orbit", {"center": at(0, 0), "radius_m": 5, "alt_m": 26}) == [
-        "alt_m 26 m is above the ceiling of 25 m"
+        "alt_m 26 m is above the ceiling of 25 m (limits.max_altitude_m)"
     ]
 
 

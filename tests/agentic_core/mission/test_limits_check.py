@@ -79,14 +79,14 @@ def test_every_way_of_writing_a_place_or_a_height_is_seen_at_once() -> None:
 """
     )
     assert problems(text) == [
-        f"m.yaml:{col(text, 5, 'altitude_m')}: takeoff: altitude_m 30 m is above the ceiling of 25 m",
+        f"m.yaml:{col(text, 5, 'altitude_m')}: takeoff: altitude_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)",
         f"m.yaml:{col(text, 6, 'lat')}: fly_to: the destination is 60 m outside the geofence",
         f"m.yaml:{col(text, 7, 'alt_m')}: fly_to: alt_m 1 m is below the floor of 2 m above home",
         f"m.yaml:{col(text, 8, 'radius_m')}: orbit: the orbit of radius 250 m leaves the geofence",
         f"m.yaml:{col(text, 9, 'lat')}: land: the landing place is 60 m outside the geofence",
         f"m.yaml:{col(text, 10, 'north_m')}: call_tool: the destination is 30 m outside the geofence",
         f"m.yaml:{col(text, 14, 'north_m')}: fly_to: the destination is 100 m outside the geofence",
-        f"m.yaml:{col(text, 14, 'alt_m')}: fly_to: alt_m 40 m is above the ceiling of 25 m",
+        f"m.yaml:{col(text, 14, 'alt_m')}: fly_to: alt_m 40 m is above the ceiling of 25 m (limits.max_altitude_m)",
     ]
 
 
@@ -116,7 +116,10 @@ def test_a_survey_inside_a_concave_fence_whose_legs_cross_its_notch_is_refused()
     assert len(found) == 1 and "survey: leg point " in found[0] and "m outside the geofence" in found[0], found
     assert found[0].startswith(f"m.yaml:{col(text, 5, 'polygon')}")
     high = problems(text.replace("altitude_m: 20", "altitude_m: 30"))
-    assert f"m.yaml:{col(text, 5, 'altitude_m')}: survey: altitude_m 30 m is above the ceiling of 25 m" in high
+    assert (
+        f"m.yaml:{col(text, 5, 'altitude_m')}: survey: altitude_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)"
+        in high
+    )
 
 
 def test_what_is_known_only_in_flight_is_left_to_the_flight() -> None:
