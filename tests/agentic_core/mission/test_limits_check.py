@@ -79,7 +79,8 @@ def test_every_way_of_writing_a_place_or_a_height_is_seen_at_once() -> None:
 """
     )
     assert problems(text) == [
-        f"m.yaml:{col(text, 5, 'altitude_m')}: takeoff: altitude_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)",
+        f"m.yaml:{col(text, 5, 'altitude_m')}: takeoff: altitude_m 30 m is above the ceiling of 25 m"
+        " (limits.max_altitude_m)",
         f"m.yaml:{col(text, 6, 'lat')}: fly_to: the destination is 60 m outside the geofence",
         f"m.yaml:{col(text, 7, 'alt_m')}: fly_to: alt_m 1 m is below the floor of 2 m above home",
         f"m.yaml:{col(text, 8, 'radius_m')}: orbit: the orbit of radius 250 m leaves the geofence",
@@ -117,8 +118,8 @@ def test_a_survey_inside_a_concave_fence_whose_legs_cross_its_notch_is_refused()
     assert found[0].startswith(f"m.yaml:{col(text, 5, 'polygon')}")
     high = problems(text.replace("altitude_m: 20", "altitude_m: 30"))
     assert (
-        f"m.yaml:{col(text, 5, 'altitude_m')}: survey: altitude_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)"
-        in high
+        f"m.yaml:{col(text, 5, 'altitude_m')}: survey: altitude_m 30 m is above the ceiling of 25 m"
+        " (limits.max_altitude_m)" in high
     )
 
 
