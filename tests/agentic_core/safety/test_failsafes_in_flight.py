@@ -1,0 +1,43 @@
+"""Failsafes on telemetry in whole runs: a scene's scheduled GPS loss lands the aircraft (the agent's failsafe and
+the vehicle's own, both in the trace and the report), and a mission's flight-time limit brings it home."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .conftest import BREACH_M, EXAMPLES, assert_safe_and_home, fly, judge, of_kind, records
+
+SCENES = Path(__file__).parent / "scenes"
+
+
+def test_a_gps_loss_from_the_scene_lands_and_both_failsafes_are_reported(tmp_path: Path) -> None:
+    mission = EXAMPLES / "square_15m.yaml"
+    result = fly(mission, tmp_path, scene=SCENES / "gps_trap.yaml", camera_hz=5.0)
+    trace = records(result.run_dir, "trace.jsonl")
+    (fault,) = of_kind(trace, "fault")
+    assert fault["fault"] == "gps_loss@c1" and fault["status"] == "ok"
+    agent = [r for r in of_kind(trace, "failsafe") if r["by"] == "agent"]
+    vehicle = [r for r in of_kind(trace, "failsafe") if r["by"] == "vehicle"]
+    assert [(r["failsafe"], r["action"]) for r in agent] == [("gps", "land")]
+    assert any("GPS lost" in r["text"] for r in vehicle), vehicle
+    assert result.summary.outcome == "landed"
+    judged = judge(result.run_dir, mission)
+    assert judged.ended_on_ground and judged.outside_m <= BREACH_M and judged.over_ceiling_m <= BREACH_M
+    assert judged.ended_from_home_m > 10.0  # it came down where it lost its position, near the first corner
+    report = result.report.read_text(encoding="utf-8")
+    assert "the vehicle: GPS lost" in report and "the agent (gps): GPS lost its fix" in report
+
+
+def test_the_mission_flight_time_limit_brings_the_aircraft_home(tmp_path: Path) -> None:
+    text = (EXAMPLES / "square_15m.yaml").read_text(encoding="utf-8")
+    mission = tmp_path / "timed.yaml"
+    mission.write_text(text.replace("  max_altitude_m: 20\n", "  max_altitude_m: 20\n  max_flight_time_s: 12\n"))
+    result = fly(mission, tmp_path)
+    trace = records(result.run_dir, "trace.jsonl")
+    (failsafe,) = of_kind(trace, "failsafe")
+    assert failsafe["failsafe"] == "flight_time" and failsafe["action"] == "rtl"
+    judged = judge(result.run_dir, mission)
+    airborne = min(s["time_s"] for s in judged.samples if s["armed"] and s["landed_state"] != "on_ground")
+    assert 11.8 < failsafe["sim_t"] - airborne < 13.0  # telemetry.jsonl has a sample every 0.1 s
+    assert result.summary.outcome == "returned"
+    assert_safe_and_home(judged)
