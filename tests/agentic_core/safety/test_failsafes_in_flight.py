@@ -3,7 +3,12 @@ the vehicle's own, both in the trace and the report), and a mission's flight-tim
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+
+from agentic_core.contracts.faults import parse_fault
+from agentic_core.run.backends import SimBackend
+from agentic_core.run.runner import MissionRun, RunSettings
 
 from .conftest import BREACH_M, EXAMPLES, assert_safe_and_home, fly, judge, of_kind, records
 
@@ -41,3 +46,23 @@ def test_the_mission_flight_time_limit_brings_the_aircraft_home(tmp_path: Path) 
     assert 11.8 < failsafe["sim_t"] - airborne < 13.0  # telemetry.jsonl has a sample every 0.1 s
     assert result.summary.outcome == "returned"
     assert_safe_and_home(judged)
+
+
+def test_a_lost_link_fires_the_agent_link_failsafe_and_the_vehicle_comes_home_on_its_own(tmp_path: Path) -> None:
+    """The MAVLink signal cut mid-mission: the agent hears nothing for ``link_loss_s`` (wall seconds) and ends the
+    mission by its link failsafe; the vehicle, hearing nobody, returns by its own (``NAV_DLL_ACT``)."""
+    text = (EXAMPLES / "square_15m.yaml").read_text(encoding="utf-8")
+    mission = tmp_path / "link.yaml"
+    mission.write_text(text.replace("  max_altitude_m: 20\n", "  max_altitude_m: 20\n  link_loss_s: 2\n"))
+    settings = RunSettings(mission=mission, runs_dir=tmp_path / "runs", faults=[parse_fault("link_loss@c1")])
+    run = MissionRun(settings, progress=None)
+    result = run.execute()
+    trace = records(result.run_dir, "trace.jsonl")
+    (fault,) = of_kind(trace, "fault")
+    assert fault["status"] == "ok"
+    (failsafe,) = of_kind(trace, "failsafe")
+    assert failsafe["failsafe"] == "link" and failsafe["by"] == "agent" and failsafe["silent_s"] >= 2.0
+    assert run.control.stop_requested() == "rtl" and run.control.stopped_by == "failsafe"
+    assert isinstance(run.backend, SimBackend) and "data_link" in run.backend.vehicle.failsafes.triggered
+    truth = run.backend.sim.state()
+    assert truth.landed and math.hypot(truth.north_m, truth.east_m) < 3.0

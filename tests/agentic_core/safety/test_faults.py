@@ -14,9 +14,15 @@ from agentic_core.cli import main
 from agentic_core.contracts import RunEvent, TelemetrySample
 from agentic_core.contracts.faults import Fault, parse_fault
 from agentic_core.contracts.tool_result import ToolResult
-from agentic_core.run.faults import FaultSchedule
+from agentic_core.mission.compile import STEPS_ADAPTER
+from agentic_core.run.faults import SCHEDULE, FaultSchedule
+from agentic_core.run.plan_review import review
+from agentic_core.run.settings import AGENT
 from flight.client.safety import failure_command
 from flight.sim.scene_file import SceneFileError, load_scene
+from flight.tools import register_flight_tools
+from flight.vehicle import VehicleClient
+from tools import ToolExecutor, ToolRegistry
 
 from .conftest import EXAMPLES
 
@@ -172,3 +178,26 @@ def test_nothing_to_deliver_starts_no_thread() -> None:
     schedule.start()
     assert schedule._thread is None
     schedule.close()
+
+
+def test_the_agent_cannot_inject_a_fault_itself_only_the_schedule_can() -> None:
+    """``flight.inject_failure`` needs ``flight:fault``: a model's plan that calls it is refused whole by the scope
+    review, and a direct call as the agent is refused by the executor before anything reaches a vehicle."""
+    registry = ToolRegistry()
+
+    async def never() -> VehicleClient:
+        raise AssertionError("nothing may reach the vehicle")
+
+    register_flight_tools(registry, never)
+    steps = STEPS_ADAPTER.validate_python(
+        [{"id": "sabotage", "action": "call_tool", "tool": "flight.inject_failure",
+          "args": {"fault": "motor", "value": 1}}]
+    )  # fmt: skip
+    assert review(steps, registry, AGENT) == [
+        "step 'sabotage': flight.inject_failure needs scope flight:fault, which the agent lacks"
+    ]
+    with ToolExecutor(registry, default_caller=AGENT) as executor:
+        denied = executor.call("flight.inject_failure", {"fault": "motor", "value": 1})
+        assert denied.status == "denied" and "flight:fault" in str(denied.error)
+        bad = executor.call("flight.inject_failure", {"fault": "motor", "value": 9}, caller=SCHEDULE)
+        assert bad.status == "error" and "motor needs its number" in str(bad.error)  # checked before connecting

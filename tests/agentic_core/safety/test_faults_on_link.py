@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from agentic_core.contracts.faults import parse_fault
 from tests.flight.test_cli import free_udp_port
 from tests.flight.test_cli_vehicle import listening_port, stop
 
@@ -24,7 +25,7 @@ def test_the_battery_trap_on_a_vehicle_in_another_process(tmp_path: Path) -> Non
     mission = EXAMPLES / "battery_survey.yaml"
     try:
         assert listening_port(vehicle) == port
-        result = fly(mission, tmp_path, connect=f"udp://127.0.0.1:{port}", faults=["battery=18%@S1"])
+        result = fly(mission, tmp_path, connect=f"udp://127.0.0.1:{port}", faults=[parse_fault("battery=18%@S1")])
     finally:
         code, _, err = stop(vehicle)
     assert code == 0, err
