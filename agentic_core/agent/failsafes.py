@@ -43,8 +43,11 @@ VEHICLE_FAILSAFE = re.compile(
     re.IGNORECASE,
 )
 """STATUSTEXTs that say the vehicle acted on its own (ours, :mod:`flight.mavlink.failsafe`, and PX4's wording)."""
-NOT_A_FAILSAFE = re.compile(r"^failure (injected|cleared)|^failsafe \w+: ", re.IGNORECASE)
-"""Texts about injected faults (the fault schedule reports those) and a failsafe's own follow-up."""
+NOT_A_FAILSAFE = re.compile(
+    r"^failure (injected|cleared)|^failsafe (geofence|battery_low|battery_critical|position|data_link): ", re.IGNORECASE
+)
+"""Texts about injected faults (the fault schedule reports those), and our vehicle's note that a failsafe already
+reported could not act."""
 
 
 class TelemetryFailsafes:

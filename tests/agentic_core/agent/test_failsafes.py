@@ -151,13 +151,14 @@ def test_the_vehicle_own_failsafe_texts_are_reported_and_fault_texts_are_not() -
         "Failsafe position: Landing denied",
         "Takeoff detected",
         "Geofence breached (205 m from home): holding",
+        "Failsafe activated: Autoland",  # PX4's wording
     ]
     batches = [heard[:3], [], heard[3:]]
     fs, port, said = watch(Limits(), texts=lambda: batches.pop(0) if batches else [])
     for _ in range(4):
         fs.check()
     reported = [f["text"] for f in said.failsafes()]
-    assert reported == [heard[1], heard[2], heard[5]]
+    assert reported == [heard[1], heard[2], heard[5], heard[6]]
     assert all(f["by"] == "vehicle" for f in said.failsafes())
     assert port.stop_requested() is None  # the vehicle acts itself; the agent only records it
 
