@@ -9,6 +9,7 @@ from pathlib import Path
 from agentic_core.contracts.faults import parse_fault
 from agentic_core.run.backends import SimBackend
 from agentic_core.run.runner import MissionRun, RunSettings
+from flight.sim.environment import WindSettings
 
 from .conftest import BREACH_M, EXAMPLES, assert_safe_and_home, fly, judge, of_kind, records
 
@@ -66,3 +67,20 @@ def test_a_lost_link_fires_the_agent_link_failsafe_and_the_vehicle_comes_home_on
     assert isinstance(run.backend, SimBackend) and "data_link" in run.backend.vehicle.failsafes.triggered
     truth = run.backend.sim.state()
     assert truth.landed and math.hypot(truth.north_m, truth.east_m) < 3.0
+
+
+def test_wind_above_the_mission_limit_brings_the_aircraft_home(tmp_path: Path) -> None:
+    """The vehicle's wind estimate (the simulator's steady wind, as its WIND_COV reports it) over
+    ``max_wind_mps``: the agent's wind failsafe, once airborne, with the mission's action."""
+    text = (EXAMPLES / "square_15m.yaml").read_text(encoding="utf-8")
+    mission = tmp_path / "windy.yaml"
+    mission.write_text(text.replace("  max_altitude_m: 20\n", "  max_altitude_m: 20\n  max_wind_mps: 5\n"))
+    run = MissionRun(RunSettings(mission=mission, runs_dir=tmp_path / "runs"), progress=None)
+    assert isinstance(run.backend, SimBackend)
+    run.backend.sim.set_wind(WindSettings.from_direction(6.0, from_deg=270.0))
+    result = run.execute()
+    trace = records(result.run_dir, "trace.jsonl")
+    (failsafe,) = of_kind(trace, "failsafe")
+    assert failsafe["failsafe"] == "wind" and failsafe["wind_mps"] == 6.0 and failsafe["action"] == "rtl"
+    assert result.summary.outcome == "returned"
+    assert_safe_and_home(judge(result.run_dir, mission))
