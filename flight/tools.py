@@ -24,7 +24,11 @@ tool                       arguments                                            
 ``flight.status``          none: the latest telemetry                               ``flight:read``
 ``flight.set_fence``       ``max_alt_m``; ``polygon`` or ``center``+``radius_m``;     ``flight:command``
                            ``floor_m`` (the vehicle enforces them itself)
+``flight.inject_failure``  ``fault`` (a scheduled fault's kind), ``value``          ``flight:fault``
+                           (sets ``SYS_FAILURE_EN`` first; for rehearsals only)
 =========================  =======================================================  ==================
+
+``flight:fault`` is a scope the agent never holds: only a run's fault schedule calls ``flight.inject_failure``.
 
 A ``target_id`` names an object of the world model: the tools are given a resolver (``targets``: id → latitude and
 longitude, or None for an id it does not know); without one, such a call is an error saying so. Landing beside a
@@ -45,6 +49,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, ValidationError
 
+from agentic_core.contracts.faults import FaultKind
 from agentic_core.contracts.flight_args import (
     FlyToArgs,
     LandArgs,
@@ -60,6 +65,7 @@ from agentic_core.contracts.geodesy import local_offset, offset_position
 from tools import ToolError, ToolRegistry, ToolSpec
 from tools.function import spec_from_function
 
+from .client.safety import failure_command
 from .vehicle import FlightResult, MissionItem, MissionResult, Telemetry, VehicleClient
 
 ClientFactory = Callable[[], Awaitable[VehicleClient]]
@@ -68,6 +74,7 @@ ClientFactory = Callable[[], Awaitable[VehicleClient]]
 SCOPE_COMMAND = "flight:command"
 SCOPE_PAYLOAD = "flight:payload"
 SCOPE_READ = "flight:read"
+SCOPE_FAULT = "flight:fault"
 
 TIMEOUTS_S: dict[str, float] = {
     "flight.takeoff": 180.0,
@@ -82,6 +89,7 @@ TIMEOUTS_S: dict[str, float] = {
     "flight.start_mission": 3600.0,
     "flight.status": 10.0,
     "flight.set_fence": 60.0,
+    "flight.inject_failure": 30.0,
 }
 """Each tool's own timeout (the executor's bound on one call; a mission step's ``timeout_s`` may shorten it)."""
 
@@ -332,6 +340,24 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
             raise ToolError(f"the vehicle did not take the fence ({result.status}): {result.reason}")
         return {"items": result.items, "params": result.params}
 
+    async def inject_failure(fault: FaultKind, value: Number | None = None) -> FlightResult:
+        """Make a failure happen on the vehicle, to rehearse a failsafe: MAV_CMD_INJECT_FAILURE, after setting
+        SYS_FAILURE_EN to 1 (a vehicle that refuses either says why).
+
+        Args:
+            fault: battery (with value: the level it reads, percent), battery_low, battery_critical, gps_loss,
+                link_loss, motor (with value: its number)
+            value: the battery's level in percent, or the motor's number
+        """
+        try:
+            unit, failure_type, instance, param4 = failure_command(fault, value)
+        except ValueError as exc:
+            raise ToolError(str(exc)) from None
+        client = await clients.get()
+        if await client.set_param("SYS_FAILURE_EN", 1) != 1:
+            raise ToolError("the vehicle did not enable failure injection (SYS_FAILURE_EN)")
+        return _done(await client.inject_failure(unit, failure_type, instance, param4))
+
     def spec(fn: Callable[..., Any], name: str, scope: str) -> ToolSpec:
         return spec_from_function(fn, name=name, scopes=[scope], timeout_s=TIMEOUTS_S[name], idempotent=False)
 
@@ -354,6 +380,7 @@ def flight_tools(source: VehicleClient | ClientFactory, targets: TargetResolver 
         spec(start_mission, "flight.start_mission", SCOPE_COMMAND),
         spec(status, "flight.status", SCOPE_READ),
         spec(set_fence, "flight.set_fence", SCOPE_COMMAND),
+        spec(inject_failure, "flight.inject_failure", SCOPE_FAULT),
     ]
 
 

@@ -20,8 +20,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-StopCommand = Literal["abort", "rtl", "land"]
-Command = Literal["pause", "resume", "abort", "rtl", "land", "approve", "decline"]
+StopCommand = Literal["abort", "rtl", "land", "hold"]
+Command = Literal["pause", "resume", "abort", "rtl", "land", "hold", "approve", "decline"]
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,10 @@ class ControlPort:
         """End the mission and land where the aircraft is."""
         self._stop_with("land", None, by)
 
+    def hold(self, *, by: str = "operator") -> None:
+        """End the mission and hold where the aircraft is (a failsafe's ``hold``)."""
+        self._stop_with("hold", None, by)
+
     def approve(self, question_id: str | None = None, reason: str | None = None, *, by: str = "operator") -> bool:
         """Approve a pending question (the oldest when no id is given); False when there is none."""
         return self._answer(question_id, OperatorAnswer(True, reason, reason or f"approved by {by}"), by)
@@ -125,7 +129,7 @@ class ControlPort:
             return self._paused
 
     def stop_requested(self) -> StopCommand | None:
-        """abort, rtl or land once one was asked for (the first one stands)."""
+        """abort, rtl, land or hold once one was asked for (the first one stands)."""
         with self._cond:
             return self._stop
 

@@ -31,6 +31,7 @@ EVENT_KINDS = frozenset(
         "approval",  # a question to the operator and its answer
         "control",  # a command on the control port (pause, resume, abort, rtl, land, approve, decline)
         "failsafe",  # a failsafe, the agent's or the vehicle's
+        "fault",  # a scheduled fault delivered to the vehicle (or not)
         "alert",  # an alert that left
         "log",  # anything else worth a line
     }

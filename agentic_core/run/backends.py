@@ -4,7 +4,7 @@
 * :class:`SimBackend` — the embedded default: the JSBSim F450 behind our PX4-like MAVLink vehicle on 127.0.0.1, in
   this process. Its telemetry samples come in lockstep from the vehicle's own thread, and its speed follows the
   agent (:class:`~agentic_core.agent.pacing.Pace`). It can be snapshotted and restored, so a killed run resumes
-  with the aircraft where it was.
+  with the aircraft where it was. While an injected MAVLink failure has cut the link, it hands out no samples.
 * :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
   process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
 """
@@ -78,6 +78,8 @@ class SimBackend:
         self._hooks.append(hook)
 
     def _sample(self, sample: TelemetrySample) -> None:
+        if self.vehicle.failures.link_off:  # an injected link loss: the agent hears nothing, as over a real link
+            return
         for hook in self._hooks:
             hook(sample)
 

@@ -29,6 +29,7 @@ from pydantic import ValidationError
 from flight.cli import parse_speed
 
 from ..contracts.errors import AgenticUAVError, report_error
+from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
 from .responses import DEGRADED_EXIT
 
 if TYPE_CHECKING:
@@ -71,6 +72,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--max-wall-s", type=float, default=900.0, help="stop the mission and return home after this long (900)"
     )
     parser.add_argument("--camera-hz", type=float, default=30.0, help="frames per second of the camera (30)")
+    parser.add_argument(
+        "--fault", action="append", default=[], metavar="FAULT",
+        help="inject a failure to rehearse a failsafe, repeatable: KIND[=VALUE]@WHEN, e.g. battery=18%%@S1 (when "
+        "step S1 completes), gps_loss@t=40s (mission time); kinds: " + ", ".join(FAULT_KINDS),
+    )  # fmt: skip
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     return parser
 
@@ -81,9 +87,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     progress = None if args.quiet else sys.stderr
     if args.resume is not None:
-        if args.mission is not None or args.connect is not None or args.param or args.scene is not None:
+        if args.mission is not None or args.connect is not None or args.param or args.scene is not None or args.fault:
             print(
-                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle and parameters", file=sys.stderr
+                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle, parameters and faults",
+                file=sys.stderr,
             )
             return 2
         overrides: dict[str, Any] = {}
@@ -102,6 +109,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{PROG}: error: --param takes NAME=VALUE, got {item!r}", file=sys.stderr)
             return 2
         params[name.strip()] = value.strip()
+    faults: list[Fault] = []
+    for text in args.fault:
+        try:
+            faults.append(parse_fault(text))
+        except ValueError as exc:
+            print(f"{PROG}: error: --fault {exc}", file=sys.stderr)
+            return 2
     if args.decline and args.approval not in (None, "decline"):
         print(f"{PROG}: error: --decline contradicts --approval {args.approval}", file=sys.stderr)
         return 2
@@ -123,6 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             max_wall_s=args.max_wall_s,
             camera_hz=args.camera_hz,
+            faults=faults,
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
         first = exc.errors()[0]

@@ -1,5 +1,6 @@
-"""A run's report: ``report.md`` with the outcome, the decisions, the alerts, a timeline, and ``trajectory.png``
-(the flown track over the scene, with the people who needed help and where the aircraft landed).
+"""A run's report: ``report.md`` with the outcome, the decisions, the alerts, the failsafes and faults, a timeline,
+and ``trajectory.png`` (the flown track over the scene, with the people who needed help and where the aircraft
+landed).
 
 Everything in it comes from the run's trace and its recorded track, so the report says what happened, not what
 was meant to.
@@ -111,6 +112,21 @@ def timeline(records: Sequence[dict[str, Any]]) -> list[tuple[float, str]]:
     return rows
 
 
+def failsafe_lines(records: Sequence[dict[str, Any]]) -> list[str]:
+    """The failsafes that fired (the agent's on telemetry, the vehicle's own from its messages) and the faults
+    injected, each with its simulated time and reason, in order."""
+    lines = []
+    for r in records:
+        if r.get("kind") == "failsafe":
+            who = "the vehicle" if r.get("by") == "vehicle" else f"the agent ({r.get('failsafe')})"
+        elif r.get("kind") == "fault":
+            who = "fault schedule"
+        else:
+            continue
+        lines.append(f"- {float(r.get('sim_t') or 0.0):.1f} s, {who}: {r.get('summary')}")
+    return lines or ["None."]
+
+
 def write_report(
     run_dir: Path,
     summary: RunSummary,
@@ -161,6 +177,7 @@ def write_report(
             lines.append(f"  - {a['surrounding_features']}")
     lines += ["", "## Alerts", ""]
     lines += [f"- `{path}`" for path in summary.alerts] or ["None."]
+    lines += ["", "## Failsafes", "", *failsafe_lines(records)]
     if summary.notes:
         lines += ["", "## Notes", "", *[f"- {note}" for note in summary.notes]]
     lines += ["", "## Timeline", "", "| sim time (s) | event |", "|---:|---|"]
@@ -170,4 +187,4 @@ def write_report(
     return path
 
 
-__all__ = ["RunSummary", "TrackPoint", "landing_spot", "plot_trajectory", "timeline", "write_report"]
+__all__ = ["RunSummary", "TrackPoint", "failsafe_lines", "landing_spot", "plot_trajectory", "timeline", "write_report"]

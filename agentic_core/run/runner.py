@@ -33,7 +33,7 @@ from tools.function import spec_from_function
 from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
 from ..agent.envelope import FLOOR_M, Envelope
-from ..agent.failsafes import TelemetryFailsafes
+from ..agent.failsafes import TelemetryFailsafes, VehicleTexts
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..contracts.policy_graph import ON_ABORT_TOOLS, Circle
@@ -48,6 +48,7 @@ from ..reasoning.reasoners import Reasoner, make_reasoner
 from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
+from .faults import SCHEDULE, FaultSchedule
 from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
@@ -59,10 +60,10 @@ from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .trace import TelemetryLog, TraceWriter
 
-STOP_TOOLS = {"rtl": "flight.rtl", "land": "flight.land"}
+STOP_TOOLS = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}
 """What the aircraft does when the operator stops the run (``abort``: what the mission's ``on_abort`` says)."""
 
-STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed"}
+STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed", "hold": "held"}
 
 DEFAULT_CEILING_M = 120.0
 """The ceiling handed to the vehicle with a fence when the mission names none (a common legal limit)."""
@@ -144,7 +145,8 @@ class MissionRun:
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
         self.snapshots = SnapshotWriter(self.run_dir)
         self.control = ControlPort(on_command=self._on_command)
-        self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish)
+        self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish,
+                                            texts=VehicleTexts(lambda: self._client))  # fmt: skip
         self.backend.on_sample(self.failsafes)
         if settings.approval == "ask":
             ask: Operator = self._operator or TerminalOperator(
@@ -154,6 +156,11 @@ class MissionRun:
         self.executor = ToolExecutor(
             self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=self.agent
         )
+        self.faults = FaultSchedule([*(self.scene.faults if self.scene else []), *settings.faults],
+                                    lambda name, args: self.executor.call(name, args, caller=SCHEDULE),
+                                    self.bus.publish, delivered=(str(r.get("fault")) for r in earlier))  # fmt: skip
+        self.bus.subscribe(self.faults.on_event)
+        self.backend.on_sample(self.faults.on_sample)
         self.gate = Gate(self.reasoner, self._world_source(), self, self.bus.publish, self.pace,
                          on_decision=self._log_world)  # fmt: skip
         self.model = ModelSide(self.reasoner, self.plan, self.registry, self.gate, self.bus.publish, self.pace,
@@ -352,6 +359,8 @@ class MissionRun:
         outcome = "failed"
         try:
             self.backend.start()
+            self.failsafes.start()
+            self.faults.start()
             self.reach_vehicle()
             self.fence_vehicle()
             self.prepare()
@@ -386,6 +395,8 @@ class MissionRun:
             outcome = "failed"
         finally:
             outcome = self.responses.outcome(outcome)  # every critical event answered, or the run says otherwise
+            self.faults.close()
+            self.failsafes.close()
             ended = self.where_it_ended()
             self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
@@ -430,6 +441,8 @@ class MissionRun:
     def close(self) -> None:
         """Release what the run holds without flying it (:meth:`execute` does this itself): the executor's workers,
         the vehicle, the open logs. Safe to call twice."""
+        self.faults.close()
+        self.failsafes.close()
         self.executor.close()
         self.backend.close()
         self._world_log.close()

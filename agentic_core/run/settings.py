@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from tools import Caller
 
 from ..contracts import InputError
+from ..contracts.faults import FaultText
 from .report import RunSummary, TrackPoint
 
 AGENT = Caller(
@@ -49,6 +50,9 @@ class RunSettings(BaseModel):
         default=None, description="fly the vehicle at this MAVLink address (udp://HOST:PORT) instead of the simulator"
     )
     telemetry_hz: float = Field(default=10.0, gt=0, le=100, description="rate of telemetry.jsonl, Hz of vehicle time")
+    faults: list[FaultText] = Field(
+        default_factory=list, description="failures to inject (--fault), beside the scene's own faults: list"
+    )
 
 
 class RunError(InputError):

@@ -26,8 +26,18 @@ from collections.abc import Sequence
 from typing import Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict, Field
-from pymavlink.dialects.v20.common import MAV_CMD_INJECT_FAILURE  # MAVLink's own constant
+from pymavlink.dialects.v20.common import (  # MAVLink's own constants
+    FAILURE_TYPE_OFF,
+    FAILURE_TYPE_SLOW,
+    FAILURE_TYPE_WRONG,
+    FAILURE_UNIT_SENSOR_GPS,
+    FAILURE_UNIT_SYSTEM_BATTERY,
+    FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL,
+    FAILURE_UNIT_SYSTEM_MOTOR,
+    MAV_CMD_INJECT_FAILURE,
+)
 
+from agentic_core.contracts.faults import value_problem
 from flight.client.mission import MissionClient
 from flight.client.mission_items import MissionItem
 from flight.client.operations import Operation
@@ -86,6 +96,35 @@ def fence_items(
             raise ValueError(f"circle radius must be a positive number of metres, not {radius}")
         return [MissionItem.fence_circle(lat, lon, radius)]
     return []
+
+
+FAILURES: dict[str, tuple[int, int]] = {
+    "battery": (FAILURE_UNIT_SYSTEM_BATTERY, FAILURE_TYPE_WRONG),
+    "battery_low": (FAILURE_UNIT_SYSTEM_BATTERY, FAILURE_TYPE_SLOW),
+    "battery_critical": (FAILURE_UNIT_SYSTEM_BATTERY, FAILURE_TYPE_OFF),
+    "gps_loss": (FAILURE_UNIT_SENSOR_GPS, FAILURE_TYPE_OFF),
+    "link_loss": (FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL, FAILURE_TYPE_OFF),
+    "motor": (FAILURE_UNIT_SYSTEM_MOTOR, FAILURE_TYPE_OFF),
+}
+"""Each scheduled fault (:mod:`agentic_core.contracts.faults`) as MAV_CMD_INJECT_FAILURE's unit and type; a
+battery level is our FAILURE_TYPE_WRONG with the percentage in param4 (:mod:`flight.mavlink.failures`)."""
+
+
+def failure_command(fault: str, value: float | None = None) -> tuple[int, int, int, float | None]:
+    """MAV_CMD_INJECT_FAILURE's (unit, type, instance, param4) for a fault; ValueError naming what is wrong.
+
+    >>> failure_command("battery", 18.0)[1:]
+    (4, 0, 18.0)
+    """
+    if fault not in FAILURES:
+        raise ValueError(f"no fault {fault!r}; the faults are {', '.join(FAILURES)}")
+    problem = value_problem(fault, value)
+    if problem:
+        raise ValueError(problem)
+    unit, failure_type = FAILURES[fault]
+    if fault == "motor" and value is not None:
+        return unit, failure_type, int(value), None
+    return unit, failure_type, 0, value if fault == "battery" else None
 
 
 class SafetyClient(MissionClient):
@@ -182,12 +221,16 @@ class SafetyClient(MissionClient):
             return done("failed", "the fence read back differs from the one sent", held.count, got)
         return done("ok", None, held.count, got)
 
-    async def inject_failure(self, unit: int, failure_type: int, instance: int = 0) -> FlightResult:
-        """MAV_CMD_INJECT_FAILURE (FAILURE_UNIT, FAILURE_TYPE, instance; 0 all). ``ok`` when accepted; ``denied``
-        (with the vehicle's reason) when ``SYS_FAILURE_EN`` is 0 or the values are nonsense; ``unsupported`` for a
-        failure the vehicle cannot simulate. Does not interrupt the motion command under way."""
+    async def inject_failure(
+        self, unit: int, failure_type: int, instance: int = 0, value: float | None = None
+    ) -> FlightResult:
+        """MAV_CMD_INJECT_FAILURE (FAILURE_UNIT, FAILURE_TYPE, instance; 0 all; ``value`` param4, our battery level
+        for FAILURE_TYPE_WRONG). ``ok`` when accepted; ``denied`` (with the vehicle's reason) when
+        ``SYS_FAILURE_EN`` is 0 or the values are nonsense; ``unsupported`` for a failure the vehicle cannot
+        simulate. Does not interrupt the motion command under way."""
         op = Operation("inject_failure", time.monotonic(), self.telemetry.mode, self.text_mark)
-        ack = await self._command(MAV_CMD_INJECT_FAILURE, (float(unit), float(failure_type), float(instance)))
+        params = (float(unit), float(failure_type), float(instance)) + (() if value is None else (float(value),))
+        ack = await self._command(MAV_CMD_INJECT_FAILURE, params)
         if not ack.accepted:
             return self._refused(op, ack)
         return self._result(op, "ok", ack=ack.result)

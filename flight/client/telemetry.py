@@ -15,6 +15,8 @@ Facts relied on (MAVLink ``common.xml`` through pymavlink's ``dialects/v20/commo
 * STATUSTEXT: 50 characters; longer texts arrive in chunks sharing a non-zero ``id``, the last one shorter.
 * MISSION_CURRENT: ``seq``, ``total`` (UINT16_MAX: no mission), ``mission_state`` (MISSION_STATE: UNKNOWN 0,
   NO_MISSION 1, NOT_STARTED 2, ACTIVE 3, PAUSED 4, COMPLETE 5); MISSION_ITEM_REACHED: ``seq``.
+* GPS_RAW_INT: ``fix_type`` (GPS_FIX_TYPE: 0 no GPS, 1 no fix, 2 2D, 3 3D, then DGPS and RTK), ``satellites_visible``
+  (255: unknown). WIND_COV: ``wind_x``/``wind_y`` the wind estimate in m/s, north and east (NaN: none).
 * Integer parameters come bytewise in PARAM_VALUE floats; their types are remembered for PARAM_SET.
 """
 
@@ -71,6 +73,7 @@ LINK_TIMEOUT_S = 3.0
 """No message from the vehicle for this long: ``Telemetry.connected`` is false."""
 STATUSTEXT_LEN = 50
 UINT16_MAX = 0xFFFF
+UINT8_MAX = 0xFF
 MAX_OPEN_CHUNKED_TEXTS = 16
 
 
@@ -100,6 +103,10 @@ class Heard(BaseModel):
     mission_total: int | None = Field(default=None, description="items in the vehicle's mission (0: none)")
     mission_state: MissionState = "unknown"
     mission_reached: int | None = Field(default=None, description="the last MISSION_ITEM_REACHED")
+    gps_fix_type: int | None = Field(default=None, description="GPS_RAW_INT fix_type")
+    gps_satellites: int | None = Field(default=None, description="GPS_RAW_INT satellites_visible (None: unknown)")
+    wind_north_mps: float | None = Field(default=None, description="WIND_COV wind_x")
+    wind_east_mps: float | None = Field(default=None, description="WIND_COV wind_y")
 
 
 class Telemetry(Heard):
@@ -157,6 +164,10 @@ def sample_of(h: Heard) -> TelemetrySample | None:
         mode=h.mode,
         armed=h.armed,
         landed_state=h.landed_state,
+        gps_fix_type=h.gps_fix_type,
+        gps_satellites=h.gps_satellites,
+        wind_north_mps=h.wind_north_mps,
+        wind_east_mps=h.wind_east_mps,
     )
 
 
@@ -211,6 +222,12 @@ class TelemetryStore:
             s.battery_voltage_v = None if msg.voltage_battery == UINT16_MAX else msg.voltage_battery / 1000.0
         elif kind == "EXTENDED_SYS_STATE":
             s.landed_state = LANDED_STATES.get(msg.landed_state, "unknown")
+        elif kind == "GPS_RAW_INT":
+            s.gps_fix_type = int(msg.fix_type)
+            s.gps_satellites = None if msg.satellites_visible == UINT8_MAX else int(msg.satellites_visible)
+        elif kind == "WIND_COV":
+            if math.isfinite(msg.wind_x) and math.isfinite(msg.wind_y):
+                s.wind_north_mps, s.wind_east_mps = float(msg.wind_x), float(msg.wind_y)
         elif kind == "HOME_POSITION":
             s.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
         elif kind == "MISSION_CURRENT":

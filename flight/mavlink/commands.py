@@ -15,8 +15,8 @@ Facts relied on (MAVLink ``common.xml`` as generated into pymavlink's ``dialects
   DO_GRIPPER 211 (param2 GRIPPER_ACTION: RELEASE 0, GRAB 1, HOLD 2); COMPONENT_ARM_DISARM 400 (param1 1 arm,
   0 disarm; param2 21196 forces); GET_HOME_POSITION 410; GET_MESSAGE_INTERVAL 510; SET_MESSAGE_INTERVAL 511
   (param1 message id, param2 interval µs, -1 off, 0 default); REQUEST_MESSAGE 512 (param1 message id);
-  REQUEST_AUTOPILOT_CAPABILITIES 520; INJECT_FAILURE 420 (param1 unit, param2 type, param3 instance:
-  :mod:`flight.mavlink.failures`).
+  REQUEST_AUTOPILOT_CAPABILITIES 520; INJECT_FAILURE 420 (param1 unit, param2 type, param3 instance, param4 our
+  battery level: :mod:`flight.mavlink.failures`).
 * COMMAND_INT carries param5/param6 as ``int32`` degrees×1e7 in ``x``/``y`` (INT32_MAX: unset) and param7 as
   ``z``, interpreted in ``frame``: MAV_FRAME_GLOBAL 0 and GLOBAL_INT 5 are above mean sea level,
   GLOBAL_RELATIVE_ALT 3 and GLOBAL_RELATIVE_ALT_INT 6 above home, GLOBAL_TERRAIN_ALT 10 / _INT 11 above terrain
@@ -304,7 +304,7 @@ def _get_interval(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
 
 
 def _inject_failure(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
-    ctx.failures.inject(req.params[0], req.params[1], req.params[2])
+    ctx.failures.inject(req.params[0], req.params[1], req.params[2], value=req.params[3])
     return _ok()
 
 

@@ -18,6 +18,9 @@ Facts relied on (MAVLink ``common.xml`` through pymavlink; PX4 user guide, "Syst
 * PX4's simulated battery knows only OFF (it reports the empty voltage) and OK, for instance 0. Ours, with a
   documented mapping since PX4 has no "low": **SLOW = low** (the charge reads just under ``BAT_LOW_THR``: the
   vehicle returns), **OFF = critical** (just under ``BAT_CRIT_THR``: it lands); OK restores the true reading.
+  And **WRONG = a level** (ours alone; PX4 answers it UNSUPPORTED): param4 is the percentage the battery reads
+  from now on, 0 to 100 (it still drains below it; the vehicle's own thresholds then act on what it reads), so
+  a schedule can rehearse "the battery drops to 18 %".
 * Motors are numbered from 1 as in PX4's quad X (1 front right, 2 aft left, 3 front left, 4 aft right); instance
   0 is every motor.
 
@@ -47,6 +50,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     FAILURE_TYPE_OFF,
     FAILURE_TYPE_OK,
     FAILURE_TYPE_SLOW,
+    FAILURE_TYPE_WRONG,
     FAILURE_UNIT_SENSOR_GPS,
     FAILURE_UNIT_SYSTEM_BATTERY,
     FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL,
@@ -76,7 +80,7 @@ class FailureState:
     """The failures in force."""
 
     battery: int | None = None
-    """FAILURE_TYPE_SLOW (low) or FAILURE_TYPE_OFF (critical), None when healthy."""
+    """FAILURE_TYPE_SLOW (low), FAILURE_TYPE_OFF (critical) or FAILURE_TYPE_WRONG (a level), None when healthy."""
     gps_off: bool = False
     link_off: bool = False
     motors_off: set[int] = field(default_factory=set)
@@ -103,7 +107,11 @@ class FailureInjector:
         st = self.state
         out = []
         if st.battery is not None:
-            out.append("battery low" if st.battery == FAILURE_TYPE_SLOW else "battery critical")
+            out.append(
+                {FAILURE_TYPE_SLOW: "battery low", FAILURE_TYPE_WRONG: "battery level"}.get(
+                    st.battery, "battery critical"
+                )
+            )
         if st.gps_off:
             out.append("gps off")
         if st.link_off:
@@ -111,9 +119,11 @@ class FailureInjector:
         out.extend(f"motor {n} off" for n in sorted(st.motors_off))
         return out
 
-    def inject(self, unit: float, failure_type: float, instance: float, *, enabled: bool | None = None) -> None:
+    def inject(
+        self, unit: float, failure_type: float, instance: float, *, value: float = math.nan, enabled: bool | None = None
+    ) -> None:
         """Carry out MAV_CMD_INJECT_FAILURE; raises :class:`CommandDenied` (DENIED or UNSUPPORTED) with the reason.
-        ``enabled`` None reads ``SYS_FAILURE_EN``."""
+        ``value`` is param4 (a battery WRONG failure's level, percent); ``enabled`` None reads ``SYS_FAILURE_EN``."""
         if enabled is None:
             enabled = self.navigator.params.values["SYS_FAILURE_EN"] == 1
         if not enabled:
@@ -123,7 +133,10 @@ class FailureInjector:
             raise CommandDenied(f"Failure injection denied: no failure unit {u}", MAV_RESULT_DENIED)
         if t not in _TYPES:
             raise CommandDenied(f"Failure injection denied: no failure type {t}", MAV_RESULT_DENIED)
-        if u == FAILURE_UNIT_SYSTEM_BATTERY and t in (FAILURE_TYPE_OK, FAILURE_TYPE_SLOW, FAILURE_TYPE_OFF) and i == 0:
+        battery = u == FAILURE_UNIT_SYSTEM_BATTERY and i == 0
+        if battery and t == FAILURE_TYPE_WRONG:
+            self._battery_level(value)
+        elif battery and t in (FAILURE_TYPE_OK, FAILURE_TYPE_SLOW, FAILURE_TYPE_OFF):
             self._battery(t)
         elif u == FAILURE_UNIT_SENSOR_GPS and t in (FAILURE_TYPE_OK, FAILURE_TYPE_OFF) and i in (0, 1):
             self._gps(t == FAILURE_TYPE_OFF)
@@ -155,6 +168,15 @@ class FailureInjector:
         self.state.battery = failure_type
         battery.soc_cap = max(0.0, threshold - BATTERY_BELOW_THRESHOLD)
         self.notify(f"Failure injected: battery {'low' if low else 'critical'}", MAV_SEVERITY_CRITICAL)
+
+    def _battery_level(self, percent: float) -> None:
+        if not (math.isfinite(percent) and 0.0 <= percent <= 100.0):
+            raise CommandDenied(
+                f"Failure injection denied: battery level {percent!r} is not 0 to 100 percent", MAV_RESULT_DENIED
+            )
+        self.state.battery = FAILURE_TYPE_WRONG
+        self.navigator.sim.battery.soc_cap = percent / 100.0
+        self.notify(f"Failure injected: battery reads {percent:g}%", MAV_SEVERITY_CRITICAL)
 
     def _gps(self, off: bool) -> None:
         self.state.gps_off = self.navigator.sim.gps_lost = off

@@ -16,6 +16,8 @@ Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20
 * SYS_STATUS: MAV_SYS_STATUS_PREARM_CHECK (``0x10000000``) is "pre-arm check status, always healthy when armed";
   PX4 reports it present and enabled, and healthy when arming would be allowed. MAVSDK's ``Health.is_armable``
   reads exactly this bit, so without it a MAVSDK client sees a vehicle that can never be armed.
+* WIND_COV 231: ``wind_x``/``wind_y``/``wind_z`` the wind in m/s, NED (where the air moves towards),
+  ``var_horiz``/``var_vert`` its variability, ``wind_alt`` metres above mean sea level, accuracies (NaN: unknown).
 * AUTOPILOT_VERSION ``flight_sw_version`` is ``major << 24 | minor << 16 | patch << 8 | type`` (type 255:
   release); we report PX4 1.14.0, the release whose behaviour is mimicked.
 * A MAVLink 2 frame (pymavlink ``MAVLink_message._pack``, unsigned): ``0xFD``, payload length, incompat flags 0,
@@ -164,6 +166,7 @@ EXTENDED_SYS_STATE = WireCodec(mavlink2.MAVLink_extended_sys_state_message)
 HOME_POSITION = WireCodec(mavlink2.MAVLink_home_position_message)
 AUTOPILOT_VERSION = WireCodec(mavlink2.MAVLink_autopilot_version_message)
 MISSION_CURRENT = WireCodec(mavlink2.MAVLink_mission_current_message)
+WIND_COV = WireCodec(mavlink2.MAVLink_wind_cov_message)
 
 
 MODE_NAMES: dict[FlightMode, str] = {mode: PX4_MODES[(mode.main_mode, mode.sub_mode)] for mode in FlightMode}
@@ -314,6 +317,15 @@ class TelemetryBuilders:
             _clamp_int(f.epv_m * 1000.0, 0, 2**32 - 1),
         )
 
+    def _wind_cov_fields(self) -> Fields:
+        """The wind estimate: the simulator's steady wind (an estimator's smoothed value, not the gusts), with the
+        gusts' standard deviation as its variability; accuracy unknown (NaN)."""
+        w = self.sim.wind
+        nan = math.nan
+        gusts = w.gust_std_mps
+        return (self._time_usec(), w.north_mps, w.east_mps, w.down_mps, gusts, 0.5 * gusts,
+                self.sim.truth().alt_msl_m, nan, nan)  # fmt: skip
+
     def _extended_sys_state_fields(self) -> Fields:
         return (mavlink2.MAV_VTOL_STATE_UNDEFINED, self.navigator.landed_state())
 
@@ -340,9 +352,10 @@ class TelemetryBuilders:
 
     def telemetry_sample(self) -> TelemetrySample:
         """The state this vehicle reports now, as one :class:`TelemetrySample`: the values its GLOBAL_POSITION_INT,
-        LOCAL_POSITION_NED, ATTITUDE, SYS_STATUS, HEARTBEAT and EXTENDED_SYS_STATE builders put on the wire (before
-        the wire's integer rounding), on the vehicle's clock. Built unvalidated (``model_construct``): every value
-        comes from the builders' own sources, and it is built every tick while someone listens."""
+        LOCAL_POSITION_NED, ATTITUDE, SYS_STATUS, HEARTBEAT, EXTENDED_SYS_STATE, GPS_RAW_INT and WIND_COV builders
+        put on the wire (before the wire's integer rounding), on the vehicle's clock. Built unvalidated
+        (``model_construct``): every value comes from the builders' own sources, and it is built every tick while
+        someone listens."""
         s = self.sim.truth()
         sim = self.sim
         return _new_sample(
@@ -364,4 +377,8 @@ class TelemetryBuilders:
             mode=MODE_NAMES[self.navigator.mode],
             armed=sim.armed,
             landed_state=LANDED_STATES.get(self.navigator.landed_state(), "unknown"),
+            gps_fix_type=0 if sim.gps_lost else 3,
+            gps_satellites=0 if sim.gps_lost else sim.gps.settings.satellites,
+            wind_north_mps=sim.wind.north_mps,
+            wind_east_mps=sim.wind.east_mps,
         )

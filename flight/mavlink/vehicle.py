@@ -22,7 +22,7 @@ the PX4 user guide and MAVLink developer guide):
 * Message ids: HEARTBEAT 0, SYS_STATUS 1, PING 4, PARAM_REQUEST_READ 20, PARAM_REQUEST_LIST 21, PARAM_VALUE 22,
   PARAM_SET 23, GPS_RAW_INT 24, ATTITUDE 30, LOCAL_POSITION_NED 32, GLOBAL_POSITION_INT 33, COMMAND_INT 75,
   COMMAND_LONG 76, COMMAND_ACK 77, BATTERY_STATUS 147, AUTOPILOT_VERSION 148, HOME_POSITION 242,
-  MESSAGE_INTERVAL 244, EXTENDED_SYS_STATE 245, STATUSTEXT 253.
+  WIND_COV 231, MESSAGE_INTERVAL 244, EXTENDED_SYS_STATE 245, STATUSTEXT 253.
 * A PING with target system and component 0 is a request; the answer echoes ``time_usec`` and ``seq`` and targets
   the sender.
 * STATUSTEXT carries 50 characters; longer texts go in chunks sharing a non-zero ``id`` with rising
@@ -97,6 +97,7 @@ from flight.mavlink.telemetry import (
     LOCAL_POSITION_NED,
     MISSION_CURRENT,
     SYS_STATUS,
+    WIND_COV,
     Fields,
     LinkStats,
     TelemetryBuilders,
@@ -125,6 +126,7 @@ MSG_SET_POSITION_TARGET_LOCAL_NED = 84
 MSG_SET_POSITION_TARGET_GLOBAL_INT = 86
 MSG_BATTERY_STATUS = 147
 MSG_AUTOPILOT_VERSION = 148
+MSG_WIND_COV = 231
 MSG_HOME_POSITION = 242
 MSG_EXTENDED_SYS_STATE = 245
 
@@ -139,6 +141,7 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     MSG_EXTENDED_SYS_STATE: 1.0,
     MSG_HOME_POSITION: 0.5,
     MSG_MISSION_CURRENT: 1.0,
+    MSG_WIND_COV: 1.0,
 }
 """Default stream rates (Hz of simulated time): ours, of the order of PX4's defaults on a UDP link. Streams due in
 the same tick go out in this order: attitude and local position before GLOBAL_POSITION_INT, which completes a
@@ -256,6 +259,7 @@ class MavlinkVehicle(TelemetryBuilders):
             MSG_HOME_POSITION: (HOME_POSITION, self._home_position_fields),
             MSG_AUTOPILOT_VERSION: (AUTOPILOT_VERSION, self._autopilot_version_fields),
             MSG_MISSION_CURRENT: (MISSION_CURRENT, self.missions.current_fields),
+            MSG_WIND_COV: (WIND_COV, self._wind_cov_fields),
         }
         """Every message the vehicle can build: streams and REQUEST_MESSAGE."""
         self._streams_due_s = 0.0
@@ -510,12 +514,14 @@ class MavlinkVehicle(TelemetryBuilders):
                 reason = err.reason if isinstance(err, CommandDenied) else str(err)
                 self.statustext(f"Offboard setpoint ignored: {reason}")
 
-    def inject_failure(self, unit: int, failure_type: int, instance: int = 0, *, force: bool = False) -> None:
-        """MAV_CMD_INJECT_FAILURE in process (e.g. to give back a link the failure has cut); ``force`` ignores
-        ``SYS_FAILURE_EN``. Raises :class:`~flight.mavlink.navigator.CommandDenied` as the command would be
-        refused."""
+    def inject_failure(
+        self, unit: int, failure_type: int, instance: int = 0, *, value: float = math.nan, force: bool = False
+    ) -> None:
+        """MAV_CMD_INJECT_FAILURE in process (e.g. to give back a link the failure has cut); ``value`` is param4
+        (the battery level of a battery WRONG failure); ``force`` ignores ``SYS_FAILURE_EN``. Raises
+        :class:`~flight.mavlink.navigator.CommandDenied` as the command would be refused."""
         with self._lock:
-            self.failures.inject(unit, failure_type, instance, enabled=True if force else None)
+            self.failures.inject(unit, failure_type, instance, value=value, enabled=True if force else None)
 
     # -- parameters -------------------------------------------------------------------------------------------
 

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validator
 
+from agentic_core.contracts.faults import FaultText
 from agentic_core.contracts.geodesy import offset_position
 from agentic_core.contracts.polygon import distance_to_edge, points_in_circle, points_in_polygon, polygon_area
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG, Home
@@ -278,6 +279,9 @@ class Scene(BaseModel):
     zones: list[Zone] = Field(default_factory=list)
     landmarks: list[Landmark] = Field(default_factory=list)
     ground_truth: GroundTruth = Field(default_factory=GroundTruth)
+    faults: list[FaultText] = Field(
+        default_factory=list, description="failures a run over this scene injects, e.g. battery=18%@S1, gps_loss@t=40s"
+    )
 
     @model_validator(mode="after")
     def _consistent(self, info: ValidationInfo) -> Scene:

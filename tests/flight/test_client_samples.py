@@ -120,3 +120,39 @@ def test_attitude_reaches_the_sample_in_flight():
     assert tilted and sample is not None
     assert sample.pitch_deg < -2.0 and sample.alt_m > 5.0 and sample.armed and sample.mode == "hold"
     assert sample.north_m > 0.0 and sample.time_s > 0.0
+
+
+def test_samples_carry_the_gps_fix_and_the_wind_estimate_and_so_does_the_vehicle_own_sample():
+    """GPS_RAW_INT (fix type, satellites) and WIND_COV (the wind estimate) reach a client's samples, with the same
+    values the in-process vehicle hands its own samples; a GPS that loses its fix says so."""
+    from flight.sim.environment import Environment, WindSettings
+
+    sim = Simulator(seed=3, environment=Environment(wind=WindSettings(north_mps=3.0, east_mps=-4.0)))
+    vehicle = MavlinkVehicle(sim, gcs=None, api=None)
+    vehicle.start(speed=None)
+    try:
+
+        async def listen():
+            async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+                deadline = time.monotonic() + 10.0
+                while time.monotonic() < deadline:
+                    await asyncio.sleep(0.05)
+                    last = client.telemetry.sample()
+                    if last is not None and last.wind_mps is not None and last.gps_fix_type is not None:
+                        break
+                healthy = client.telemetry.sample()
+                vehicle.sim.gps_lost = True
+                while time.monotonic() < deadline and client.telemetry.gps_fix_type != 0:
+                    await asyncio.sleep(0.05)
+                return healthy, client.telemetry.sample()
+
+        healthy, lost = run(listen())
+    finally:
+        vehicle.close()
+    assert healthy is not None and lost is not None
+    assert healthy.gps_fix_type == 3 and healthy.gps_satellites == 12
+    assert (healthy.wind_north_mps, healthy.wind_east_mps) == pytest.approx((3.0, -4.0), abs=1e-4)
+    assert healthy.wind_mps == pytest.approx(5.0, abs=1e-4)
+    assert lost.gps_fix_type == 0 and lost.gps_satellites == 0
+    own = vehicle.telemetry_sample()
+    assert own.wind_mps == pytest.approx(5.0) and own.gps_fix_type == 0

@@ -176,14 +176,17 @@ def test_the_tools_are_guarded_for_flying():
         "flight.upload_mission",
         "flight.start_mission",
         "flight.set_fence",
-    }  # no DSL action: whole plans, limits
+        "flight.inject_failure",
+    }  # no DSL action: whole plans, limits, rehearsed failures
     assert set(FLIGHT_ACTIONS.values()) | {"flight.hold", "flight.status"} | mission_tools == set(specs)
     for name, spec in specs.items():
         assert not spec.idempotent and spec.retry.attempts == 1 and spec.cache_ttl_s is None
         assert spec.is_async and spec.timeout_s == TIMEOUTS_S[name]
-        expected = {"flight.deploy_payload": "flight:payload", "flight.status": "flight:read"}.get(
-            name, "flight:command"
-        )
+        expected = {
+            "flight.deploy_payload": "flight:payload",
+            "flight.status": "flight:read",
+            "flight.inject_failure": "flight:fault",
+        }.get(name, "flight:command")
         assert spec.scopes == (expected,)
     flying = ("flight.takeoff", "flight.fly_to", "flight.orbit", "flight.rtl", "flight.start_mission")
     assert all((specs[n].timeout_s or 0) >= 180 for n in flying)

@@ -150,3 +150,30 @@ def test_failures_are_not_in_snapshots_and_restoring_one_clears_them(enabled):
     vehicle.restore(snap)
     assert vehicle.failures.active == [] and not vehicle.sim.gps_lost
     assert vehicle.sim.battery.soc_cap is None and vehicle.sim.gps_fix().fix_type == 3
+
+
+WRONG = m.FAILURE_TYPE_WRONG
+
+
+def test_a_battery_level_reads_as_set_and_the_vehicle_acts_on_what_it_reads(enabled):
+    """Ours, documented: battery WRONG with param4 = the level in percent (a schedule's battery=18%)."""
+    link = enabled
+    take_off(link, 6.0)
+    assert link.command(INJECT, BATTERY, WRONG, 0, 18.0).result == ACCEPTED
+    assert link.fresh("BATTERY_STATUS", 3.0).battery_remaining == 18
+    assert "Failure injected: battery reads 18%" in texts(link)
+    link.run_for(2.0)
+    assert mode_of(link) is FlightMode.HOLD and link.vehicle.failsafes.triggered == []  # above BAT_LOW_THR (15 %)
+    assert link.command(INJECT, BATTERY, WRONG, 0, 12.0).result == ACCEPTED
+    assert link.wait("STATUSTEXT", 2.0, lambda t: "Battery low" in t.text) is not None
+    assert mode_of(link) is FlightMode.RTL and link.vehicle.failures.active == ["battery level"]
+    assert link.command(INJECT, BATTERY, OK, 0).result == ACCEPTED
+    assert link.fresh("BATTERY_STATUS", 3.0).battery_remaining > 90
+
+
+@pytest.mark.parametrize("level", [math.nan, -1.0, 100.5, math.inf])
+def test_a_battery_level_that_is_not_a_percentage_is_refused_and_changes_nothing(enabled, level):
+    link = enabled
+    assert link.command(INJECT, BATTERY, WRONG, 0, level).result == DENIED
+    assert link.vehicle.failures.active == [] and link.vehicle.sim.battery.soc_cap is None
+    assert any("is not 0 to 100 percent" in t for t in texts(link))
