@@ -26,7 +26,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 EVAL_COMMANDS = ("stats", "paper", "campaign")
-DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli", "sim": "flight.cli", "run": "agentic_core.run.cli"}
+DELEGATED = {
+    "tools": "tools.cli",
+    "mcp": "tools.mcp.cli",
+    "sim": "flight.cli",
+    "run": "agentic_core.run.cli",
+    "examples": "agentic_core.examples.cli",
+}
 """Commands whose layer parses its own arguments (and ``--help``)."""
 
 
@@ -186,6 +192,7 @@ def build_parser() -> argparse.ArgumentParser:
         "sim", help="the simulated quadrotor on MAVLink/UDP, like PX4 SITL (agentic-uav sim --help)", add_help=False
     )
     sub.add_parser("run", help="fly a mission end to end and write its report (agentic-uav run --help)", add_help=False)
+    sub.add_parser("examples", help="list the shipped missions and scenes; copy them out to edit", add_help=False)
     return parser
 
 
