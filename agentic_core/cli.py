@@ -16,6 +16,7 @@ from tools.cli import add_source_options
 
 from . import __version__
 from .contracts.errors import AgenticUAVError, report_error
+from .examples import ExampleError, resolve_mission
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -69,8 +70,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     failed = 0
     for name in args.files:
         try:
-            plan = load_mission(Path(name), tools=registry)
-        except MissionError as exc:
+            plan = load_mission(resolve_mission(Path(name)), tools=registry)
+        except (MissionError, ExampleError) as exc:
             failed += 1
             print(exc, file=sys.stderr)
             continue
@@ -88,7 +89,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .mission.params import initial_state
 
     try:
-        plan = load_mission(Path(args.file))
+        plan = load_mission(resolve_mission(Path(args.file)))
         overrides = dict(_split_param(p) for p in args.param)
         params = initial_state(plan, overrides)["params"]
     except MissionError as exc:
@@ -163,12 +164,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=_cmd_demo)
 
     validate = sub.add_parser("validate", help="check mission files; every problem as file:line:col: message")
-    validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files")
+    validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files, or shipped names")
     add_source_options(validate)
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="show how a mission runs: its supersteps, or the compiled graph")
-    plan.add_argument("file", metavar="MISSION")
+    plan.add_argument("file", metavar="MISSION", help="a mission file, or a shipped mission's name")
     plan.add_argument("--mermaid", action="store_true", help="print the compiled graph as Mermaid text")
     plan.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a parameter")
     plan.set_defaults(func=_cmd_plan)

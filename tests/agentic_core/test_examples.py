@@ -127,3 +127,18 @@ def test_copy_over_a_file_or_under_a_file_is_a_clear_error(tmp_path: Path, capsy
     assert not (tmp_path / "d" / "missions").exists()
     with pytest.raises(ExampleError, match=r"a_file/under/missions: cannot write: Not a directory"):
         copy_examples(a_file / "under")
+
+
+def test_plan_and_validate_take_a_shipped_name_too(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    plan_id = yaml.safe_load((REPO / "missions" / "hajj_patrol.yaml").read_text(encoding="utf-8"))["plan_id"]
+    assert main(["plan", "hajj_patrol"]) == 0
+    assert capsys.readouterr().out.startswith(f"{plan_id}: ")
+    assert main(["validate", "hajj_patrol", "nope"]) == 2
+    out, err = capsys.readouterr()
+    assert out.startswith(f"hajj_patrol: ok: plan {plan_id!r}")
+    assert err.startswith("nope: no such mission file, and no shipped mission of that name")
+    assert main(["plan", "nope"]) == 2
+    assert capsys.readouterr().err.startswith("agentic-uav plan: error: nope: no such mission file")
