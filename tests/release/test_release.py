@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -64,15 +65,22 @@ class Clock:
 
     def __init__(self) -> None:
         self.start = self.last = time.monotonic()
+        self.cpu_start = self.cpu_last = self._cpu()
         self.phases: list[str] = []
 
+    @staticmethod
+    def _cpu() -> float:
+        used = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return used.ru_utime + used.ru_stime
+
     def lap(self, name: str) -> None:
-        now = time.monotonic()
-        self.phases.append(f"{name} {now - self.last:.1f}s")
-        self.last = now
+        now, cpu = time.monotonic(), self._cpu()
+        self.phases.append(f"{name} {now - self.last:.1f}s ({cpu - self.cpu_last:.1f}s CPU)")
+        self.last, self.cpu_last = now, cpu
 
     def __str__(self) -> str:
-        return f"release check {time.monotonic() - self.start:.1f}s: " + ", ".join(self.phases)
+        total = f"{time.monotonic() - self.start:.1f}s, {self._cpu() - self.cpu_start:.1f}s CPU in subprocesses"
+        return f"release check {total}: " + ", ".join(self.phases)
 
 
 def test_the_wheel_installs_in_a_fresh_venv_and_flies_the_emergency_mission_by_name(tmp_path: Path) -> None:
