@@ -42,7 +42,7 @@ class Example:
     scene: str | None = None
 
 
-def _root() -> Path:
+def examples_root() -> Path:
     """The shipped examples' folder on disk (an installed wheel or a checkout; a zipped package has none)."""
     root: Traversable = files(__name__)
     if not isinstance(root, Path):
@@ -51,7 +51,7 @@ def _root() -> Path:
 
 
 def _files(kind: str) -> list[Path]:
-    return sorted(p for p in (_root() / kind).iterdir() if p.suffix in (".yaml", ".json") and p.is_file())
+    return sorted(p for p in (examples_root() / kind).iterdir() if p.suffix in (".yaml", ".json") and p.is_file())
 
 
 def _summary(path: Path, field: str) -> str:
@@ -147,6 +147,7 @@ __all__ = [
     "Example",
     "ExampleError",
     "copy_examples",
+    "examples_root",
     "mission_path",
     "resolve_mission",
     "resolve_scene",

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..contracts.errors import AgenticUAVError, report_error
-from . import copy_examples, shipped_missions, shipped_scenes
+from . import copy_examples, examples_root, shipped_missions, shipped_scenes
 
 PROG = "agentic-uav examples"
 
@@ -33,14 +33,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _list() -> None:
     missions, scenes = shipped_missions(), shipped_scenes()
-    width = max(len(e.name) for e in [*missions, *scenes])
+    width = max((len(e.name) for e in [*missions, *scenes]), default=0)
     print("missions (agentic-uav run NAME):")
     for m in missions:
         print(f"  {m.name:<{width}}  {m.summary}  [scene: {m.scene or 'none'}]")
     print("scenes (agentic-uav run MISSION --scene NAME):")
     for s in scenes:
         print(f"  {s.name:<{width}}  {s.summary}")
-    print(f"from {missions[0].path.parent.parent}; copy them to edit: agentic-uav examples copy DIR")
+    print(f"from {examples_root()}; copy them to edit: agentic-uav examples copy DIR")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

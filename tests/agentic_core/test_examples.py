@@ -142,3 +142,16 @@ def test_plan_and_validate_take_a_shipped_name_too(
     assert err.startswith("nope: no such mission file, and no shipped mission of that name")
     assert main(["plan", "nope"]) == 2
     assert capsys.readouterr().err.startswith("agentic-uav plan: error: nope: no such mission file")
+
+
+def test_a_package_not_on_disk_is_a_clear_error_not_a_crash(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import zipfile
+
+    import agentic_core.examples as examples
+
+    archive = tmp_path / "zipped.zip"
+    with zipfile.ZipFile(archive, "w") as z:
+        z.writestr("agentic_core/examples/missions/x.yaml", "plan_id: x\n")
+    monkeypatch.setattr(examples, "files", lambda _name: zipfile.Path(archive, "agentic_core/examples/"))
+    with pytest.raises(ExampleError, match=r"the shipped examples are not on disk .*; install agentic-uavs unzipped"):
+        mission_path("x")
