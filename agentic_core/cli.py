@@ -17,6 +17,7 @@ from tools.cli import add_source_options
 
 from . import __version__
 from .contracts.errors import AgenticUAVError, report_error
+from .examples import ExampleError, resolve_mission, resolve_scene
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -27,7 +28,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 EVAL_COMMANDS = ("stats", "paper", "campaign")
-DELEGATED = {"tools": "tools.cli", "mcp": "tools.mcp.cli", "sim": "flight.cli", "run": "agentic_core.run.cli"}
+DELEGATED = {
+    "tools": "tools.cli",
+    "mcp": "tools.mcp.cli",
+    "sim": "flight.cli",
+    "run": "agentic_core.run.cli",
+    "examples": "agentic_core.examples.cli",
+}
 """Commands whose layer parses its own arguments (and ``--help``)."""
 
 
@@ -65,8 +72,8 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     failed = 0
     for name in args.files:
         try:
-            plan = load_mission(Path(name), tools=registry, home=home)
-        except MissionError as exc:
+            plan = load_mission(resolve_mission(Path(name)), tools=registry, home=home)
+        except (MissionError, ExampleError) as exc:
             failed += 1
             print(exc, file=sys.stderr)
             continue
@@ -93,7 +100,7 @@ def _validate_home(args: argparse.Namespace) -> tuple[float, float]:
     if args.scene is not None:
         from flight.sim.scene_file import load_scene
 
-        scene = load_scene(Path(args.scene))  # a bad scene file is bad input: main reports it, exit 2
+        scene = load_scene(resolve_scene(Path(args.scene)))  # a bad scene file is bad input: main reports it, exit 2
         return scene.home.lat_deg, scene.home.lon_deg
     from flight.sim.environment import DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG
 
@@ -106,7 +113,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .mission.params import initial_state
 
     try:
-        plan = load_mission(Path(args.file))
+        plan = load_mission(resolve_mission(Path(args.file)))
         overrides = dict(_split_param(p) for p in args.param)
         params = initial_state(plan, overrides)["params"]
     except MissionError as exc:
@@ -181,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=_cmd_demo)
 
     validate = sub.add_parser("validate", help="check mission files; every problem as file:line:col: message")
-    validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files")
+    validate.add_argument("files", nargs="+", metavar="MISSION", help="mission YAML or JSON files, or shipped names")
     add_source_options(validate)
     validate.add_argument(
         "--home", metavar="LAT,LON", help="where north/east positions are measured from (default: the scene's home)"
@@ -192,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
     validate.set_defaults(func=_cmd_validate)
 
     plan = sub.add_parser("plan", help="show how a mission runs: its supersteps, or the compiled graph")
-    plan.add_argument("file", metavar="MISSION")
+    plan.add_argument("file", metavar="MISSION", help="a mission file, or a shipped mission's name")
     plan.add_argument("--mermaid", action="store_true", help="print the compiled graph as Mermaid text")
     plan.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a parameter")
     plan.set_defaults(func=_cmd_plan)
@@ -216,6 +223,7 @@ def build_parser() -> argparse.ArgumentParser:
         "sim", help="the simulated quadrotor on MAVLink/UDP, like PX4 SITL (agentic-uav sim --help)", add_help=False
     )
     sub.add_parser("run", help="fly a mission end to end and write its report (agentic-uav run --help)", add_help=False)
+    sub.add_parser("examples", help="list the shipped missions and scenes; copy them out to edit", add_help=False)
     return parser
 
 

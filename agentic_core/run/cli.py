@@ -30,6 +30,7 @@ from flight.cli import parse_speed
 
 from ..contracts.errors import AgenticUAVError, report_error
 from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
+from ..examples import resolve_mission, resolve_scene
 from .responses import DEGRADED_EXIT
 
 if TYPE_CHECKING:
@@ -40,12 +41,16 @@ PROG = "agentic-uav run"
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="Fly a mission on the simulated vehicle, end to end.")
-    parser.add_argument("mission", type=Path, nargs="?", metavar="MISSION", help="the mission file (YAML or JSON)")
+    parser.add_argument(
+        "mission", type=Path, nargs="?", metavar="MISSION", help="a mission file (YAML, JSON) or a shipped one's name"
+    )
     parser.add_argument("--resume", metavar="RUN_ID", help="go on with the killed run RUN_ID of --runs-dir")
     parser.add_argument(
         "--connect", metavar="URL", help="fly the vehicle at this MAVLink address (udp://HOST:PORT), not the simulator"
     )
-    parser.add_argument("--scene", type=Path, help="the simulated scene (default: scenes/<mission name>.yaml)")
+    parser.add_argument(
+        "--scene", type=Path, help="the simulated scene, a file or a shipped name (default: scenes/<mission>.yaml)"
+    )
     parser.add_argument(
         "--reasoner", default="rules", choices=("yolo", "rules", "llm", "hybrid"), help="who assesses (default rules)"
     )
@@ -119,13 +124,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.decline and args.approval not in (None, "decline"):
         print(f"{PROG}: error: --decline contradicts --approval {args.approval}", file=sys.stderr)
         return 2
-    if args.scene is not None and not args.scene.is_file():
-        print(f"{PROG}: error: {args.scene}: no such scene file", file=sys.stderr)
-        return 2
+    try:
+        mission = resolve_mission(args.mission)
+        scene = None if args.scene is None else resolve_scene(args.scene)
+    except AgenticUAVError as exc:
+        return report_error(PROG, exc, sys.stderr)
     try:
         settings = RunSettings(
-            mission=args.mission,
-            scene=args.scene,
+            mission=mission,
+            scene=scene,
             reasoner=args.reasoner,
             llm=args.llm,
             speed=getattr(args, "speed", None),

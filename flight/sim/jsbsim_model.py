@@ -128,6 +128,14 @@ def _clip(x: float, lo: float) -> float:
     return x if x < 1.0 else 1.0
 
 
+def jsbsim_root_dir() -> str:
+    """JSBSim's data folder (its aircraft, the F450 among them): beside the jsbsim module imported, wherever it was
+    installed. jsbsim's own lookup searches only the site-packages folders and misses one on ``PYTHONPATH``, a
+    ``.pth`` line or a ``pip install --target``."""
+    here = os.path.dirname(jsbsim.__file__)
+    return here if os.path.isdir(os.path.join(here, "aircraft")) else str(jsbsim.get_default_root_dir())
+
+
 class F450Model:
     """One JSBSim F450 standing on the ground at a home point, stepped at 250 Hz.
 
@@ -150,7 +158,7 @@ class F450Model:
         self.heading_deg = heading_deg
         jsbsim.FGJSBBase().debug_lvl = 0  # type: ignore[no-untyped-call]
         with _quiet_stdio():
-            self._fdm = jsbsim.FGFDMExec(root_dir or jsbsim.get_default_root_dir())
+            self._fdm = jsbsim.FGFDMExec(root_dir or jsbsim_root_dir())
             self._fdm.set_debug_level(0)
             if not self._fdm.load_model("F450"):  # pragma: no cover - the model ships in the wheel
                 raise RuntimeError("JSBSim could not load the F450 model")

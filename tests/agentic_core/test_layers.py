@@ -18,6 +18,7 @@ EVERYTHING_BUT_EVALUATION = {"agentic_core", "tools", "flight", "prompts"}
 TABLE: dict[str, set[str]] = {
     "agentic_core.contracts": set(),
     "agentic_core.graph": {"agentic_core.contracts"},
+    "agentic_core.examples": {"agentic_core.contracts"},
     "tools": {"agentic_core.contracts"},
     "flight": {"agentic_core.contracts", "tools"},
     **{package: set(LOWER) for package in MIDDLE},
