@@ -6,8 +6,12 @@ A tool lists the scopes it needs; a caller must hold all of them. Scopes look li
 
 from __future__ import annotations
 
+import base64
+import binascii
+import json
 import os
 import time
+import unicodedata
 import uuid
 from collections.abc import Callable, Iterable
 from typing import Any
@@ -40,6 +44,36 @@ class Caller(BaseModel):
 
 
 ANONYMOUS = Caller(id="anonymous")
+MAX_CLAIMED_CHARS = 64
+_MAX_TOKEN_CHARS = 8192
+
+
+def claimed_subject(token: str) -> str:
+    """The subject a token claims, read without verifying it (never trust it: it is for the audit log), printable
+    and at most ``MAX_CLAIMED_CHARS`` characters; ``?`` when the token says none.
+
+    >>> import jwt
+    >>> claimed_subject(jwt.encode({"sub": "mallory\\n\\u202eadmin"}, "k" * 32)), claimed_subject("garbage")
+    ('mallory admin', '?')
+    """
+    parts = token.strip().split(".") if len(token) <= _MAX_TOKEN_CHARS else []
+    try:
+        claims = json.loads(base64.urlsafe_b64decode(parts[1] + "=" * (-len(parts[1]) % 4))) if len(parts) == 3 else {}
+    except (ValueError, binascii.Error, RecursionError):
+        claims = {}
+    subject = claims.get("sub") if isinstance(claims, dict) else None
+    if not isinstance(subject, str):
+        return "?"
+    shown = "".join(c if unicodedata.category(c)[0] not in "CZ" else " " for c in subject)  # no controls, bidi
+    shown = " ".join(shown.split())
+    if len(shown) > MAX_CLAIMED_CHARS:
+        shown = shown[: MAX_CLAIMED_CHARS - 1] + "…"
+    return shown or "?"
+
+
+def unverified_caller(token: str) -> Caller:
+    """Who a refused token claims to be, with no scopes: ``unverified: <claimed subject>``, for the audit log."""
+    return Caller(id=f"unverified: {claimed_subject(token)}")
 
 
 class InvalidToken(AgenticUAVError):

@@ -21,7 +21,7 @@ from typing import Any, Literal
 
 from .attempts import AttemptRunner, CallState
 from .audit import AuditLog, AuditRecord, MemoryAuditLog, completes, redact, secret_values
-from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority
+from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority, unverified_caller
 from .errors import DeadlinePassed, ToolError
 from .idempotency import KEPT_OUTPUT_LIMIT_BYTES, Flight, GateKey, KeyGate, kept_output, key_problem
 from .registry import ToolRegistry, is_available
@@ -350,10 +350,12 @@ class ToolExecutor:
         if call.token is None:
             return None
         if self.authority is None:
+            call.caller = unverified_caller(call.token)
             return "a token was given, but this executor has no token authority to verify it"
         try:
             call.caller = self.authority.verify(call.token)
         except InvalidToken as exc:
+            call.caller = unverified_caller(call.token)  # recorded as whom it claims to be, never as the default
             return str(exc)
         return None
 

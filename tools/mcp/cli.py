@@ -2,7 +2,8 @@
 
 Over stdio the caller is the local user holding ``--scopes``; over HTTP each request's bearer token names the caller
 (secret in ``AGENTIC_UAV_TOKEN_SECRET``; without it the server binds only to loopback and every request is the local
-user). The tools are the built-ins (unless ``--no-builtins``), installed plugins and every ``--tools`` source.
+user, who may then hold no ``flight:`` or ``alerts:`` scope; ``agentic-uav mcp token NAME --scopes ...`` prints a
+client's token). The tools are the built-ins (unless ``--no-builtins``), installed plugins and every ``--tools`` source.
 
 >>> args = build_parser().parse_args(["serve", "--no-builtins", "--scopes", "weather:read,map:*"])
 >>> args.http, args.host, len(registry_from_args(args)), sorted(local_caller(args.scopes).scopes)
@@ -20,7 +21,7 @@ import threading
 from collections.abc import Sequence
 
 from ..audit import open_audit_log
-from ..auth import Caller, TokenAuthority
+from ..auth import SECRET_ENV, Caller, TokenAuthority
 from ..cli import add_source_options, registry_from_args
 from ..errors import ToolDefinitionError
 from ..executor import ToolExecutor
@@ -47,6 +48,10 @@ def build_parser(prog: str = "agentic-uav mcp") -> argparse.ArgumentParser:
     add_source_options(serve)
     serve.add_argument("--audit", metavar="PATH", help="write the audit log to PATH (.jsonl or .db)")
     serve.add_argument("-v", "--verbose", action="store_true", help="log debugging detail to stderr")
+    token = commands.add_parser("token", help=f"print a bearer token for an HTTP client, signed with {SECRET_ENV}")
+    token.add_argument("subject", help="who the client is (its sessions and audit records carry this name)")
+    token.add_argument("--scopes", nargs="*", default=[], metavar="SCOPE", help="scopes it holds, e.g. flight:*")
+    token.add_argument("--ttl", type=float, default=3600.0, metavar="SECONDS", help="lifetime (default 3600 s)")
     return parser
 
 
@@ -62,6 +67,8 @@ def local_caller(scopes: Sequence[str]) -> Caller:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command == "token":
+        return _token(args)
     logging.basicConfig(stream=sys.stderr, level=logging.DEBUG if args.verbose else logging.WARNING)
     try:
         registry = registry_from_args(args)
@@ -77,6 +84,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _serve_http(server, args, authority) if args.http else _serve_stdio(server, caller)
     finally:
         executor.close()
+
+
+def _token(args: argparse.Namespace) -> int:
+    try:
+        authority = TokenAuthority.from_env()
+        if authority is None:
+            raise ValueError(f"set {SECRET_ENV} to the server's secret (32+ bytes) to sign tokens")
+        print(authority.issue(args.subject, local_caller(args.scopes).scopes, ttl_s=args.ttl))
+    except ValueError as exc:
+        print(f"agentic-uav mcp: {exc}", file=sys.stderr)
+        return 2
+    return 0
 
 
 def _serve_stdio(server: McpServer, caller: Caller) -> int:

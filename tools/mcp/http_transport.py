@@ -45,6 +45,8 @@ from agentic_core.contracts.errors import AgenticUAVError
 
 from ..auth import Caller, InvalidToken, TokenAuthority
 from . import protocol as p
+from .anonymous import check_anonymous
+from .refused import audit_refused
 from .server import McpServer, McpSession
 
 log = logging.getLogger("tools.mcp.http")
@@ -86,10 +88,13 @@ class _HttpSession:
 
 
 class _Rejected(AgenticUAVError):
-    def __init__(self, status: int, message: str, headers: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, status: int, message: str, headers: dict[str, str] | None = None, *, token: str | None = None
+    ) -> None:
         super().__init__(message)
         self.status = status
         self.headers = headers or {}
+        self.token = token  # the bearer token refused, if that is why
 
 
 @dataclass(eq=False)
@@ -153,7 +158,7 @@ class _Endpoint:
         except InvalidToken as exc:
             detail = str(exc).replace('"', "'")
             challenge = f'Bearer realm="mcp", error="invalid_token", error_description="{detail}"'
-            raise _Rejected(401, str(exc), {"WWW-Authenticate": challenge}) from None
+            raise _Rejected(401, str(exc), {"WWW-Authenticate": challenge}, token=token.strip()) from None
 
     def session(self, h: BaseHTTPRequestHandler, caller: Caller) -> _HttpSession:
         session_id = h.headers.get(p.SESSION_HEADER)
@@ -177,12 +182,16 @@ class _Endpoint:
                     del self.sessions[key]
                     old.end()
             mine = [old for old in self.sessions.values() if old.owner == caller.id]
-            if len(mine) >= MAX_SESSIONS_PER_CALLER:  # a caller's flood ends its own oldest sessions, no one else's
-                self._evict(min(mine, key=lambda old: old.last_seen))
+            if len(mine) >= MAX_SESSIONS_PER_CALLER:
+                if self.authority is None:  # every local process is this one caller: end no one's session
+                    raise _Rejected(503, f"{len(mine)} sessions open: end one (DELETE) first", {"Retry-After": "60"})
+                oldest = min(mine, key=lambda old: old.last_seen)  # a caller's flood ends its own, no one else's
+                mine.remove(oldest)
+                self._evict(oldest)
             if len(self.sessions) >= MAX_SESSIONS:
-                idle = [old for old in self.sessions.values() if old.stream is None]
-                if not idle:
-                    raise _Rejected(503, "too many sessions")
+                idle = [old for old in mine if old.stream is None]
+                if not idle or self.authority is None:
+                    raise _Rejected(503, "too many sessions", {"Retry-After": "60"})
                 self._evict(min(idle, key=lambda old: old.last_seen))
             session = _HttpSession(secrets.token_urlsafe(24), mcp, caller.id)
             self.sessions[session.id] = session
@@ -202,7 +211,13 @@ class _Endpoint:
 
     # methods ------------------------------------------------------------------------------------------------------
     def post(self, h: _Handler) -> None:
-        caller = self.admit(h)
+        try:
+            caller = self.admit(h)
+        except _Rejected as exc:
+            size = h.headers.get("Content-Length") or ""
+            if exc.token is not None and size.isdigit() and int(size) <= MAX_BODY_BYTES:
+                audit_refused(self.server.executor, h.rfile.read(int(size)), exc.token, str(exc))
+            raise
         if not (h.headers.get("Content-Type") or "").lower().startswith("application/json"):
             raise _Rejected(415, "the body must be application/json")
         accept = (h.headers.get("Accept") or "*/*").lower()
@@ -393,9 +408,13 @@ def serve_http(
 ) -> HttpHandle:
     """Serve MCP over Streamable HTTP on ``host:port`` (port 0: a free one) in background threads.
 
-    With an ``authority`` every request needs a bearer token it verifies, and the token names the caller; without
-    one, every request is ``caller`` (default: the executor's default caller), which is allowed only on a loopback
-    address. ``allowed_origins`` lists browser origins accepted besides loopback ones.
+    With an ``authority`` every request needs a bearer token it verifies, and the token names the caller (a
+    ``tools/call`` with a bad token is audited as ``unverified: <claimed subject>``); without one, every request is
+    ``caller`` (default: the executor's default caller), which is allowed only on a loopback address and without
+    ``flight:``/``alerts:`` scopes (:class:`~agentic_core.contracts.errors.InputError`). Sessions belong to their
+    caller: another caller can neither use nor end them, and a caller over its cap ends only its own oldest (with no
+    authority, where all are one caller, a new session is refused instead). ``allowed_origins`` lists browser
+    origins accepted besides loopback ones.
     """
     loopback = is_loopback(host)
     if not loopback and authority is None:
@@ -403,6 +422,8 @@ def serve_http(
             f"refusing to serve MCP on {host!r} without a token authority: anyone who can reach it could call the "
             f"tools. Set AGENTIC_UAV_TOKEN_SECRET (32+ bytes) to require bearer tokens, or bind to 127.0.0.1."
         )
+    if authority is None:
+        check_anonymous(caller or server.executor.default_caller)
     endpoint = _Endpoint(
         server,
         authority=authority,

@@ -58,7 +58,15 @@ def test_the_http_command_requires_tokens_from_the_secret() -> None:
         assert process.wait(timeout=10) == 0
 
 
-MODULES = ["tools.mcp", "tools.mcp.protocol", "tools.mcp.server", "tools.mcp.http_transport", "tools.mcp.client"]
+MODULES = [
+    "tools.mcp",
+    "tools.mcp.protocol",
+    "tools.mcp.server",
+    "tools.mcp.http_transport",
+    "tools.mcp.client",
+    "tools.mcp.anonymous",
+    "tools.mcp.refused",
+]
 
 
 @pytest.mark.parametrize("name", [*MODULES, "tools.mcp.cli"])
