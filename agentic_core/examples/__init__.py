@@ -51,7 +51,10 @@ def examples_root() -> Path:
 
 
 def _files(kind: str) -> list[Path]:
-    return sorted(p for p in (examples_root() / kind).iterdir() if p.suffix in (".yaml", ".json") and p.is_file())
+    """The shipped files of ``kind``, sub-folders included (the trap missions live in ``missions/examples``)."""
+    root = examples_root() / kind
+    found = [p for p in root.rglob("*") if p.suffix in (".yaml", ".json") and p.is_file()]
+    return sorted(found, key=lambda p: (len(p.relative_to(root).parts), p.name))  # the top folder's first
 
 
 def _summary(path: Path, field: str) -> str:
@@ -126,7 +129,9 @@ def copy_examples(dest: Path, *, force: bool = False) -> list[Path]:
 
     Nothing is written when one of them exists already, unless ``force``: the error names every such file.
     """
-    plan = [(source, dest / kind / source.name) for kind in KINDS for source in _files(kind)]
+    plan = [
+        (source, dest / kind / source.relative_to(examples_root() / kind)) for kind in KINDS for source in _files(kind)
+    ]
     for folder in [dest, *(dest / kind for kind in KINDS)]:
         if folder.exists() and not folder.is_dir():
             raise ExampleError(f"{folder}: exists and is not a folder")

@@ -26,7 +26,9 @@ PACKAGED = REPO / "agentic_core" / "examples"
 
 
 def _stems(folder: Path) -> list[str]:
-    return sorted(p.stem for p in folder.glob("*.yaml"))
+    """The missions or scenes under ``folder``, those at its top first (as ``agentic-uav examples`` lists them)."""
+    found = [p for p in folder.rglob("*.yaml")]
+    return [p.stem for p in sorted(found, key=lambda p: (len(p.relative_to(folder).parts), p.name))]
 
 
 def test_the_package_ships_exactly_the_repositorys_missions_and_scenes() -> None:
@@ -81,7 +83,7 @@ def test_an_unknown_name_is_one_line_listing_the_shipped_ones(
 def test_examples_lists_every_shipped_mission_with_its_goal_and_every_scene(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["examples"]) == 0
     out = capsys.readouterr().out
-    for path in sorted((REPO / "missions").glob("*.yaml")):
+    for path in sorted((REPO / "missions").rglob("*.yaml")):
         goal = yaml.safe_load(path.read_text(encoding="utf-8"))["goal"]
         assert any(line.split()[:1] == [path.stem] and goal in line for line in out.splitlines()), path.stem
     for path in sorted((REPO / "scenes").glob("*.yaml")):
@@ -94,7 +96,12 @@ def test_copy_writes_them_out_laid_out_so_a_copied_mission_finds_its_scene(
 ) -> None:
     dest = tmp_path / "new" / "folder"
     assert main(["examples", "copy", str(dest)]) == 0
-    expected = sorted(f"{kind}/{p.name}" for kind in ("missions", "scenes") for p in (REPO / kind).iterdir())
+    expected = sorted(
+        p.relative_to(REPO).as_posix()
+        for kind in ("missions", "scenes")
+        for p in (REPO / kind).rglob("*")
+        if p.is_file()
+    )
     assert sorted(p.relative_to(dest).as_posix() for p in dest.rglob("*") if p.is_file()) == expected
     for name in expected:
         assert (dest / name).read_bytes() == (REPO / name).read_bytes()
@@ -125,7 +132,7 @@ def test_copy_over_a_file_or_under_a_file_is_a_clear_error(tmp_path: Path, capsy
     assert main(["examples", "copy", str(tmp_path / "d"), "--force"]) == 2
     assert "d/scenes: exists and is not a folder" in capsys.readouterr().err
     assert not (tmp_path / "d" / "missions").exists()
-    with pytest.raises(ExampleError, match=r"a_file/under/missions: cannot write: Not a directory"):
+    with pytest.raises(ExampleError, match=r"a_file/under/missions(/examples)?: cannot write: Not a directory"):
         copy_examples(a_file / "under")
 
 
