@@ -179,7 +179,10 @@ def draw_trajectory(
     fig.set_layout_engine("none")
     placer = LabelPlacer(ax)
     placer.avoid_markers([(p.east_m, p.north_m) for p, *_ in ends] + [(0.0, 0.0)])
-    placer.avoid_markers([(x, y) for x, y, *_ in points])
+    placer.avoid_markers([(x, y) for x, y, *_ in points] + [(p.east_m, p.north_m) for p in marks])
+    if scene is not None:
+        casualties = [scene.actor(a).position for a in scene.ground_truth.casualties]
+        placer.avoid_markers([(at.east, at.north) for at in casualties])
     placer.avoid_track([(p.east_m, p.north_m) for p in track[:: max(1, len(track) // 400)]])
     bold = {"fontsize": 8, "fontweight": "bold"}
     if scene is not None:

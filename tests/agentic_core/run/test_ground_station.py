@@ -10,10 +10,13 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import pytest
+from pydantic import ValidationError
 from pymavlink import mavutil
 
 from agentic_core.cli import main
 from agentic_core.run.runner import RunResult, RunSettings, run_mission
+from agentic_core.run.settings import GCS_ENV
 from tests.flight.test_cli import free_udp_port
 
 from ..platform.conftest import EMERGENCY, NEAR, PARAMS, read_tlog
@@ -93,3 +96,33 @@ def test_every_run_writes_a_flight_log_that_pymavlink_replays(tmp_path: Path, sm
     report = (run_dir / "report.md").read_text(encoding="utf-8")
     for picture in ("trajectory.png", "flight.png"):
         assert f"]({picture})" in report and (run_dir / picture).read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["--gcs", "14550"], "--gcs: expected HOST:PORT or none"),
+        (["--gcs", "127.0.0.1:70000"], "--gcs: expected HOST:PORT or none"),
+        (["--gcs", "nosuch.invalid:14550"], "--gcs nosuch.invalid:14550: cannot find that host"),
+        (["--gcs", "127.0.0.1:14550", "--connect", "udp://127.0.0.1:1"], "--gcs is for the simulated vehicle"),
+    ],
+    ids=["no-host", "bad-port", "unknown-host", "with-connect"],
+)
+def test_a_bad_ground_station_address_is_refused_before_anything_flies(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], said: str
+) -> None:
+    code = main(["run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path), "--quiet", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and said in err and "Traceback" not in err, err
+    assert not list(tmp_path.iterdir()), "a run folder was made for a run that never started"
+
+
+def test_the_ground_station_defaults_to_14550_or_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(GCS_ENV)
+    assert RunSettings(mission=EMERGENCY).gcs_address == ("127.0.0.1", 14550)
+    monkeypatch.setenv(GCS_ENV, "127.0.0.1:14551")
+    assert RunSettings(mission=EMERGENCY).gcs_address == ("127.0.0.1", 14551)
+    assert RunSettings(mission=EMERGENCY, gcs="off").gcs_address is None
+    monkeypatch.setenv(GCS_ENV, "nonsense")
+    with pytest.raises(ValidationError, match=GCS_ENV.replace("_", ".")):
+        RunSettings(mission=EMERGENCY)
