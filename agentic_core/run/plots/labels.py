@@ -1,6 +1,6 @@
-"""Labels that do not overlap: each label goes to the first spot around its point where it covers no label placed
-before it, no marker and as little of the flown track as can be; a label with no free spot is left out rather than
-printed over another (unless it must be shown).
+"""Labels that do not overlap: each label goes to the best of 24 spots around its point — never on a label placed
+before it nor on a marker, over as little of the flown track as can be, as close as it can (with a leader line when
+further out); a label with no such spot is left out rather than printed over another (unless it must be shown).
 
 Why: a plot over a scene names many things close together (tents along a road, a casualty beside a shade), and
 matplotlib draws text where it is told, over whatever is there.
