@@ -5,15 +5,22 @@
   this process. Its telemetry samples come in lockstep from the vehicle's own thread, and its speed follows the
   agent (:class:`~agentic_core.agent.pacing.Pace`). It can be snapshotted and restored, so a killed run resumes
   with the aircraft where it was. While an injected MAVLink failure has cut the link, it hands out no samples.
+  It also streams to a ground station (``gcs``), PX4-style: a ground station there that talks back is answered
+  and can command it.
 * :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
   process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
+
+Either one records its link in a ``.tlog`` (``tlog``, :mod:`flight.tlog`): the simulated vehicle's every frame sent
+and taken in, stamped on its simulated clock; for a vehicle of its own, what the agent's client sends and hears.
 """
 
 from __future__ import annotations
 
 import queue
+import socket
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, Protocol
 from urllib.parse import urlsplit
 
@@ -23,6 +30,7 @@ from flight.mavlink.snapshot import VehicleSnapshot
 from flight.sim import Environment as SimEnvironment
 from flight.sim import Simulator
 from flight.sim.environment import Home
+from flight.tlog import TlogWriter, simulated_clock
 from flight.vehicle import VehicleClient
 
 from ..agent.pacing import Pace
@@ -57,10 +65,22 @@ class SimBackend:
 
     kind = "sim"
 
-    def __init__(self, *, home: Home | None, seed: int, pace: Pace, restore: dict[str, Any] | None = None) -> None:
+    def __init__(
+        self,
+        *,
+        home: Home | None,
+        seed: int,
+        pace: Pace,
+        restore: dict[str, Any] | None = None,
+        gcs: tuple[str, int] | None = None,
+        tlog: Path | None = None,
+    ) -> None:
         self.pace = pace
+        self.tlog_path = tlog
+        self.tlog: TlogWriter | None = None
+        ground = resolve(gcs) if gcs else None
         self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed)
-        self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
+        self.vehicle = MavlinkVehicle(self.sim, gcs=ground, api=None)
         if restore is not None:
             try:
                 self.vehicle.restore(VehicleSnapshot.model_validate(restore))
@@ -90,6 +110,10 @@ class SimBackend:
         """Nothing to do: the samples come from the vehicle itself, every tick."""
 
     def start(self) -> None:
+        if self.tlog_path is not None and self.tlog is None:
+            self.tlog = TlogWriter(self.tlog_path)
+            self.tlog.clock = simulated_clock(lambda: self.sim.time_s, self.tlog.last_us)
+            self.vehicle.on_wire.append(self.tlog)
         self.vehicle.start(self.pace.speed)
 
     def snapshot(self) -> dict[str, Any] | None:
@@ -100,6 +124,8 @@ class SimBackend:
 
     def close(self) -> None:
         self.vehicle.close()
+        if self.tlog is not None:
+            self.tlog.close()
 
 
 class LinkBackend:
@@ -109,8 +135,10 @@ class LinkBackend:
 
     kind = "link"
 
-    def __init__(self, url: str, *, camera_hz: float = 30.0) -> None:
+    def __init__(self, url: str, *, camera_hz: float = 30.0, tlog: Path | None = None) -> None:
         self.url = url
+        self.tlog_path = tlog
+        self.tlog: TlogWriter | None = None
         self.camera_hz = camera_hz
         self._address = parse_link(url)
         self._hooks: list[SampleHook] = []
@@ -133,10 +161,14 @@ class LinkBackend:
             if self._attached is client:
                 return
             self._attached = client
+            if self.tlog is None and self.tlog_path is not None:
+                self.tlog = TlogWriter(self.tlog_path)
             if self._worker is None:
                 self._worker = threading.Thread(target=self._feed, name="link-samples", daemon=True)
                 self._worker.start()
         client.on_sample(self._offer)
+        if self.tlog is not None:
+            client.on_wire(self.tlog)
 
     async def raise_rates(self, client: VehicleClient) -> None:
         """Ask the vehicle for the poses a camera at ``camera_hz`` needs (a vehicle may refuse: then fewer frames)."""
@@ -161,11 +193,27 @@ class LinkBackend:
         return None
 
     def close(self) -> None:
-        """End the sample thread (the agent's client is closed with the tools)."""
+        """End the sample thread and the flight log (the agent's client is closed with the tools)."""
         worker = self._worker
         if worker is not None:
             self._queue.put(None)
             worker.join(timeout=5.0)
+        if self.tlog is not None:
+            self.tlog.close()
+
+
+def resolve(address: tuple[str, int]) -> tuple[str, int]:
+    """``address`` with its host as an IPv4 address, looked up once rather than at every datagram;
+    :class:`InputError` when it cannot be.
+
+    >>> resolve(("127.0.0.1", 14550))
+    ('127.0.0.1', 14550)
+    """
+    try:
+        found = socket.getaddrinfo(address[0], address[1], socket.AF_INET, socket.SOCK_DGRAM)
+    except (OSError, UnicodeError) as exc:
+        raise InputError(f"--gcs {address[0]}:{address[1]}: cannot find that host ({exc})") from None
+    return str(found[0][4][0]), address[1]
 
 
 def parse_link(url: str) -> tuple[str, int]:
@@ -180,4 +228,4 @@ def parse_link(url: str) -> tuple[str, int]:
     return parts.hostname, parts.port
 
 
-__all__ = ["Backend", "LinkBackend", "SampleHook", "SimBackend", "parse_link"]
+__all__ = ["Backend", "LinkBackend", "SampleHook", "SimBackend", "parse_link", "resolve"]

@@ -49,6 +49,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--connect", metavar="URL", help="fly the vehicle at this MAVLink address (udp://HOST:PORT), not the simulator"
     )
     parser.add_argument(
+        "--gcs", metavar="HOST:PORT", help="the simulated vehicle also streams to this ground station, which may "
+        "command it too (default 127.0.0.1:14550, or $AGENTIC_UAV_GCS; none: off)",
+    )  # fmt: skip
+    parser.add_argument(
         "--scene", type=Path, help="the simulated scene, a file or a shipped name (default: scenes/<mission>.yaml)"
     )
     parser.add_argument(
@@ -88,9 +92,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     from .runner import MissionRun, RunSettings
+    from .settings import parse_gcs
 
     args = build_parser().parse_args(argv)
     progress = None if args.quiet else sys.stderr
+    try:
+        parse_gcs("none" if args.gcs is None else args.gcs)
+    except ValueError as exc:
+        print(f"{PROG}: error: --gcs: {exc}", file=sys.stderr)
+        return 2
     if args.resume is not None:
         if args.mission is not None or args.connect is not None or args.param or args.scene is not None or args.fault:
             print(
@@ -103,6 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             overrides["approval"] = args.approval or "decline"
         if "speed" in vars(args):
             overrides["speed"] = args.speed
+        if args.gcs is not None:
+            overrides["gcs"] = args.gcs
         return _fly(lambda: MissionRun.resume(args.runs_dir, args.resume, progress=progress, **overrides))
     if args.mission is None:
         print(f"{PROG}: error: give a MISSION, or --resume RUN_ID", file=sys.stderr)
@@ -123,6 +135,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     if args.decline and args.approval not in (None, "decline"):
         print(f"{PROG}: error: --decline contradicts --approval {args.approval}", file=sys.stderr)
+        return 2
+    if args.gcs is not None and args.connect is not None:
+        print(f"{PROG}: error: --gcs is for the simulated vehicle; one at --connect streams itself", file=sys.stderr)
         return 2
     try:
         mission = resolve_mission(args.mission)
@@ -145,6 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             max_wall_s=args.max_wall_s,
             camera_hz=args.camera_hz,
             faults=faults,
+            **({} if args.gcs is None else {"gcs": args.gcs}),
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
         first = exc.errors()[0]

@@ -1,6 +1,7 @@
 """A run's report: ``report.md`` with the outcome, the decisions, the alerts, the failsafes and faults, a timeline,
-and ``trajectory.png`` (the flown track over the scene, with the people who needed help and where the aircraft
-landed).
+``trajectory.png`` (the flown track over the scene, with the people who needed help and where the aircraft landed)
+and ``flight.png`` (altitude, speed and battery over time, with the modes, decisions and failsafes), drawn by
+:mod:`.plots`.
 
 Everything in it comes from the run's trace and its recorded track, so the report says what happened, not what
 was meant to.
@@ -12,10 +13,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from matplotlib.figure import Figure
 from pydantic import BaseModel, ConfigDict, Field
 
 from flight.sim.scene_model import Scene
+
+from .plots.flight import plot_flight, read_samples
+from .plots.trajectory import plot_trajectory
 
 TIMELINE_KINDS = ("run", "step", "trigger", "decision", "plan", "approval", "alert", "reflection", "refusal", "abort")
 
@@ -57,40 +60,6 @@ class RunSummary(BaseModel):
     first_detected_s: dict[str, float] = Field(default_factory=dict)
     alert_sent_s: float | None = None
     notes: list[str] = Field(default_factory=list)
-
-
-def plot_trajectory(track: Sequence[TrackPoint], scene: Scene | None, path: Path, landed: TrackPoint | None) -> Path:
-    """The flown track (north up), the scene's zones and landmarks, its casualties, home and the landing spot."""
-    fig = Figure(figsize=(6.4, 6.4), dpi=110)
-    ax = fig.add_subplot()
-    if scene is not None:
-        for zone in scene.zones:
-            if zone.polygon:
-                xs = [p.east for p in zone.polygon] + [zone.polygon[0].east]
-                ys = [p.north for p in zone.polygon] + [zone.polygon[0].north]
-                ax.fill(xs, ys, color="#f3e3b5", alpha=0.5, linewidth=0)
-        for landmark in scene.landmarks:
-            position = landmark.position or (landmark.polygon[0] if landmark.polygon else None)
-            if position is not None:
-                ax.plot(position.east, position.north, "s", color="#7a7a7a", markersize=5)
-                ax.annotate(landmark.name or landmark.id, (position.east, position.north), fontsize=7, color="#555")
-        for actor_id in scene.ground_truth.casualties:
-            actor = scene.actor(actor_id)
-            ax.plot(actor.position.east, actor.position.north, "X", color="#d62728", markersize=10, label=actor_id)
-    if track:
-        ax.plot([p.east_m for p in track], [p.north_m for p in track], color="#1f77b4", linewidth=1.5, label="flown")
-        ax.plot(0.0, 0.0, "^", color="black", markersize=8, label="home")
-    if landed is not None:
-        ax.plot(landed.east_m, landed.north_m, "o", color="#2ca02c", markersize=8, label="landed")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    ax.set_title("Trajectory", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, format="png", metadata={"Software": None})
-    return path
 
 
 def landing_spot(track: Sequence[TrackPoint]) -> TrackPoint | None:
@@ -137,6 +106,7 @@ def write_report(
     """Write ``report.md`` and ``trajectory.png`` into ``run_dir``; return the report's path."""
     landed = landing_spot(track)
     plot_trajectory(track, scene, run_dir / "trajectory.png", landed)
+    plot_flight(read_samples(run_dir / "telemetry.jsonl"), records, run_dir / "flight.png")
     lines = [
         f"# Run {summary.run_id}",
         "",
@@ -161,7 +131,7 @@ def write_report(
         lines.append(f"- Casualty {casualty} (ground truth): {seen_text}{alert}")
     if landed is not None:
         lines.append(f"- Landed away from home at north {landed.north_m:.1f} m, east {landed.east_m:.1f} m")
-    lines += ["", "![trajectory](trajectory.png)", "", "## Decisions", ""]
+    lines += ["", "![trajectory](trajectory.png)", "", "![flight over time](flight.png)", "", "## Decisions", ""]
     decisions = [r for r in records if r.get("kind") == "decision"]
     if not decisions:
         lines.append("None.")

@@ -6,7 +6,7 @@ MAVLink address), perception over the mission's scene fed by the vehicle's telem
 (:mod:`agentic_core.agent`: the gate, the dispatcher, the loop, the control port, the event bus). The mission is
 compiled onto the graph runtime with a SQLite checkpointer. Everything lands in ``runs/<run-id>/``: ``run.json``,
 ``trace.jsonl`` (every event), ``telemetry.jsonl``, ``world_models.jsonl``, ``audit.jsonl``, ``snapshot.json``,
-``checkpoints.db``, ``alerts/`` and ``report.md`` with ``trajectory.png``. A killed run continues with
+``checkpoints.db``, ``flight.tlog``, ``alerts/`` and ``report.md`` with its plots. A killed run continues with
 :meth:`MissionRun.resume` (``agentic-uav run --resume RUN_ID``): the graph from its checkpoint, the simulator from
 its snapshot, and no side effect twice (each call's idempotency key is in the audit log).
 """
@@ -96,12 +96,13 @@ class MissionRun:
         scene_path = settings.scene or default_scene(settings.mission)
         self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
         self.pace = Pace(settings.speed)
+        tlog = self.run_dir / "flight.tlog"
         self.backend: Backend = (
-            LinkBackend(settings.connect, camera_hz=settings.camera_hz)
+            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
-                restore=snapshot.vehicle if snapshot else None,
+                restore=snapshot.vehicle if snapshot else None, gcs=settings.gcs_address, tlog=tlog,
             )
         )  # fmt: skip
         try:

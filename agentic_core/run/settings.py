@@ -3,11 +3,12 @@ embedded defaults), the agent's identity (:data:`AGENT`), :class:`RunResult` and
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from tools import Caller
 
@@ -23,6 +24,29 @@ AGENT = Caller(
     ),
 )
 """The mission's caller: every scope the built-in, flight and perception tools ask for."""
+
+DEFAULT_GCS = "127.0.0.1:14550"
+"""Where ground stations listen (QGroundControl, MAVProxy), as for PX4 SITL."""
+GCS_ENV = "AGENTIC_UAV_GCS"
+
+
+def default_gcs() -> str:
+    """The ground-station address when none is given: ``$AGENTIC_UAV_GCS``, else :data:`DEFAULT_GCS`."""
+    return os.environ.get(GCS_ENV, DEFAULT_GCS)
+
+
+def parse_gcs(text: str) -> tuple[str, int] | None:
+    """``HOST:PORT`` as an address, ``none`` (or ``off``) as None; :class:`ValueError` for anything else.
+
+    >>> parse_gcs("127.0.0.1:14550"), parse_gcs("none")
+    (('127.0.0.1', 14550), None)
+    """
+    if text.strip().lower() in ("none", "off"):
+        return None
+    host, sep, port = text.strip().rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"expected HOST:PORT or none, not {text!r}")
+    return host, int(port)
 
 
 class RunSettings(BaseModel):
@@ -53,6 +77,25 @@ class RunSettings(BaseModel):
     faults: list[FaultText] = Field(
         default_factory=list, description="failures to inject (--fault), beside the scene's own faults: list"
     )
+    gcs: str = Field(
+        default_factory=default_gcs,
+        validate_default=True,
+        description="the ground station the simulated vehicle also streams to (HOST:PORT), or none",
+    )
+
+    @field_validator("gcs")
+    @classmethod
+    def _gcs_is_an_address(cls, value: str) -> str:
+        try:
+            parse_gcs(value)
+        except ValueError as exc:
+            raise ValueError(f"{exc} (from --gcs or ${GCS_ENV})") from None
+        return value
+
+    @property
+    def gcs_address(self) -> tuple[str, int] | None:
+        """:attr:`gcs` as an address (None: no ground-station stream)."""
+        return parse_gcs(self.gcs)
 
 
 class RunError(InputError):
@@ -78,4 +121,4 @@ def default_scene(mission: Path) -> Path | None:
     return None
 
 
-__all__ = ["AGENT", "RunError", "RunResult", "RunSettings", "default_scene"]
+__all__ = ["AGENT", "DEFAULT_GCS", "RunError", "RunResult", "RunSettings", "default_gcs", "default_scene", "parse_gcs"]

@@ -187,6 +187,11 @@ class ClientBase:
     def rx_dropped(self) -> int:
         return self._link.rx_dropped
 
+    def on_wire(self, hook: Callable[[bytes], None]) -> None:
+        """Call ``hook`` with every MAVLink frame this client sends to or takes from its vehicle, from now on (in
+        the thread that sends or reads it), e.g. a :class:`flight.tlog.TlogWriter`."""
+        self._link.on_wire.append(hook)
+
     def close(self) -> None:
         """Stop the reader thread and close the socket (idempotent). Pending waits end as timeouts."""
         if self._link.closed:

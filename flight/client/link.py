@@ -77,6 +77,9 @@ class Link:
         self.target_component = 1
         self.rx_messages = 0
         self.rx_dropped = 0
+        self.on_wire: list[Callable[[bytes], None]] = []
+        """Called with every frame sent to or kept from the vehicle (e.g. a flight log), in the sending or reading
+        thread; what one raises is ignored."""
         self._mav = mav
         self._lock = lock
         self._on_messages = on_messages
@@ -125,8 +128,16 @@ class Link:
         with self._lock:
             buf = msg.pack(self._mav)
             self._mav.seq = (self._mav.seq + 1) % 256
-        with contextlib.suppress(OSError):
+        try:
             self._sock.sendto(buf, remote)
+        except OSError:
+            return
+        self._tap(buf)
+
+    def _tap(self, frame: bytes) -> None:
+        for hook in self.on_wire:
+            with contextlib.suppress(Exception):
+                hook(frame)
 
     # -- the reader thread ------------------------------------------------------------------------------------
 
@@ -167,6 +178,8 @@ class Link:
         with self._lock:
             mine = [msg for msg in msgs if self._from_vehicle(msg, sender)]
             self.rx_messages += len(mine)
+            for msg in mine:
+                self._tap(msg.get_msgbuf())
             if mine:
                 self._on_messages(mine)
 

@@ -228,7 +228,9 @@ class MavlinkVehicle(TelemetryBuilders):
         """Called after every tick with what the vehicle reports (:meth:`telemetry_sample`), in the vehicle's thread;
         the sample is only built while there is a hook."""
         self.tick_errors: deque[str] = deque(maxlen=100)
-        """What the ``on_tick`` and ``on_telemetry`` hooks (and a pace) raised; the vehicle flies on."""
+        """What the ``on_tick``, ``on_telemetry`` and ``on_wire`` hooks (and a pace) raised; the vehicle flies on."""
+        self.on_wire: list[Callable[[bytes], None]] = []
+        """Called with every frame the vehicle sends or takes in (e.g. a flight log), in the thread holding its lock."""
         self._mav = mavlink2.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self._targets: list[Address] = [a for a in (gcs, api) if a is not None]
         self._peers: dict[Address, float] = {}
@@ -450,6 +452,7 @@ class MavlinkVehicle(TelemetryBuilders):
         self._learn_peer(sender)
         for msg in valid:
             self.stats.rx_messages += 1
+            self._tap(msg.get_msgbuf())
             try:
                 self._handle(msg, sender)
             except Exception:  # a message we could not act on must never stop the vehicle
@@ -583,6 +586,14 @@ class MavlinkVehicle(TelemetryBuilders):
                 stats.tx_messages += 1
             except OSError:
                 stats.tx_errors += 1
+        self._tap(buf)
+
+    def _tap(self, frame: bytes) -> None:
+        for hook in self.on_wire:
+            try:
+                hook(frame)
+            except Exception as exc:
+                self._hook_failed(hook, exc)
 
     def statustext(self, text: str, severity: int = MAV_SEVERITY_WARNING) -> None:
         """Send a STATUSTEXT to everyone (chunked when longer than 50 characters)."""

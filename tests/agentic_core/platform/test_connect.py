@@ -14,7 +14,7 @@ from agentic_core.run.runner import RunSettings, run_mission
 from tests.flight.test_cli import free_udp_port
 from tests.flight.test_cli_vehicle import listening_port, stop
 
-from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, trace
+from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, read_tlog, trace
 
 
 def start_vehicle(port: int, speed: str) -> subprocess.Popen[str]:
@@ -47,6 +47,12 @@ def test_the_emergency_mission_flies_on_a_vehicle_in_another_process(tmp_path: P
     assert result.summary.frames > 0 and not (result.run_dir / "snapshot.json").read_text().count('"vehicle":{')
     telemetry = (result.run_dir / "telemetry.jsonl").read_text(encoding="utf-8").splitlines()
     assert len(telemetry) >= 5 * result.summary.sim_duration_s * 0.9  # at least 5 Hz of the vehicle's clock
+    # the flight log is the link as the agent's client saw it: the vehicle's messages and the client's own
+    logged = read_tlog(result.run_dir / "flight.tlog")
+    assert {m.get_srcSystem() for m in logged} == {1, 255}
+    assert sum(m.get_type() == "GLOBAL_POSITION_INT" for m in logged) >= 50
+    stamps = [m._timestamp for m in logged]
+    assert stamps == sorted(stamps)
 
 
 def test_a_vehicle_that_does_not_answer_stops_the_run_before_take_off(tmp_path: Path, capsys: Any) -> None:

@@ -17,7 +17,7 @@ import pytest
 
 from tests.waiting import wait_for
 
-from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, tools_ok, trace
+from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, read_tlog, tools_ok, trace
 
 Condition = Callable[[list[dict[str, Any]]], bool]
 
@@ -109,6 +109,12 @@ def test_a_killed_run_resumes_and_does_nothing_twice(
     assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)  # one event stream across both processes
     resumed_at = next(r for r in of_kind(records, "run") if r.get("event") == "resume")
     assert resumed_at["sim_t"] > 0  # the aircraft and its clock came back from the snapshot, not from the ground
+    # one flight log across both processes (a record cut by the kill mended), its stamps never going back
+    logged = read_tlog(folder / "flight.tlog")
+    stamps = [m._timestamp for m in logged]
+    assert stamps == sorted(stamps)
+    boot_s = [m.time_boot_ms / 1000 for m in logged if m.get_type() == "GLOBAL_POSITION_INT"]
+    assert min(boot_s) < resumed_at["sim_t"] < max(boot_s)
 
 
 def test_resuming_what_does_not_exist_is_a_clear_error(tmp_path: Path, smtp: Any) -> None:

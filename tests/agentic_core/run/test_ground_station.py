@@ -1,0 +1,128 @@
+"""The ground-station stream and the flight log of ``agentic-uav run``: a pymavlink ground station on the ``--gcs``
+port follows the mission and commands the vehicle; the run's ``flight.tlog`` opens with pymavlink's log reader;
+the report shows the flight over time."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import pytest
+from pydantic import ValidationError
+from pymavlink import mavutil
+
+from agentic_core.cli import main
+from agentic_core.run.runner import RunResult, RunSettings, run_mission
+from agentic_core.run.settings import GCS_ENV
+from tests.flight.test_cli import free_udp_port
+
+from ..platform.conftest import EMERGENCY, NEAR, PARAMS, read_tlog
+
+MAV = mavutil.mavlink
+
+
+def test_a_ground_station_on_the_gcs_port_follows_the_mission_and_can_command_the_vehicle(
+    tmp_path: Path, smtp: Any
+) -> None:
+    port = free_udp_port()
+    gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
+    settings = RunSettings(mission=EMERGENCY, scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS,
+                           camera_hz=15.0, gcs=f"127.0.0.1:{port}")  # fmt: skip
+    done: list[RunResult] = []
+    flying = threading.Thread(target=lambda: done.append(run_mission(settings, progress=None)), daemon=True)
+    flying.start()
+    seen: Counter[str] = Counter()
+    airborne: list[Any] = []
+    asked_at: float | None = None
+    answers: list[Any] = []
+    deadline = time.monotonic() + 240.0
+    try:
+        while flying.is_alive() and time.monotonic() < deadline:
+            msg = gcs.recv_match(blocking=True, timeout=0.2)
+            if msg is None:
+                continue
+            kind = msg.get_type()
+            seen[kind] += 1
+            if kind == "HEARTBEAT" and msg.get_srcSystem() == 1:
+                assert (msg.autopilot, msg.type) == (MAV.MAV_AUTOPILOT_PX4, MAV.MAV_TYPE_QUADROTOR)
+            elif kind == "GLOBAL_POSITION_INT" and msg.relative_alt > 5_000:
+                airborne.append(msg)
+            elif kind in ("COMMAND_ACK", "AUTOPILOT_VERSION") and msg.get_srcSystem() == 1:
+                answers.append(msg)
+            if airborne and asked_at is None:  # in the air, mid-mission: ask as QGroundControl does on connecting
+                gcs.mav.heartbeat_send(MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                gcs.mav.command_long_send(1, 1, MAV.MAV_CMD_REQUEST_MESSAGE, 0,
+                                          MAV.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0)  # fmt: skip
+                asked_at = time.monotonic()
+        flying.join(timeout=60.0)
+    finally:
+        gcs.close()
+    assert done and done[0].summary.outcome == "completed", done
+    assert seen["HEARTBEAT"] >= 5 and seen["ATTITUDE"] and seen["SYS_STATUS"], seen
+    assert len(airborne) >= 10, "no positions in the air reached the ground station"
+    acks = [m for m in answers if m.get_type() == "COMMAND_ACK"]
+    assert [(m.command, m.result, m.target_system) for m in acks] == [(MAV.MAV_CMD_REQUEST_MESSAGE, 0, 255)]
+    assert [m for m in answers if m.get_type() == "AUTOPILOT_VERSION"], "the request was not answered"
+    # the ground station's own messages are in the vehicle's flight log, between the vehicle's
+    logged = read_tlog(done[0].run_dir / "flight.tlog")
+    assert [m for m in logged if m.get_type() == "COMMAND_LONG" and m.get_srcSystem() == 255
+            and m.command == MAV.MAV_CMD_REQUEST_MESSAGE]  # fmt: skip
+
+
+def test_every_run_writes_a_flight_log_that_pymavlink_replays(tmp_path: Path, smtp: Any) -> None:
+    code = main(["run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path), "--quiet",
+                 "--camera-hz", "15", *[f"--param={k}={v}" for k, v in PARAMS.items()]])  # fmt: skip
+    assert code == 0
+    (run_dir,) = tmp_path.iterdir()
+    messages = read_tlog(run_dir / "flight.tlog")
+    stamps = [m._timestamp for m in messages]
+    assert stamps == sorted(stamps), "a stamp went back"
+    beats = [m for m in messages if m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1]
+    positions = [m for m in messages if m.get_type() == "GLOBAL_POSITION_INT"]
+    assert len(beats) >= 10 and len(positions) >= 50
+    # stamped on the simulated clock: the log spans the flight as the vehicle flew it, and its positions are the
+    # ones telemetry.jsonl recorded
+    span = stamps[-1] - stamps[0]
+    sim_s = float(positions[-1].time_boot_ms - positions[0].time_boot_ms) / 1000.0
+    assert abs(span - sim_s) < 2.0, (span, sim_s)
+    assert max(p.relative_alt for p in positions) > 5_000
+    # what the agent sent is there too: its take-off and its landing
+    commands = {m.command for m in messages if m.get_type() in ("COMMAND_LONG", "COMMAND_INT")}
+    assert MAV.MAV_CMD_NAV_TAKEOFF in commands, commands
+    # and the report shows the flight over time beside the trajectory
+    report = (run_dir / "report.md").read_text(encoding="utf-8")
+    for picture in ("trajectory.png", "flight.png"):
+        assert f"]({picture})" in report and (run_dir / picture).read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["--gcs", "14550"], "--gcs: expected HOST:PORT or none"),
+        (["--gcs", "127.0.0.1:70000"], "--gcs: expected HOST:PORT or none"),
+        (["--gcs", "nosuch.invalid:14550"], "--gcs nosuch.invalid:14550: cannot find that host"),
+        (["--gcs", "127.0.0.1:14550", "--connect", "udp://127.0.0.1:1"], "--gcs is for the simulated vehicle"),
+    ],
+    ids=["no-host", "bad-port", "unknown-host", "with-connect"],
+)
+def test_a_bad_ground_station_address_is_refused_before_anything_flies(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], said: str
+) -> None:
+    code = main(["run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path), "--quiet", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and said in err and "Traceback" not in err, err
+    assert not list(tmp_path.iterdir()), "a run folder was made for a run that never started"
+
+
+def test_the_ground_station_defaults_to_14550_or_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv(GCS_ENV)
+    assert RunSettings(mission=EMERGENCY).gcs_address == ("127.0.0.1", 14550)
+    monkeypatch.setenv(GCS_ENV, "127.0.0.1:14551")
+    assert RunSettings(mission=EMERGENCY).gcs_address == ("127.0.0.1", 14551)
+    assert RunSettings(mission=EMERGENCY, gcs="off").gcs_address is None
+    monkeypatch.setenv(GCS_ENV, "nonsense")
+    with pytest.raises(ValidationError, match=GCS_ENV.replace("_", ".")):
+        RunSettings(mission=EMERGENCY)
