@@ -62,6 +62,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--approval-timeout-s", type=float, default=120.0, help="with --approval ask: no answer in this long declines"
     )
+    parser.add_argument(
+        "--tools", action="append", default=[], metavar="SOURCE",
+        help="more tools for the mission: a module (mypkg.tools), a .py file, or a YAML/JSON file of HTTP endpoints "
+        "(repeatable; as for validate and mcp serve)",
+    )  # fmt: skip
     parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where run folders go (default runs)")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="set a mission parameter")
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulation and the detector (default 0)")
@@ -79,9 +84,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     progress = None if args.quiet else sys.stderr
     if args.resume is not None:
-        if args.mission is not None or args.connect is not None or args.param or args.scene is not None:
+        if args.mission is not None or args.connect is not None or args.param or args.scene is not None or args.tools:
             print(
-                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle and parameters", file=sys.stderr
+                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle, parameters and tools",
+                file=sys.stderr,
             )
             return 2
         overrides: dict[str, Any] = {}
@@ -121,6 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             max_wall_s=args.max_wall_s,
             camera_hz=args.camera_hz,
+            tools=args.tools,
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
         first = exc.errors()[0]

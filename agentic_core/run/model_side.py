@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from tools import ToolRegistry
+from tools import Caller, ToolRegistry
 
 from ..agent.gate import Gate
 from ..agent.pacing import Pace
@@ -24,7 +24,14 @@ class ModelSide:
     """The reasoner's model client (None for yolo and rules) as planner and reflector of one run."""
 
     def __init__(
-        self, reasoner: Reasoner, plan: PolicyGraph, registry: ToolRegistry, gate: Gate, publish: Publish, pace: Pace
+        self,
+        reasoner: Reasoner,
+        plan: PolicyGraph,
+        registry: ToolRegistry,
+        gate: Gate,
+        publish: Publish,
+        pace: Pace,
+        agent: Caller = AGENT,
     ) -> None:
         self.mission = plan
         self.gate = gate
@@ -34,7 +41,7 @@ class ModelSide:
             getattr(reasoner, "model", None), "client", None
         )
         self.planner = (
-            LLMPlanner(self.client, plan, _tools_for_plans(registry), record=self._exchange("plan"))
+            LLMPlanner(self.client, plan, _tools_for_plans(registry, agent), record=self._exchange("plan"))
             if self.client is not None
             else None
         )
@@ -66,9 +73,9 @@ class ModelSide:
         return record
 
 
-def _tools_for_plans(registry: ToolRegistry) -> list[Any]:
+def _tools_for_plans(registry: ToolRegistry, agent: Caller) -> list[Any]:
     """The tools a model's plan may name: those the agent holds every scope of."""
-    return [registry.describe(n) for n in registry.names() if not AGENT.missing(registry.get(n).scopes)]
+    return [registry.describe(n) for n in registry.names() if not agent.missing(registry.get(n).scopes)]
 
 
 __all__ = ["ModelSide"]

@@ -24,9 +24,8 @@ from flight.sim.detector import SimulatedCamera
 from flight.sim.scene_model import Scene
 from flight.tools import register_flight_tools
 from flight.vehicle import VehicleClient
-from tools import ToolError, ToolExecutor, ToolRegistry
+from tools import ToolError, ToolExecutor
 from tools.audit import JsonlAuditLog
-from tools.builtin import register_builtins
 from tools.builtin.config import BuiltinConfig
 from tools.function import spec_from_function
 
@@ -44,15 +43,17 @@ from ..mission.params import parse_param
 from ..mission.triggers import object_id, trigger_events
 from ..perception.world_model import WorldModel
 from ..reasoning.assessment import Decision
-from ..reasoning.reasoners import Reasoner, make_reasoner
+from ..reasoning.reasoners import make_reasoner
 from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
+from .model_check import require_model
 from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
 from .plan_review import review
 from .report import RunSummary, TrackPoint, write_report
+from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .trace import TelemetryLog, TraceWriter
@@ -85,11 +86,10 @@ class MissionRun:
         self.run_dir = settings.runs_dir / self.run_id
         self.alerts_dir = self.run_dir / "alerts"
         snapshot = read_snapshot(self.run_dir) if self.resuming else None
-        self.registry = ToolRegistry()
         config = BuiltinConfig.from_env(
             outbox_dir=self.alerts_dir, incidents_db=self.run_dir / "incidents.db", attachment_dirs=[self.run_dir]
         )
-        register_builtins(self.registry, config)
+        self.registry, self.agent = run_tools(settings.tools, config)
         scene_path = settings.scene or default_scene(settings.mission)
         self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
         self.pace = Pace(settings.speed)
@@ -123,7 +123,8 @@ class MissionRun:
         self.registry.register(spec_from_function(self._analyze_scene, name="perception.analyze_scene",
                                                   scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
         self.plan = load_run_mission(settings.mission, self.registry)
-        self.reasoner: Reasoner = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
+        chosen = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
+        self.reasoner, self.model_note = require_model(chosen)
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.trace = TraceWriter(self.run_dir / "trace.jsonl")
@@ -146,11 +147,12 @@ class MissionRun:
             )
             self.control.answer_with(ask)
         self.executor = ToolExecutor(
-            self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=AGENT
+            self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=self.agent
         )
         self.gate = Gate(self.reasoner, self._world_source(), self, self.bus.publish, self.pace,
                          on_decision=self._log_world)  # fmt: skip
-        self.model = ModelSide(self.reasoner, self.plan, self.registry, self.gate, self.bus.publish, self.pace)
+        self.model = ModelSide(self.reasoner, self.plan, self.registry, self.gate, self.bus.publish, self.pace,
+                               self.agent)  # fmt: skip
         self.dispatch = Dispatcher(
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
@@ -167,7 +169,7 @@ class MissionRun:
                                                                               self.bus.publish),
             gate=self.gate,
             planner=self.model.plan if self.model.planner is not None else None,
-            review=lambda steps: review(steps, self.registry, AGENT),
+            review=lambda steps: review(steps, self.registry, self.agent),
         )  # fmt: skip
 
     @classmethod
@@ -322,15 +324,10 @@ class MissionRun:
             raise RunFailure(f"the vehicle did not take the mission's limits: {result.error}")
 
     def prepare(self) -> None:
-        """Get ready before take-off: the annotator loaded, the model's connection opened (a model server that does
-        not answer is reported now rather than at the first event)."""
+        """Get ready before take-off: the annotator loaded (the model's connection was opened, and the model found
+        answering, when the run was assembled: :func:`~agentic_core.run.model_check.require_model`)."""
         if self.loop is not None:
             self.loop.warm()
-        warm = getattr(self.model.client, "warm", None)
-        if callable(warm):
-            problem = warm()
-            if problem is not None:
-                self.bus.publish("log", level="warning", summary=f"the model server does not answer: {problem}")
 
     def execute(self) -> RunResult:
         """Fly the mission (or go on with it); always releases the vehicle and writes the report."""
@@ -341,6 +338,8 @@ class MissionRun:
                          reasoner=self.reasoner.name, backend=self.backend.kind,
                          summary=f"{'resume' if self.resuming else 'start'} {self.plan.plan_id} "
                          f"with {self.reasoner.name} on {self.backend.kind}")  # fmt: skip
+        if self.model_note:
+            self.bus.publish("log", level="warning", summary=self.model_note)
         final: dict[str, Any] = {}
         outcome = "failed"
         try:
@@ -382,7 +381,7 @@ class MissionRun:
             self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
         summary = self._summary(outcome, time.monotonic() - wall0)
-        summary.notes.append(f"The aircraft ended {ended}.")
+        summary.notes += [f"The aircraft ended {ended}."] + ([self.model_note] if self.model_note else [])
         track = self.track()
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)
