@@ -52,6 +52,7 @@ from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
 from .plan_review import review
+from .readable import TruthLinks, readable
 from .report import RunSummary, TrackPoint, write_report
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
@@ -138,6 +139,7 @@ class MissionRun:
         self.backend.on_sample(self.telemetry)
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
         self.snapshots = SnapshotWriter(self.run_dir)
+        self.links = TruthLinks(self.scene, self.bus.publish)
         self.control = ControlPort(on_command=self._on_command)
         self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish)
         self.backend.on_sample(self.failsafes)
@@ -259,6 +261,7 @@ class MissionRun:
         return decision.model_dump(mode="json")
 
     def _log_world(self, world: WorldModel, decision: Decision) -> None:
+        self.links.see(world)
         self._world_log.write(world.to_json() + "\n")
         self._world_log.flush()
 
@@ -288,7 +291,7 @@ class MissionRun:
     def _say(self, event: RunEvent) -> None:
         if self.progress is not None and event.summary and event.kind not in ("step",):
             sim = f"{event.sim_t:7.1f}" if event.sim_t is not None else "      -"
-            print(f"[{sim} s] {event.kind}: {event.summary}", file=self.progress, flush=True)
+            print(f"[{sim} s] {event.kind}: {readable(event.summary, self.links)}", file=self.progress, flush=True)
 
     def _after_tool(self, event: RunEvent) -> None:
         if event.kind == "tool" and event.fields().get("status") == "ok":
@@ -454,6 +457,7 @@ class MissionRun:
             first_detected_s={k: v for k, v in (self.loop.first_detected.items() if self.loop else [])
                               if self.scene and k in self.scene.ground_truth.casualties},
             alert_sent_s=sent[0].get("sim_t") if sent else None,
+            truth_ids=dict(self.links),
         )  # fmt: skip
 
 
