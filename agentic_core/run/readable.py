@@ -60,7 +60,9 @@ class TruthLinks(dict[str, str]):
         for track, truth in link_truth(world, self.scene).items():
             if track not in self:
                 self[track] = truth
-                self.publish("log", level="info", object=track, truth=truth, summary=f"{track} is the scene's {truth}")
+                self.publish(
+                    "log", level="info", object=track, truth=truth, summary=f"tracked as {track} (scene {truth})"
+                )
 
 
 def label(object_id: str, links: Mapping[str, str]) -> str:

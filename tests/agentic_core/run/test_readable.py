@@ -44,6 +44,7 @@ def test_each_link_is_said_once_in_the_trace() -> None:
         links.see(world_with(("P-1203", "person", casualty.north, casualty.east)))
     assert dict(links) == {"P-1203": "P-12"}
     assert [(s["object"], s["truth"]) for s in said] == [("P-1203", "P-12")]
+    assert readable(said[0]["summary"], links) == said[0]["summary"] == "tracked as P-1203 (scene P-12)"
     assert TruthLinks(None, lambda kind, **fields: None).get("P-1203") is None
 
 
