@@ -18,7 +18,7 @@ $(VENV)/.installed-dev: pyproject.toml | $(PY)
 	touch $(VENV)/.installed $@
 
 demo: $(VENV)/.installed
-	$(PY) -m agentic_core run missions/hajj_emergency.yaml
+	$(PY) -m agentic_core demo
 
 lint: $(VENV)/.installed-dev
 	$(PY) -m ruff check .

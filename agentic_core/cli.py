@@ -11,7 +11,6 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, NoReturn
 
 from tools.cli import add_source_options
 
@@ -19,12 +18,19 @@ from . import __version__
 from .contracts.errors import AgenticUAVError, report_error
 from .examples import ExampleError, resolve_mission, resolve_scene
 
+DEMO_MISSION = Path(__file__).resolve().parents[1] / "missions" / "hajj_emergency.yaml"
+"""What ``agentic-uav demo`` and ``make demo`` fly: the paper's emergency scenario, on the embedded defaults."""
+
+
+def demo_argv(runs_dir: str, decline: bool) -> list[str]:
+    """The ``agentic-uav run`` arguments of the demo (``make demo`` runs ``agentic-uav demo``: one demo)."""
+    return [str(DEMO_MISSION), "--runs-dir", runs_dir] + (["--decline"] if decline else [])
+
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from .demo import run_demo
+    from .run.cli import main as run_main
 
-    run_demo(Path(args.runs_dir), approve=not args.decline)
-    return 0
+    return run_main(demo_argv(args.runs_dir, args.decline))
 
 
 EVAL_COMMANDS = ("stats", "paper", "campaign")
@@ -108,7 +114,7 @@ def _validate_home(args: argparse.Namespace) -> tuple[float, float]:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .mission import Environment, MissionError, compile_mission, load_mission
+    from .mission import MissionError, load_mission
     from .mission.layers import layers
     from .mission.params import initial_state
 
@@ -123,11 +129,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         print(f"agentic-uav plan: error: {exc}", file=sys.stderr)
         return 2
     if args.mermaid:
+        from .mission.mermaid import mission_mermaid
 
-        def no_dispatch(tool: str, arguments: dict[str, Any], timeout_s: float | None) -> NoReturn:
-            raise RuntimeError("plan only draws the graph; nothing is dispatched")
-
-        print(compile_mission(plan, Environment(dispatch=no_dispatch)).get_graph().draw_mermaid(), end="")
+        print(mission_mermaid(plan), end="")
         return 0
     print(f"{plan.plan_id}: {plan.goal}")
     print(f"params: {params}")
@@ -182,9 +186,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="agentic-uav", description="Drones as agents: missions, tools, flight, eval.")
     parser.add_argument("--version", action="version", version=f"agentic-uavs {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    demo = sub.add_parser("demo", help="run the example patrol graph (checkpointed under runs/)")
+    demo = sub.add_parser(
+        "demo", help="fly the emergency mission end to end (agentic-uav run missions/hajj_emergency.yaml)"
+    )
     demo.add_argument("--runs-dir", default="runs", help="where run folders go (default: runs)")
-    demo.add_argument("--decline", action="store_true", help="answer the operator approval with 'decline'")
+    demo.add_argument("--decline", action="store_true", help="the operator says no to landing near people")
     demo.set_defaults(func=_cmd_demo)
 
     validate = sub.add_parser("validate", help="check mission files; every problem as file:line:col: message")
@@ -200,7 +206,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     plan = sub.add_parser("plan", help="show how a mission runs: its supersteps, or the compiled graph")
     plan.add_argument("file", metavar="MISSION", help="a mission file, or a shipped mission's name")
-    plan.add_argument("--mermaid", action="store_true", help="print the compiled graph as Mermaid text")
+    plan.add_argument(
+        "--mermaid",
+        action="store_true",
+        help="print the mission's steps, dependencies and triggers as a Mermaid flowchart",
+    )
     plan.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a parameter")
     plan.set_defaults(func=_cmd_plan)
 

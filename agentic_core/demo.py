@@ -1,4 +1,5 @@
-"""The demo run by ``make demo`` until the mission issues land: a patrol graph on the graph runtime alone.
+"""An example of the graph runtime alone: a patrol graph (``agentic-uav demo`` and ``make demo`` fly the emergency
+mission instead; this module stays as a small library example of the runtime).
 
 It shows the runtime's main features on a search-and-rescue-shaped graph: a plan node fans out one task per
 sector with ``Send``, the sector reports merge through a reducer, a router asks for operator approval through

@@ -44,3 +44,40 @@ def test_control_port_example_runs_as_documented(tmp_path: Path, monkeypatch: py
         (tmp_path / name).symlink_to(repo / name)
     monkeypatch.chdir(tmp_path)
     assert _run_block("home_once_up")[-1] == "returned"  # after what JSBSim prints as it loads
+
+
+def test_perception_example_runs_as_documented(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "scenes").symlink_to(README.parent / "scenes")
+    monkeypatch.chdir(tmp_path)
+    assert _run_block("SimulatedDetector") == ["True True"]
+    assert (tmp_path / "frame.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_custom_tool_example_is_the_shipped_file_and_registers() -> None:
+    (code,) = [b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "fence.status" in b]
+    shipped = (README.parent / "tools" / "examples" / "fence_tools.py").read_text()
+    assert code in shipped  # the README shows the file the run command flies
+    namespace: dict[str, object] = {"__name__": "readme"}
+    exec(compile(code, "README.md", "exec"), namespace)
+    status = namespace["fence_status"]
+    assert callable(status) and status(segment="F-07")["breached"] is True
+
+
+RUN_BY = {
+    "more_legs": "test_quickstart_runs_as_documented",
+    "water.depth": "test_tools_example_runs_as_documented",
+    "tools_condition": "test_langgraph_agent_example_runs_as_documented",
+    "home_once_up": "test_control_port_example_runs_as_documented",
+    "SimulatedDetector": "test_perception_example_runs_as_documented",
+    "fence.status": "test_the_custom_tool_example_is_the_shipped_file_and_registers",
+}
+"""Each README Python block, by a marker it holds, and the test here that runs it."""
+
+
+def test_every_python_block_of_the_readme_is_run_here() -> None:
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+    for block in blocks:
+        markers = [m for m in RUN_BY if m in block]
+        assert len(markers) == 1, f"a README Python block no test runs (or two claim):\n{block[:200]}"
+        assert RUN_BY[markers[0]] in globals()
+    assert len(blocks) == len(RUN_BY)

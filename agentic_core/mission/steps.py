@@ -143,7 +143,8 @@ def within(*, child: str | None = None, **changes: Any) -> Iterator[None]:
 
 SCOPE_ROOTS = ("params", "steps", "vehicle", "world", "event", "mission")
 """What expressions may read, besides step ids: parameters, step outputs (``steps.<id>``), the vehicle's state,
-the world model, the event that fired a trigger, and the mission itself. :func:`scope` provides exactly these."""
+the world model, the event that fired a trigger, and the mission itself (``mission.status``, each step's status;
+``mission.declined``, the steps the operator said no to). :func:`scope` provides exactly these."""
 
 
 def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict[str, Any]:
@@ -156,9 +157,17 @@ def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict
         "vehicle": env.vehicle(),
         "world": env.world(),
         "event": event if event is not None else state.get("event"),
-        "mission": {"status": dict(state.get("status") or {})},
+        "mission": {"status": dict(state.get("status") or {}), "declined": declined(state)},
     }
     return {**outputs, **roots}
+
+
+DECLINED = "operator did not approve"
+
+
+def declined(state: Mapping[str, Any]) -> list[str]:
+    """The steps the operator said no to (``mission.declined`` in expressions), in the order they were asked."""
+    return [step for step, reason in (state.get("errors") or {}).items() if str(reason).startswith(DECLINED)]
 
 
 def evaluate(text: str, where: Mapping[str, Any]) -> Any:
@@ -203,7 +212,7 @@ def _approve(step: Step, args: Any, env: Environment) -> None:
     request = {"step": step.id, "action": step.action, "args": args, "question": f"approve {step.action} ({step.id})?"}
     answer = env.approve(request) if env.approve is not None else interrupt(request)
     if answer not in (True, "approve", "approved", "yes", "y"):
-        raise StepFailed(f"operator did not approve {step.id} (answered {answer!r})")
+        raise StepFailed(f"{DECLINED} {step.id} (answered {answer!r})")
 
 
 def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str, Any]:

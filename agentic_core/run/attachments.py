@@ -20,6 +20,7 @@ from typing import Any
 
 from ..perception.world_model import WorldModel
 from .perception_loop import PerceptionLoop
+from .readable import rounded
 
 SYMBOLIC = ("snapshot", "world_model", "position", "assessment")
 
@@ -62,7 +63,7 @@ def _produce(
         path.write_text(world.to_json(indent=2) + "\n", encoding="utf-8")  # indented like _json, ten times faster
         return path
     if item == "position":
-        return _json(base.with_name(base.name + "-position.json"), position())
+        return _json(base.with_name(base.name + "-position.json"), rounded(position()))
     if item == "assessment":
         return _json(base.with_name(base.name + "-assessment.json"), last_decision())
     return None

@@ -74,6 +74,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--approval-timeout-s", type=float, default=120.0, help="with --approval ask: no answer in this long declines"
     )
+    parser.add_argument(
+        "--tools", action="append", default=[], metavar="SOURCE",
+        help="more tools for the mission: a module (mypkg.tools), a .py file, or a YAML/JSON file of HTTP endpoints "
+        "(repeatable; as for validate and mcp serve)",
+    )  # fmt: skip
     parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where run folders go (default runs)")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="set a mission parameter")
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulation and the detector (default 0)")
@@ -102,9 +107,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: --gcs: {exc}", file=sys.stderr)
         return 2
     if args.resume is not None:
-        if args.mission is not None or args.connect is not None or args.param or args.scene is not None or args.fault:
+        if (
+            args.mission is not None
+            or args.connect is not None
+            or args.param
+            or args.scene is not None
+            or args.fault
+            or args.tools
+        ):
             print(
-                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle, parameters and faults",
+                f"{PROG}: error: --resume takes the run's own mission, scene, vehicle, parameters, faults and tools",
                 file=sys.stderr,
             )
             return 2
@@ -161,6 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             camera_hz=args.camera_hz,
             faults=faults,
             **({} if args.gcs is None else {"gcs": args.gcs}),
+            tools=args.tools,
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
         first = exc.errors()[0]

@@ -19,6 +19,7 @@ from flight.sim.scene_model import Scene
 
 from .plots.flight import plot_flight, read_samples
 from .plots.trajectory import plot_trajectory
+from .readable import label, readable
 
 TIMELINE_KINDS = ("run", "step", "trigger", "decision", "plan", "approval", "alert", "reflection", "refusal", "abort")
 
@@ -60,6 +61,7 @@ class RunSummary(BaseModel):
     first_detected_s: dict[str, float] = Field(default_factory=dict)
     alert_sent_s: float | None = None
     notes: list[str] = Field(default_factory=list)
+    truth_ids: dict[str, str] = Field(default_factory=dict, description="tracker id -> the scene's actor id")
 
 
 def landing_spot(track: Sequence[TrackPoint]) -> TrackPoint | None:
@@ -105,6 +107,7 @@ def write_report(
 ) -> Path:
     """Write ``report.md`` and ``trajectory.png`` into ``run_dir``; return the report's path."""
     landed = landing_spot(track)
+    links = summary.truth_ids
     plot_trajectory(track, scene, run_dir / "trajectory.png", landed)
     plot_flight(read_samples(run_dir / "telemetry.jsonl"), records, run_dir / "flight.png")
     lines = [
@@ -128,7 +131,9 @@ def write_report(
             if seen is not None and summary.alert_sent_s is not None
             else ""
         )
-        lines.append(f"- Casualty {casualty} (ground truth): {seen_text}{alert}")
+        tracks = [label(track, links) for track, truth in links.items() if truth == casualty]
+        named = ", ".join(tracks) if tracks else f"{casualty} (scene; never tracked)"
+        lines.append(f"- Casualty {named}: {seen_text}{alert}")
     if landed is not None:
         lines.append(f"- Landed away from home at north {landed.north_m:.1f} m, east {landed.east_m:.1f} m")
     lines += ["", "![trajectory](trajectory.png)", "", "![flight over time](flight.png)", "", "## Decisions", ""]
@@ -137,21 +142,23 @@ def write_report(
         lines.append("None.")
     for d in decisions:
         a = d.get("assessment") or {}
+        subject = f" on {label(a['subject_id'], links)}" if a.get("subject_id") else ""
+        confidence = f"{a['confidence']:.2f}" if isinstance(a.get("confidence"), float) else "-"
         lines.append(
-            f"- {d.get('sim_t', 0):.1f} s, `{d.get('reasoner')}`: severity **{a.get('severity', '-')}**, "
-            f"{a.get('persons_detected', '-')} persons, confidence {a.get('confidence', '-')}, actions "
+            f"- {d.get('sim_t', 0):.1f} s, `{d.get('reasoner')}`{subject}: severity **{a.get('severity', '-')}**, "
+            f"{a.get('persons_detected', '-')} persons, confidence {confidence}, actions "
             f"{', '.join(a.get('recommended_actions', [])) or 'none'}"
             + (f" — error: {d['error']}" if d.get("error") else "")
         )
         if a.get("surrounding_features"):
-            lines.append(f"  - {a['surrounding_features']}")
+            lines.append(f"  - {readable(a['surrounding_features'], links)}")
     lines += ["", "## Alerts", ""]
     lines += [f"- `{path}`" for path in summary.alerts] or ["None."]
     lines += ["", "## Failsafes", "", *failsafe_lines(records)]
     if summary.notes:
-        lines += ["", "## Notes", "", *[f"- {note}" for note in summary.notes]]
+        lines += ["", "## Notes", "", *[f"- {readable(note, links)}" for note in summary.notes]]
     lines += ["", "## Timeline", "", "| sim time (s) | event |", "|---:|---|"]
-    lines += [f"| {t:.1f} | {what.replace('|', '/')} |" for t, what in timeline(records)]
+    lines += [f"| {t:.1f} | {readable(what, links).replace('|', '/')} |" for t, what in timeline(records)]
     path = run_dir / "report.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

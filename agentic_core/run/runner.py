@@ -24,9 +24,8 @@ from flight.sim.detector import SimulatedCamera
 from flight.sim.scene_model import Scene
 from flight.tools import register_flight_tools
 from flight.vehicle import VehicleClient
-from tools import ToolError, ToolExecutor, ToolRegistry
+from tools import ToolError, ToolExecutor
 from tools.audit import JsonlAuditLog
-from tools.builtin import register_builtins
 from tools.builtin.config import BuiltinConfig
 from tools.function import spec_from_function
 
@@ -44,18 +43,21 @@ from ..mission.params import parse_param
 from ..mission.triggers import object_id, trigger_events
 from ..perception.world_model import WorldModel
 from ..reasoning.assessment import Decision
-from ..reasoning.reasoners import Reasoner, make_reasoner
+from ..reasoning.reasoners import make_reasoner
 from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
 from .faults import SCHEDULE, FaultSchedule
+from .model_check import require_model
 from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
 from .plan_review import review
 from .privilege import mission_caller, plan_tools, tool_problems
+from .readable import TruthLinks, readable
 from .report import RunSummary, TrackPoint, write_report
 from .responses import ResponseLedger
+from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .trace import TelemetryLog, TraceWriter
@@ -88,11 +90,10 @@ class MissionRun:
         self.run_dir = settings.runs_dir / self.run_id
         self.alerts_dir = self.run_dir / "alerts"
         snapshot = read_snapshot(self.run_dir) if self.resuming else None
-        self.registry = ToolRegistry()
         config = BuiltinConfig.from_env(
             outbox_dir=self.alerts_dir, incidents_db=self.run_dir / "incidents.db", attachment_dirs=[self.run_dir]
         )
-        register_builtins(self.registry, config)
+        self.registry, self.agent = run_tools(settings.tools, config)
         scene_path = settings.scene or default_scene(settings.mission)
         self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
         self.pace = Pace(settings.speed)
@@ -128,7 +129,8 @@ class MissionRun:
                                                   scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
         self.plan = load_run_mission(settings.mission, self.registry, self._home())
         self.agent = mission_caller(self.plan, self.registry)  # the scopes this mission needs, no more
-        self.reasoner: Reasoner = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
+        chosen = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
+        self.reasoner, self.model_note = require_model(chosen)
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.trace = TraceWriter(self.run_dir / "trace.jsonl")
@@ -145,6 +147,7 @@ class MissionRun:
         self.backend.on_sample(self.telemetry)
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
         self.snapshots = SnapshotWriter(self.run_dir)
+        self.links = TruthLinks(self.scene, self.bus.publish)
         self.control = ControlPort(on_command=self._on_command)
         self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish,
                                             texts=VehicleTexts(lambda: self._client))  # fmt: skip
@@ -272,6 +275,7 @@ class MissionRun:
         return decision.model_dump(mode="json")
 
     def _log_world(self, world: WorldModel, decision: Decision) -> None:
+        self.links.see(world)
         self._world_log.write(world.to_json() + "\n")
         self._world_log.flush()
 
@@ -301,7 +305,7 @@ class MissionRun:
     def _say(self, event: RunEvent) -> None:
         if self.progress is not None and event.summary and event.kind not in ("step",):
             sim = f"{event.sim_t:7.1f}" if event.sim_t is not None else "      -"
-            print(f"[{sim} s] {event.kind}: {event.summary}", file=self.progress, flush=True)
+            print(f"[{sim} s] {event.kind}: {readable(event.summary, self.links)}", file=self.progress, flush=True)
 
     def _after_tool(self, event: RunEvent) -> None:
         if event.kind == "tool" and event.fields().get("status") == "ok":
@@ -337,15 +341,10 @@ class MissionRun:
             raise RunFailure(f"the vehicle did not take the mission's limits: {result.error}")
 
     def prepare(self) -> None:
-        """Get ready before take-off: the annotator loaded, the model's connection opened (a model server that does
-        not answer is reported now rather than at the first event)."""
+        """Get ready before take-off: the annotator loaded (the model's connection was opened, and the model found
+        answering, when the run was assembled: :func:`~agentic_core.run.model_check.require_model`)."""
         if self.loop is not None:
             self.loop.warm()
-        warm = getattr(self.model.client, "warm", None)
-        if callable(warm):
-            problem = warm()
-            if problem is not None:
-                self.bus.publish("log", level="warning", summary=f"the model server does not answer: {problem}")
 
     def execute(self) -> RunResult:
         """Fly the mission (or go on with it); always releases the vehicle and writes the report."""
@@ -356,6 +355,8 @@ class MissionRun:
                          reasoner=self.reasoner.name, backend=self.backend.kind,
                          summary=f"{'resume' if self.resuming else 'start'} {self.plan.plan_id} "
                          f"with {self.reasoner.name} on {self.backend.kind}")  # fmt: skip
+        if self.model_note:
+            self.bus.publish("log", level="warning", summary=self.model_note)
         final: dict[str, Any] = {}
         outcome = "failed"
         try:
@@ -403,6 +404,7 @@ class MissionRun:
             self.close()
         summary = self._summary(outcome, time.monotonic() - wall0)
         summary.notes += [*self.responses.notes(), f"The aircraft ended {ended}."]
+        summary.notes += [self.model_note] if self.model_note else []
         track = self.track()
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)
@@ -477,6 +479,7 @@ class MissionRun:
             first_detected_s={k: v for k, v in (self.loop.first_detected.items() if self.loop else [])
                               if self.scene and k in self.scene.ground_truth.casualties},
             alert_sent_s=sent[0].get("sim_t") if sent else None,
+            truth_ids=dict(self.links),
         )  # fmt: skip
 
 

@@ -73,6 +73,9 @@ class RunSettings(BaseModel):
     connect: str | None = Field(
         default=None, description="fly the vehicle at this MAVLink address (udp://HOST:PORT) instead of the simulator"
     )
+    tools: list[str] = Field(
+        default_factory=list, description="more tools: modules, .py files or YAML/JSON files of HTTP endpoints"
+    )
     telemetry_hz: float = Field(default=10.0, gt=0, le=100, description="rate of telemetry.jsonl, Hz of vehicle time")
     faults: list[FaultText] = Field(
         default_factory=list, description="failures to inject (--fault), beside the scene's own faults: list"

@@ -269,7 +269,9 @@ def test_emergency_trigger_preempts_the_patrol_and_runs_its_sub_plan(severity: s
     land = dict(rec.calls)["flight.land"]
     assert land == {"target_id": "P-12", "offset_m": 5.0}
     notify = dict(rec.calls)["alerts.notify"]
-    assert notify["subject"] == "Collapsed pilgrim at 21.4121, 39.8941" and notify["to"] == "medical-team@example.org"
+    assert (
+        notify["subject"] == "Collapsed pilgrim P-12 at 21.4121, 39.8941" and notify["to"] == "medical-team@example.org"
+    )
     assert all(out["status"][s] == "ok" for s in ("land_near", "release_kit", "alert_medics", "lift_off", "back_home"))
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import email
 import json
 import math
+import re
 from email.message import Message
 from pathlib import Path
 from typing import Any
@@ -81,8 +82,11 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     # the alert went out by SMTP, with the GPS position, the assessment and the annotated image attached
     (envelope,) = smtp.inbox.envelopes
     message = email.message_from_bytes(envelope.content)
-    assert message["To"] == "medical-team@example.org" and message["Subject"].startswith("Collapsed pilgrim at 21.41")
-    lat, lon = (float(x) for x in message["Subject"].removeprefix("Collapsed pilgrim at ").split(","))
+    subject = message["Subject"]
+    assert message["To"] == "medical-team@example.org" and subject.startswith("Collapsed pilgrim P-")
+    coordinates = subject.split(" at ", 1)[1].split(", ")
+    assert all(len(x.split(".")[1]) <= 6 for x in coordinates), subject  # 1e-6 degrees, not 16 digits
+    lat, lon = (float(x) for x in coordinates)
     north, east = local_offset(scene.home.lat_deg, scene.home.lon_deg, lat, lon)
     assert math.hypot(north - casualty.north, east - casualty.east) < 3.0  # the tracked position, within metres
     names = sorted(str(part.get_filename()) for part in _attachments(message))
@@ -98,7 +102,14 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     worlds = (folder / "world_models.jsonl").read_text(encoding="utf-8").splitlines()
     assert len(worlds) == summary.decisions and json.loads(worlds[-1])["objects"]
     report = (folder / "report.md").read_text(encoding="utf-8")
-    assert "Casualty P-12 (ground truth): first detected at" in report and "alert sent at" in report
+    # one id for the casualty: the tracker's, in the decisions, the alert and the report, linked to the scene's
+    tracked = subject.split()[2]
+    assert f"Casualty {tracked} (scene P-12): first detected at" in report and "alert sent at" in report
+    assert f"on {tracked} (scene P-12): severity **critical**" in report
+    assert any(r.get("object") == tracked and r.get("truth") == "P-12" for r in records(result, "log"))
+    assert not re.search(r"\d\.\d{7,}", report), "a raw float in the report"
+    position = json.loads(next(p for p in folder.glob("alerts/*position.json")).read_text(encoding="utf-8"))
+    assert position["subject"]["id"] == tracked and len(str(position["subject"]["lat"]).split(".")[1]) <= 6
 
 
 def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) -> None:
@@ -141,8 +152,17 @@ def test_the_operator_is_asked_and_a_no_sends_the_aircraft_home_without_dropping
     assert [r["status"] for r in records(result, "approval") if "answer" not in r] == ["asked"]
     (approval,) = [r for r in records(result, "approval") if "answer" in r]
     assert approval["via"] == "operator" and approval["answer"] is False and approval["said"] == "n"
-    # no mail server in this test: the alert reached only the outbox, and the run says so
+    # no mail server in this test: the alerts reached only the outbox, and the run says so
     assert tools[-1] == "flight.rtl" and result.summary.outcome == "degraded"
+    # the medical team is told what happened: the alert promised nothing, and the refusal is said
+    mails = [email.message_from_bytes(p.read_bytes()) for p in sorted(result.run_dir.glob("alerts/*.eml"))]
+    subjects = sorted(str(m["Subject"]) for m in mails)
+    assert len(mails) == 2 and tools.count("alerts.notify") == 2, subjects
+    assert subjects[0].startswith("Collapsed pilgrim P-") and subjects[1].startswith("No rescue kit for P-")
+    assert subjects[1].split()[4] == subjects[0].split()[2] + ":"  # the same id in both
+    texts = [_text(m) for m in mails]
+    assert any("Kit declined by the operator" in t for t in texts)
+    assert not any("on its way" in t for t in texts)
 
 
 def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Path, smtp: Any) -> None:

@@ -1,0 +1,90 @@
+"""Every ``agentic-uav`` command in the README's shell blocks runs here, or is listed below as not runnable here
+with the reason (a model server, a terminal, a vehicle in another process, a placeholder of the reader's own)."""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from agentic_core.cli import main
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+NOT_RUN_HERE = {
+    "make demo": "reinstalls .venv; it runs `agentic-uav demo` (tests/agentic_core/test_cli.py checks that)",
+    "make test": "reinstalls .venv and runs this suite",
+    "agentic-uav run missions/hajj_emergency.yaml": "a few minutes of flight; flown in test_shipped_missions.py",
+    "agentic-uav run missions/hajj_patrol.yaml": "flown in tests/agentic_core/run/test_shipped_missions.py",
+    "agentic-uav run missions/inspect_perimeter.yaml": "flown in tests/agentic_core/run/test_shipped_missions.py",
+    "agentic-uav run missions/hajj_patrol.yaml --scene scenes/hajj_normal.yaml": "minutes over the whole of Mina; "
+    "the patrol with --scene flies in tests/agentic_core/run/test_run.py",
+    "agentic-uav run missions/hajj_emergency.yaml --reasoner hybrid --llm ollama:gemma3:4b": "needs an Ollama "
+    "server with the model; hybrid with a stand-in model flies in tests/agentic_core/platform/test_slow_model.py",
+    "agentic-uav run missions/hajj_emergency.yaml --decline": "minutes of flight; a declined landing flies in "
+    "tests/agentic_core/run/test_run.py",
+    "agentic-uav run missions/hajj_emergency.yaml --approval ask": "asks at a terminal; the asked operator is "
+    "tests/agentic_core/run/test_run.py's",
+    "agentic-uav sim --bind 127.0.0.1:14580 --scene scenes/hajj_emergency.yaml": "a vehicle serving until stopped; "
+    "tests/agentic_core/platform/test_connect.py starts one",
+    "agentic-uav run missions/hajj_emergency.yaml --connect udp://127.0.0.1:14580": "needs that vehicle running; "
+    "tests/agentic_core/platform/test_connect.py flies it",
+    "agentic-uav run --resume 20261127-101500-hajj_emergency-rules": "the id of a run of yours; resume is flown in "
+    "tests/agentic_core/platform/test_resume.py",
+    "agentic-uav tools list --tools mypkg.tools --tools my_endpoints.yaml": "mypkg and my_endpoints.yaml are yours",
+    "agentic-uav validate --tools mypkg.tools mission.yaml": "mypkg and mission.yaml are yours",
+    "agentic-uav mcp serve": "serves stdio until its client leaves; tests/tools/mcp/ drive it",
+    "agentic-uav sim": "serves until stopped, at real time; tests/flight/ drive the vehicle",
+    "agentic-uav sim --speed max": "serves until stopped; tests/flight/ drive the vehicle",
+    "agentic-uav eval campaign --scenes 44 --seed 0 --systems yolo,rules,hybrid --llm ollama:gemma3:4b --workers 2 "
+    "--out runs/c44": "needs an Ollama server and hours; tests/evaluation/ run small campaigns",
+    "agentic-uav eval stats results.csv": "results.csv is yours; tests/evaluation/ run the pipeline",
+    "agentic-uav eval stats results.csv --group system --value processing_time_s --out report/": "results.csv is "
+    "yours; tests/evaluation/ run the pipeline",
+}
+"""README commands not run here, each with why (and where the same thing is tested, when it is)."""
+
+
+def readme_commands() -> list[str]:
+    """Every command line of the README's ``sh`` blocks, its trailing comment and ``&`` taken off."""
+    commands = []
+    for block in re.findall(r"```sh\n(.*?)```", README.read_text(encoding="utf-8"), re.S):
+        for line in block.splitlines():
+            command = re.sub(r"\s+#.*$", "", line).strip().removesuffix("&").strip()
+            if command:
+                commands.append(command)
+    return commands
+
+
+COMMANDS = readme_commands()
+
+
+def test_the_readme_has_commands_and_every_exception_is_still_in_it() -> None:
+    assert len(COMMANDS) > 20
+    assert set(NOT_RUN_HERE) <= set(COMMANDS), set(NOT_RUN_HERE) - set(COMMANDS)
+    assert all(reason.strip() for reason in NOT_RUN_HERE.values())
+
+
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("command", [c for c in COMMANDS if c not in NOT_RUN_HERE])
+def test_a_readme_command_runs(
+    command: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    for name in ("missions", "scenes"):
+        (tmp_path / name).symlink_to(README.parent / name)
+    (tmp_path / "tools").mkdir()  # no __init__.py: the tools package is still the project's
+    (tmp_path / "tools" / "examples").symlink_to(README.parent / "tools" / "examples")
+    monkeypatch.chdir(tmp_path)
+    words = shlex.split(command.split(">")[0])
+    assert words[0] == "agentic-uav", command
+    argv = [w for word in words[1:] for w in (sorted(str(p) for p in Path().glob(word)) if "*" in word else [word])]
+    code = main(argv)
+    out = capsys.readouterr().out
+    assert code == 0, (command, out)
+    assert out.strip(), f"{command} printed nothing"
+    if ">" in command:  # `... > file`: what it prints is what the file would hold
+        target = command.split(">")[1].strip()
+        (tmp_path / target).write_text(out, encoding="utf-8")
+        assert (tmp_path / target).stat().st_size > 100
