@@ -14,6 +14,13 @@ from agentic_core.cli import main
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 NOT_RUN_HERE = {
+    "pip install agentic-uavs": "installs from PyPI; tests/release/ installs the built wheel in a fresh venv",
+    "agentic-uav run hajj_emergency": "minutes of flight over the whole scene; tests/release/ flies the mission by "
+    "name from the installed wheel",
+    "agentic-uav run my-missions/missions/hajj_emergency.yaml": "needs the copy the command before it makes; "
+    "tests/agentic_core/test_examples.py checks that a copied mission finds its copied scene",
+    "agentic-uav run missions/hajj_emergency.yaml --gcs none": "minutes of flight; runs with --gcs fly in "
+    "tests/agentic_core/run/test_ground_station.py",
     "make demo": "reinstalls .venv; it runs `agentic-uav demo` (tests/agentic_core/test_cli.py checks that)",
     "make test": "reinstalls .venv and runs this suite",
     "agentic-uav run missions/hajj_emergency.yaml": "a few minutes of flight; flown in test_shipped_missions.py",

@@ -106,3 +106,18 @@ def test_schema_mission_is_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["schema", "mission"]) == 0
     schema = json.loads(capsys.readouterr().out)
     assert schema["title"] == "agentic-uavs mission (PolicyGraph)" and "steps" in schema["properties"]
+
+
+@pytest.mark.parametrize(("smtp_host", "status"), [(None, 0), ("mail.invalid", 3)])
+def test_the_demo_without_a_mail_server_is_not_a_failure_but_a_failed_mail_server_is(
+    smtp_host: str | None, status: int, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The embedded defaults send no e-mail: the demo's run ends ``degraded`` (exit 3) by design, and the demo says
+    so and exits 0; with a mail server configured, a degraded run is a real one and keeps its status."""
+    monkeypatch.setattr("agentic_core.run.cli.main", lambda argv: 3)
+    if smtp_host is None:
+        monkeypatch.delenv("AGENTIC_UAV_SMTP_HOST", raising=False)
+    else:
+        monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", smtp_host)
+    assert main(["demo"]) == status
+    assert ("outbox" in capsys.readouterr().err) == (status == 0)

@@ -40,14 +40,14 @@ def test_llm_with_an_unreachable_model_stops_before_take_off(
     assert not runs.exists() or not any(runs.iterdir())  # no run folder: nothing flew, nothing to resume
 
 
-def test_hybrid_with_an_unreachable_model_flies_on_rules_alone_and_says_so(tmp_path: Path) -> None:
+def test_hybrid_with_an_unreachable_model_flies_on_rules_alone_and_says_so(tmp_path: Path, smtp: Any) -> None:
     url = f"http://127.0.0.1:{closed_port()}/v1"
     settings = RunSettings(
         mission=EMERGENCY, scene=SCENE, runs_dir=tmp_path, reasoner="hybrid", llm=f"openai-compatible:m@{url}",
         params={"rounds": "1", "still_s": "4"}, camera_hz=15.0,
     )  # fmt: skip
     result = run_mission(settings, progress=None)
-    assert result.summary.outcome in ("completed", "returned"), result.summary
+    assert result.summary.outcome in ("completed", "returned"), result.summary  # the alert was sent: not degraded
     records: list[dict[str, Any]] = [
         json.loads(line) for line in (result.run_dir / "trace.jsonl").read_text(encoding="utf-8").splitlines()
     ]
