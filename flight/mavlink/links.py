@@ -13,6 +13,16 @@ failsafe from firing (a quadrotor's heartbeat). Here:
   it stays so, bound to its address and system id, until it has been silent for the data-link timeout. Only its
   heartbeats feed the data-link failsafe; a heartbeat claiming its system id from another address is not its
   (counted in :attr:`LinkTable.impostors`).
+
+>>> rates = StreamSchedule({0: 1.0})
+>>> rates.due(0.0), rates.due(0.5), rates.due(1.0), rates.set(0, -1, 1.0), rates.due(2.0)
+([0], [], [0], True, [])
+>>> table = LinkTable(max_peers=2)
+>>> _ = table.gcs_heartbeat(("127.0.0.1", 1), 255, 0.0, 10.0)
+>>> for port in (1, 2, 3, 4):
+...     _ = table.heard(("127.0.0.1", port), 0.0, 255, 190, False)
+>>> list(table.peers), table.evicted
+([('127.0.0.1', 1), ('127.0.0.1', 4)], 2)
 """
 
 from __future__ import annotations
