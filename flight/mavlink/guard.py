@@ -16,8 +16,9 @@ Behaviour (PX4's "MAVLink Message Signing" page, read for this), and ours where 
 * SETUP_SIGNING (256), addressed to us or broadcast: refused while armed; with a key, it must be signed with it;
   an all-zero key with a zero timestamp turns signing off; any other key replaces the old one and is stored.
 * Ours, not PX4's: while armed, the safety parameters (:func:`is_safety_param`: fence ``GF_*``, failsafes
-  ``NAV_*``, ``COM_*``, ``BAT_*``, and ``SYS_FAILURE_EN``) can be changed only by a signed PARAM_SET, and a forced
-  disarm in the air (COMPONENT_ARM_DISARM with 21196) needs a signed command. Without signing nobody can.
+  ``NAV_*``, ``COM_*``, ``BAT_*``, and ``SYS_FAILURE_EN``) can be changed only by a signed PARAM_SET, the fence
+  plan (mission type FENCE) replaced or cleared only by signed messages (counted with the parameters), and a
+  forced disarm in the air (COMPONENT_ARM_DISARM with 21196) needs a signed command. Without signing nobody can.
 """
 
 from __future__ import annotations
@@ -111,6 +112,13 @@ class LinkGuard:
             self.refused_params += 1
             return False
         return True
+
+    def fence_plan_locked(self, *, armed: bool) -> str | None:
+        """Why the fence plan in hand may not be replaced or cleared now (None: it may; counted when not)."""
+        if armed and not self.in_hand_signed:
+            self.refused_params += 1
+            return "Fence rejected: armed, and not from a signed link"
+        return None
 
     def may_force_disarm(self, *, flying: bool) -> bool:
         """Whether the forced disarm in hand may cut the motors (counted when not)."""

@@ -17,6 +17,9 @@ vehicle): a peer that keeps reopening an upload blocks only itself. Each upload 
 last one completed wins. At most :data:`MAX_TRANSFER_LINKS` links keep a protocol: a new one takes the place of
 the least recently active idle one, else of the least recently active one that is not ``protected`` (the
 commanding ground station's).
+
+A fence plan cannot be replaced or cleared while ``fence_locked`` gives a reason (the vehicle's: armed, and the
+message not signed with its key; :mod:`flight.mavlink.guard`).
 """
 
 from __future__ import annotations
@@ -61,6 +64,7 @@ class MissionService:
         notify: Callable[[str, int], None],
         clock: Callable[[], float],
         protected: Callable[[Address], bool] = lambda address: False,
+        fence_locked: Callable[[], str | None] = lambda: None,
     ) -> None:
         self.navigator = navigator
         self._mav = mav
@@ -82,6 +86,7 @@ class MissionService:
         )
         self._clock = clock
         self._protected = protected
+        self._fence_locked = fence_locked
         self.protocols: dict[Address, MissionProtocol] = {}
         """One protocol per link, least recently active first."""
         self._announced: MissionStatus | None = None
@@ -119,6 +124,9 @@ class MissionService:
     def _accept(self, mission_type: int, items: list[StoredItem]) -> str | None:
         if mission_type != MAV_MISSION_TYPE_FENCE:
             return None
+        locked = self._fence_locked()
+        if locked is not None:
+            return locked
         home = self.navigator.sim.environment.home
         try:
             Geofence.areas_from_items(items, home.lat_deg, home.lon_deg)

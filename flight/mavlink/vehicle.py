@@ -269,6 +269,7 @@ class MavlinkVehicle(TelemetryBuilders, Sender):
             notify=self.statustext,
             clock=lambda: self._link_clock(),
             protected=lambda address: self.links.commander is not None and self.links.commander[0] == address,
+            fence_locked=lambda: self.guard.fence_plan_locked(armed=self.sim.armed),
         )
         self._builders: dict[int, tuple[WireCodec, Callable[[], Fields]]] = {
             MSG_HEARTBEAT: (HEARTBEAT, self._heartbeat_fields),

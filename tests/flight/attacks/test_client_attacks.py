@@ -97,7 +97,7 @@ def test_the_signed_client_flies_the_signed_vehicle_and_a_wrong_key_is_not_heard
             assert (await client.land()).ok
             report = client.link_report()
             assert report["signed"] > 50 and report["unsigned"] == report["bad_signature"] == 0
-        assert vehicle.security()["signed"] > 5 and vehicle.security()["unsigned"] == 0
+        assert vehicle.security()["signed"] >= 4 and vehicle.security()["unsigned"] == 0  # its 4 commands at least
         with pytest.raises(VehicleConnectionError):  # every heartbeat is refused: no vehicle is found
             await VehicleClient.connect(vehicle.address, timeout_s=1.5, signing_key=new_key())
 

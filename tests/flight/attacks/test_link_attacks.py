@@ -108,3 +108,33 @@ def test_a_peer_reopening_uploads_cannot_block_another_peers_upload(open_vehicle
         link.mav.send(item(seq, 0.0001 * (seq + 1)))
     ack = link.wait("MISSION_ACK", 2.0, lambda a: a.target_system == 255)
     assert ack is not None and ack.type == ACCEPTED and link.vehicle.missions.store.count(0) == 2
+
+
+def _ack_to(link, attacker, ticks=50):
+    for _ in range(ticks):
+        link.step()
+        acks = [a for a in attacker.listen() if a.get_type() == "MISSION_ACK"]
+        if acks:
+            return acks[-1]
+    return None
+
+
+def test_the_fence_plan_cannot_be_replaced_or_cleared_in_the_air_unsigned(open_vehicle, attackers):
+    link = open_vehicle
+    take_off(link, 8.0)
+    stranger = attackers(link.vehicle.address, system_id=200)
+    fence = m.MAV_MISSION_TYPE_FENCE
+    stranger.send(stranger.mav.mission_clear_all_encode(1, 1, fence))
+    ack = _ack_to(link, stranger)
+    assert ack is not None and ack.type == m.MAV_MISSION_ERROR
+    home = link.vehicle.sim.environment.home
+    stranger.send(stranger.mav.mission_count_encode(1, 1, 1, fence))
+    link.run_for(0.1)
+    circle = stranger.mav.mission_item_int_encode(
+        1, 1, 0, m.MAV_FRAME_GLOBAL, m.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 0, 1, 5000.0, 0, 0, 0,
+        round(home.lat_deg * 1e7), round(home.lon_deg * 1e7), 0, fence,
+    )  # fmt: skip
+    stranger.send(circle)
+    ack = _ack_to(link, stranger)
+    assert ack is not None and ack.type == m.MAV_MISSION_ERROR
+    assert link.vehicle.missions.store.count(fence) == 0 and link.vehicle.security()["refused_params"] == 2
