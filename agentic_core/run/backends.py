@@ -4,7 +4,7 @@
 * :class:`SimBackend` — the embedded default: the JSBSim F450 behind our PX4-like MAVLink vehicle on 127.0.0.1, in
   this process. Its telemetry samples come in lockstep from the vehicle's own thread, and its speed follows the
   agent (:class:`~agentic_core.agent.pacing.Pace`). It can be snapshotted and restored, so a killed run resumes
-  with the aircraft where it was.
+  with the aircraft where it was. Given a ``signing_key``, it takes only messages signed with it.
 * :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
   process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
 """
@@ -35,6 +35,8 @@ class Backend(Protocol):
     """What a run needs of its vehicle backend."""
 
     kind: str
+    signing_key: bytes | None
+    """What the run's client signs with (None: the vehicle does not ask for signing)."""
 
     @property
     def address(self) -> tuple[str, int]: ...
@@ -57,10 +59,19 @@ class SimBackend:
 
     kind = "sim"
 
-    def __init__(self, *, home: Home | None, seed: int, pace: Pace, restore: dict[str, Any] | None = None) -> None:
+    def __init__(
+        self,
+        *,
+        home: Home | None,
+        seed: int,
+        pace: Pace,
+        restore: dict[str, Any] | None = None,
+        signing_key: bytes | None = None,
+    ) -> None:
         self.pace = pace
+        self.signing_key = signing_key
         self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed)
-        self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None)
+        self.vehicle = MavlinkVehicle(self.sim, gcs=None, api=None, signing_key=signing_key)
         if restore is not None:
             try:
                 self.vehicle.restore(VehicleSnapshot.model_validate(restore))
@@ -106,6 +117,7 @@ class LinkBackend:
     them to the hooks, so perception never holds up the link."""
 
     kind = "link"
+    signing_key: bytes | None = None
 
     def __init__(self, url: str, *, camera_hz: float = 30.0) -> None:
         self.url = url

@@ -48,6 +48,7 @@ from ..reasoning.reasoners import Reasoner, make_reasoner
 from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
+from .link_key import keep_signing_key, run_signing_key
 from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
@@ -98,7 +99,7 @@ class MissionRun:
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
-                restore=snapshot.vehicle if snapshot else None,
+                restore=snapshot.vehicle if snapshot else None, signing_key=run_signing_key(self.run_dir),
             )
         )  # fmt: skip
         try:
@@ -126,6 +127,7 @@ class MissionRun:
         self.reasoner: Reasoner = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
+        keep_signing_key(self.run_dir, self.backend.signing_key)
         self.trace = TraceWriter(self.run_dir / "trace.jsonl")
         earlier = read_jsonl(self.run_dir / "trace.jsonl") if self.resuming else []
         self.trace.records.extend(earlier)
@@ -216,7 +218,7 @@ class MissionRun:
 
     async def _connect(self) -> VehicleClient:
         host, port = self.backend.address
-        client = await VehicleClient.connect(f"{host}:{port}", timeout_s=10.0)
+        client = await VehicleClient.connect(f"{host}:{port}", timeout_s=10.0, signing_key=self.backend.signing_key)
         self.backend.attach(client)
         await self.backend.raise_rates(client)
         self._client = client

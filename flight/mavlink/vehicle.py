@@ -14,7 +14,8 @@ possible), usually on a thread started by :meth:`MavlinkVehicle.start` and ended
 
 Robustness: each datagram is parsed by a fresh pymavlink parser in robust mode, so a truncated or corrupt datagram
 cannot leave bytes behind that spoil the next one; a datagram that yields no valid message is counted in
-``stats.rx_dropped`` and ignored, and a sender is only learned as a peer after a valid message.
+``stats.rx_dropped`` and ignored, and a sender is only learned as a peer after a message the guard accepted (a
+datagram whose every message it refused counts in ``stats.rx_refused``).
 
 Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20/common.py``; PX4 behaviour from
 the PX4 user guide and MAVLink developer guide):
