@@ -7,6 +7,7 @@
   with the aircraft where it was. Given a ``signing_key``, it takes only messages signed with it.
 * :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
   process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
+  Given a ``signing_key`` file, the client signs with the key in it (a bad file is an InputError naming it).
 """
 
 from __future__ import annotations
@@ -14,12 +15,14 @@ from __future__ import annotations
 import queue
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, Protocol
 from urllib.parse import urlsplit
 
 from flight.client.streams import CAMERA_STREAMS
 from flight.mavlink import MavlinkVehicle
 from flight.mavlink.snapshot import VehicleSnapshot
+from flight.signing import read_key_file
 from flight.sim import Environment as SimEnvironment
 from flight.sim import Simulator
 from flight.sim.environment import Home
@@ -117,10 +120,10 @@ class LinkBackend:
     them to the hooks, so perception never holds up the link."""
 
     kind = "link"
-    signing_key: bytes | None = None
 
-    def __init__(self, url: str, *, camera_hz: float = 30.0) -> None:
+    def __init__(self, url: str, *, camera_hz: float = 30.0, signing_key: Path | None = None) -> None:
         self.url = url
+        self.signing_key = read_key_file(signing_key) if signing_key is not None else None
         self.camera_hz = camera_hz
         self._address = parse_link(url)
         self._hooks: list[SampleHook] = []

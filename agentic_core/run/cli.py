@@ -42,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--connect", metavar="URL", help="fly the vehicle at this MAVLink address (udp://HOST:PORT), not the simulator"
     )
+    parser.add_argument("--signing-key", type=Path, metavar="FILE", help="sign the --connect link with this key")
     parser.add_argument("--scene", type=Path, help="the simulated scene (default: scenes/<mission name>.yaml)")
     parser.add_argument(
         "--reasoner", default="rules", choices=("yolo", "rules", "llm", "hybrid"), help="who assesses (default rules)"
@@ -79,7 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     progress = None if args.quiet else sys.stderr
     if args.resume is not None:
-        if args.mission is not None or args.connect is not None or args.param or args.scene is not None:
+        if args.mission is not None or args.connect is not None or args.param or args.scene or args.signing_key:
             print(
                 f"{PROG}: error: --resume takes the run's own mission, scene, vehicle and parameters", file=sys.stderr
             )
@@ -103,6 +104,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.decline and args.approval not in (None, "decline"):
         print(f"{PROG}: error: --decline contradicts --approval {args.approval}", file=sys.stderr)
         return 2
+    if args.signing_key is not None and args.connect is None:
+        print(f"{PROG}: error: --signing-key goes with --connect (the simulator makes a key per run)", file=sys.stderr)
+        return 2
     if args.scene is not None and not args.scene.is_file():
         print(f"{PROG}: error: {args.scene}: no such scene file", file=sys.stderr)
         return 2
@@ -114,6 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             llm=args.llm,
             speed=getattr(args, "speed", None),
             connect=args.connect,
+            signing_key=args.signing_key,
             approval=args.approval or ("decline" if args.decline else "approve"),
             approval_timeout_s=args.approval_timeout_s,
             runs_dir=args.runs_dir,

@@ -95,7 +95,7 @@ class MissionRun:
         self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
         self.pace = Pace(settings.speed)
         self.backend: Backend = (
-            LinkBackend(settings.connect, camera_hz=settings.camera_hz)
+            LinkBackend(settings.connect, camera_hz=settings.camera_hz, signing_key=settings.signing_key)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,

@@ -48,6 +48,9 @@ class RunSettings(BaseModel):
     connect: str | None = Field(
         default=None, description="fly the vehicle at this MAVLink address (udp://HOST:PORT) instead of the simulator"
     )
+    signing_key: Path | None = Field(
+        default=None, description="with connect: the MAVLink 2 signing key file (32 raw bytes or 64 hex digits)"
+    )
     telemetry_hz: float = Field(default=10.0, gt=0, le=100, description="rate of telemetry.jsonl, Hz of vehicle time")
 
 
