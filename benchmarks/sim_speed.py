@@ -9,6 +9,12 @@ Cases, in one run:
   thread (``start(speed=None)``, as ``agentic-uav sim --speed max``) and streaming its telemetry at the default rates
   to a pymavlink ground station in another process, which sends a HEARTBEAT every wall second as a ground station
   does. The client counts what it receives, so the report also says whether the streams kept their rates.
+  With ``--signing on`` (the default) vehicle and client share a MAVLink 2 signing key: the vehicle signs every
+  frame and checks the client's; ``--signing off`` flies it unsigned.
+
+The report also gives the cost of signing per message, timed in this process: packing a GLOBAL_POSITION_INT
+unsigned (the vehicle's fast path) and signed (pymavlink's path with the signature), and checking a signed frame
+as the vehicle does (:meth:`flight.signing.Signer.check`).
 
 The client drains its socket every 10 ms (``--client poll``, the default) rather than sleeping in ``select`` until
 each datagram (``--client select``): a sleeping receiver is woken by every datagram and the *sender* pays for the
@@ -21,7 +27,8 @@ the best run of each is reported, with every run's rate, the ratios (b)/(a) and 
 Wall-clock rates are the measure; the report adds the same rates per second of CPU used by the benchmark's process
 (user + system, all threads), which shows what the machine would give without the other work sharing its CPUs.
 
-Usage: ``python benchmarks/sim_speed.py [--seconds 60] [--repeats 3] [--quick] [--client poll|select] [--strict]``.
+Usage: ``python benchmarks/sim_speed.py [--seconds 60] [--repeats 3] [--quick] [--client poll|select]
+[--signing on|off] [--strict]``.
 Exit status 0 whether the targets are met or not (``--strict``: 1 on MISS).
 """
 
@@ -111,7 +118,7 @@ def with_controller(seconds: float) -> Run:
 # -- (c): the vehicle and a ground station in another process --------------------------------------------------------
 
 
-def ground_station(port: int, ready: Connection, stop: Connection, poll_s: float) -> None:
+def ground_station(port: int, ready: Connection, stop: Connection, poll_s: float, key: bytes | None = None) -> None:
     """The client process: receive everything the vehicle streams, count it by type, send a HEARTBEAT every wall
     second (pymavlink, as a script or MAVProxy would); the counts go back through ``stop`` when told to stop.
     ``poll_s`` > 0 drains the socket that often; 0 sleeps in ``select`` until each datagram."""
@@ -119,6 +126,10 @@ def ground_station(port: int, ready: Connection, stop: Connection, poll_s: float
     from pymavlink import mavutil
 
     link = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
+    if key is not None:
+        from flight.signing import now_timestamp
+
+        link.setup_signing(key, sign_outgoing=True, initial_timestamp=now_timestamp(), link_id=1)
     counts: Counter[str] = Counter()
     ready.send(True)
     next_beat = 0.0
@@ -146,7 +157,7 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def mavlink_vehicle(seconds: float, poll_s: float = CLIENT_POLL_S) -> Run:
+def mavlink_vehicle(seconds: float, poll_s: float = CLIENT_POLL_S, key: bytes | None = None) -> Run:
     from pymavlink.dialects.v20 import common as mavlink2
 
     from flight.mavlink import DEFAULT_RATES_HZ, MavlinkVehicle
@@ -155,7 +166,7 @@ def mavlink_vehicle(seconds: float, poll_s: float = CLIENT_POLL_S) -> Run:
     ctx = mp.get_context("spawn")
     ready_rx, ready_tx = ctx.Pipe(duplex=False)
     stop_here, stop_there = ctx.Pipe()
-    client = ctx.Process(target=ground_station, args=(port, ready_tx, stop_there, poll_s), daemon=True)
+    client = ctx.Process(target=ground_station, args=(port, ready_tx, stop_there, poll_s, key), daemon=True)
     client.start()
     try:
         if not ready_rx.poll(30.0):
@@ -163,7 +174,7 @@ def mavlink_vehicle(seconds: float, poll_s: float = CLIENT_POLL_S) -> Run:
         ready_rx.recv()
         sim = Simulator(seed=1)
         sim.set_wind(WIND)
-        with MavlinkVehicle(sim, gcs=("127.0.0.1", port), api=None) as vehicle:
+        with MavlinkVehicle(sim, gcs=("127.0.0.1", port), api=None, signing_key=key) as vehicle:
             vehicle.navigator.arm()
             vehicle.navigator.takeoff(10.0)
             sim0 = sim.time_s
@@ -186,6 +197,37 @@ def mavlink_vehicle(seconds: float, poll_s: float = CLIENT_POLL_S) -> Run:
             client.terminate()
 
 
+def signing_cost(n: int = 20000) -> tuple[float, float, float]:
+    """CPU µs per message (this process's CPU time: the machine's other load does not inflate it): packing a
+    GLOBAL_POSITION_INT unsigned (fast path) and signed, and checking a signed one."""
+    from pymavlink.dialects.v20 import common as mavlink2
+
+    from flight.mavlink.telemetry import GLOBAL_POSITION_INT
+    from flight.signing import Signer, new_key
+
+    fields = (1000, 214133000, 398933000, 310000, 10000, 12, -3, 0, 9000)
+    key = new_key()
+    plain = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+    signed = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+    Signer(key).attach(signed)
+    t0 = time.process_time()
+    for _ in range(n):
+        GLOBAL_POSITION_INT.pack(plain, fields)
+    t1 = time.process_time()
+    frames = [GLOBAL_POSITION_INT.pack(signed, fields) for _ in range(n)]
+    t2 = time.process_time()
+    parser = mavlink2.MAVLink(None)
+    msgs = [parser.decode(bytearray(f)) for f in frames]
+    checker = Signer(key, required=True)
+    t3 = time.process_time()
+    for msg in msgs:
+        checker.check(msg)
+    t4 = time.process_time()
+    if checker.counters.signed != n:
+        raise RuntimeError(f"only {checker.counters.signed} of {n} signed frames checked good")
+    return (t1 - t0) / n * 1e6, (t2 - t1) / n * 1e6, (t4 - t3) / n * 1e6
+
+
 # -- the report -------------------------------------------------------------------------------------------------------
 
 
@@ -205,8 +247,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="10 s, one repeat (smoke test)")
     parser.add_argument("--client", choices=("poll", "select"), default="poll", help="how the ground station reads")
+    parser.add_argument("--signing", choices=("on", "off"), default="on", help="sign the MAVLink link in (c)")
     parser.add_argument("--strict", action="store_true", help="exit 1 when a target is missed")
     args = parser.parse_args(argv)
+    from flight.signing import new_key
+
+    key = new_key() if args.signing == "on" else None
     seconds, repeats = (10.0, 1) if args.quick else (args.seconds, args.repeats)
     poll_s = CLIENT_POLL_S if args.client == "poll" else 0.0
 
@@ -217,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     for _ in range(repeats):  # interleaved: load elsewhere on the machine hits every case alike
         a_runs.append(bare_jsbsim(seconds))
         b_runs.append(with_controller(seconds))
-        c_runs.append(mavlink_vehicle(seconds, poll_s))
+        c_runs.append(mavlink_vehicle(seconds, poll_s, key))
     load_after = os.getloadavg()
     a = max(r.rate for r in a_runs)
     b = max(r.rate for r in b_runs)
@@ -232,13 +278,18 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'case':<40} {'sim s/wall s':>10} {'sim s/CPU s':>10}   every run (wall)")
     print(row("(a) bare JSBSim F450", a_runs))
     print(row("(b) simulator + controller (50 Hz)", b_runs))
-    print(row("(c) MAVLink vehicle + telemetry client", c_runs))
+    print(row(f"(c) MAVLink vehicle + client, signing {args.signing}", c_runs))
     print(f"ratio (b)/(a): {b / a:.2f}")
     print(f"ratio (c)/(a): {c / a:.2f} (per CPU second: {c_cpu / a_cpu:.2f})")
     got = sum(c_best.received.get(k, 0) for k in c_best.expected)
     print(
         f"telemetry in (c): the client received {got} of {sum(c_best.expected.values()):.0f} streamed messages"
         f" ({c_best.delivered:.1%}) at the default rates"
+    )
+    plain_us, signed_us, check_us = signing_cost()
+    print(
+        f"signing cost per message (CPU time): pack {plain_us:.1f} us unsigned, {signed_us:.1f} us signed"
+        f" (+{signed_us - plain_us:.1f} us); check a signed frame {check_us:.1f} us"
     )
     fast = c >= TARGET_REAL_TIME
     half = c >= TARGET_FRACTION_OF_A * a

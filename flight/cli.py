@@ -15,6 +15,12 @@ listens, then runs until interrupted, and stops cleanly (the socket closed, exit
 >>> parse_address("127.0.0.1:14550"), parse_address("none")
 (('127.0.0.1', 14550), None)
 
+Signing (MAVLink 2, :mod:`flight.mavlink.guard`): ``--signing-key FILE`` (32 raw bytes or 64 hex digits; a bad
+file is an error naming it, exit status 2) makes the vehicle sign and take only messages signed with that key;
+``--state-dir DIR`` keeps a key set by SETUP_SIGNING across restarts, as PX4 keeps it
+(``DIR/mavlink/mavlink-signing-key.bin``, mode 0600); ``--require-signing`` refuses commands while there is no key.
+On stop it prints what the guard refused.
+
 The first line on standard output says where it listens: ``agentic-uav sim: listening on HOST:PORT; ...``.
 """
 
@@ -116,6 +122,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--param", type=parse_param, action="append", default=[], metavar="NAME=VALUE", help="a vehicle parameter"
     )
+    parser.add_argument(
+        "--signing-key", default=None, metavar="FILE", help="MAVLink 2 signing key: 32 raw bytes or 64 hex digits"
+    )
+    parser.add_argument(
+        "--state-dir", default=None, metavar="DIR", help="keep a key set by SETUP_SIGNING here (as PX4 does)"
+    )
+    parser.add_argument(
+        "--require-signing", action="store_true", default=None, help="refuse commands while there is no key"
+    )
     return parser
 
 
@@ -156,14 +171,28 @@ def _main(argv: Sequence[str] | None) -> int:
         return 2
 
     from flight.mavlink import MavlinkVehicle
+    from flight.signing import read_key_file
 
+    key = read_key_file(args.signing_key) if args.signing_key is not None else None
+    store = Path(args.state_dir) / "mavlink" / "mavlink-signing-key.bin" if args.state_dir is not None else None
     try:
         sim, snapshot = _simulator(args)
     except ValueError as exc:  # a bad home, scene or snapshot: the user's input
         print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
         return 2
     try:
-        vehicle = MavlinkVehicle(sim, gcs=args.gcs, api=args.api, bind=args.bind, params=dict(args.param))
+        vehicle = MavlinkVehicle(
+            sim,
+            gcs=args.gcs,
+            api=args.api,
+            bind=args.bind,
+            params=dict(args.param),
+            signing_key=key,
+            key_store=store,
+            require_signing=args.require_signing,
+        )
+    except AgenticUAVError:
+        raise
     except (OSError, ValueError) as exc:
         print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
         return 1
@@ -189,9 +218,10 @@ def _main(argv: Sequence[str] | None) -> int:
         host, port = vehicle.address
         targets = ", ".join(f"{name} {a[0]}:{a[1]}" for name, a in (("gcs", args.gcs), ("api", args.api)) if a)
         speed = "max" if args.speed is None else f"{args.speed:g}x"
+        signing = "on" if vehicle.guard.active else "required, no key" if vehicle.guard.signer.required else "off"
         print(
             f"agentic-uav sim: listening on {host}:{port}; sending to {targets or 'nobody until contacted'}; "
-            f"speed {speed}; Ctrl-C or SIGTERM stops it",
+            f"speed {speed}; signing {signing}; Ctrl-C or SIGTERM stops it",
             flush=True,
         )
         while not stop.wait(0.2):
@@ -205,7 +235,8 @@ def _main(argv: Sequence[str] | None) -> int:
             with contextlib.suppress(TypeError, ValueError):
                 signal.signal(signum, handler)  # type: ignore[arg-type]
         if stop.is_set():
-            print("agentic-uav sim: stopped", flush=True)
+            refused = {k: v for k, v in vehicle.security().items() if v and k not in ("signed", "allowed_unsigned")}
+            print(f"agentic-uav sim: stopped; refused {refused or 'nothing'}", flush=True)
 
 
 if __name__ == "__main__":

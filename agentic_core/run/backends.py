@@ -5,10 +5,12 @@
   this process. Its telemetry samples come in lockstep from the vehicle's own thread, and its speed follows the
   agent (:class:`~agentic_core.agent.pacing.Pace`). It can be snapshotted and restored, so a killed run resumes
   with the aircraft where it was. While an injected MAVLink failure has cut the link, it hands out no samples.
+  Given a ``signing_key``, it takes only messages signed with it.
   It also streams to a ground station (``gcs``), PX4-style: a ground station there that talks back is answered
   and can command it.
 * :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
   process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
+  Given a ``signing_key`` file, the client signs with the key in it (a bad file is an InputError naming it).
 
 Either one records its link in a ``.tlog`` (``tlog``, :mod:`flight.tlog`): the simulated vehicle's every frame sent
 and taken in, stamped on its simulated clock; for a vehicle of its own, what the agent's client sends and hears.
@@ -27,6 +29,7 @@ from urllib.parse import urlsplit
 from flight.client.streams import CAMERA_STREAMS
 from flight.mavlink import MavlinkVehicle
 from flight.mavlink.snapshot import VehicleSnapshot
+from flight.signing import read_key_file
 from flight.sim import Environment as SimEnvironment
 from flight.sim import Simulator
 from flight.sim.environment import Home
@@ -43,6 +46,8 @@ class Backend(Protocol):
     """What a run needs of its vehicle backend."""
 
     kind: str
+    signing_key: bytes | None
+    """What the run's client signs with (None: the vehicle does not ask for signing)."""
 
     @property
     def address(self) -> tuple[str, int]: ...
@@ -74,13 +79,15 @@ class SimBackend:
         restore: dict[str, Any] | None = None,
         gcs: tuple[str, int] | None = None,
         tlog: Path | None = None,
+        signing_key: bytes | None = None,
     ) -> None:
         self.pace = pace
         self.tlog_path = tlog
         self.tlog: TlogWriter | None = None
+        self.signing_key = signing_key
         ground = resolve(gcs) if gcs else None
         self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed)
-        self.vehicle = MavlinkVehicle(self.sim, gcs=ground, api=None)
+        self.vehicle = MavlinkVehicle(self.sim, gcs=ground, api=None, signing_key=signing_key)
         if restore is not None:
             try:
                 self.vehicle.restore(VehicleSnapshot.model_validate(restore))
@@ -135,10 +142,13 @@ class LinkBackend:
 
     kind = "link"
 
-    def __init__(self, url: str, *, camera_hz: float = 30.0, tlog: Path | None = None) -> None:
+    def __init__(
+        self, url: str, *, camera_hz: float = 30.0, tlog: Path | None = None, signing_key: Path | None = None
+    ) -> None:
         self.url = url
         self.tlog_path = tlog
         self.tlog: TlogWriter | None = None
+        self.signing_key = read_key_file(signing_key) if signing_key is not None else None
         self.camera_hz = camera_hz
         self._address = parse_link(url)
         self._hooks: list[SampleHook] = []

@@ -55,6 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--scene", type=Path, help="the simulated scene, a file or a shipped name (default: scenes/<mission>.yaml)"
     )
+    parser.add_argument("--signing-key", type=Path, metavar="FILE", help="sign the --connect link with this key")
     parser.add_argument(
         "--reasoner", default="rules", choices=("yolo", "rules", "llm", "hybrid"), help="who assesses (default rules)"
     )
@@ -114,6 +115,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             or args.scene is not None
             or args.fault
             or args.tools
+            or args.signing_key
         ):
             print(
                 f"{PROG}: error: --resume takes the run's own mission, scene, vehicle, parameters, faults and tools",
@@ -151,6 +153,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.gcs is not None and args.connect is not None:
         print(f"{PROG}: error: --gcs is for the simulated vehicle; one at --connect streams itself", file=sys.stderr)
         return 2
+    if args.signing_key is not None and args.connect is None:
+        print(f"{PROG}: error: --signing-key goes with --connect (the simulator makes a key per run)", file=sys.stderr)
+        return 2
     try:
         mission = resolve_mission(args.mission)
         scene = None if args.scene is None else resolve_scene(args.scene)
@@ -164,6 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             llm=args.llm,
             speed=getattr(args, "speed", None),
             connect=args.connect,
+            signing_key=args.signing_key,
             approval=args.approval or ("decline" if args.decline else "approve"),
             approval_timeout_s=args.approval_timeout_s,
             runs_dir=args.runs_dir,

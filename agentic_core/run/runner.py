@@ -48,6 +48,7 @@ from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
 from .faults import SCHEDULE, FaultSchedule
+from .link_key import keep_signing_key, run_signing_key
 from .model_check import require_model
 from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
@@ -99,11 +100,12 @@ class MissionRun:
         self.pace = Pace(settings.speed)
         tlog = self.run_dir / "flight.tlog"
         self.backend: Backend = (
-            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog)
+            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
                 restore=snapshot.vehicle if snapshot else None, gcs=settings.gcs_address, tlog=tlog,
+                signing_key=run_signing_key(self.run_dir),
             )
         )  # fmt: skip
         try:
@@ -133,6 +135,7 @@ class MissionRun:
         self.reasoner, self.model_note = require_model(chosen)
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
+        keep_signing_key(self.run_dir, self.backend.signing_key)
         self.trace = TraceWriter(self.run_dir / "trace.jsonl")
         earlier = read_jsonl(self.run_dir / "trace.jsonl") if self.resuming else []
         self.trace.records.extend(earlier)
@@ -234,7 +237,7 @@ class MissionRun:
 
     async def _connect(self) -> VehicleClient:
         host, port = self.backend.address
-        client = await VehicleClient.connect(f"{host}:{port}", timeout_s=10.0)
+        client = await VehicleClient.connect(f"{host}:{port}", timeout_s=10.0, signing_key=self.backend.signing_key)
         self.backend.attach(client)
         await self.backend.raise_rates(client)
         self._client = client

@@ -76,6 +76,9 @@ class RunSettings(BaseModel):
     tools: list[str] = Field(
         default_factory=list, description="more tools: modules, .py files or YAML/JSON files of HTTP endpoints"
     )
+    signing_key: Path | None = Field(
+        default=None, description="with connect: the MAVLink 2 signing key file (32 raw bytes or 64 hex digits)"
+    )
     telemetry_hz: float = Field(default=10.0, gt=0, le=100, description="rate of telemetry.jsonl, Hz of vehicle time")
     faults: list[FaultText] = Field(
         default_factory=list, description="failures to inject (--fault), beside the scene's own faults: list"

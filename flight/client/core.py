@@ -89,6 +89,7 @@ class ClientBase:
         heartbeat_hz: float = 1.0,
         ack_timeout_s: float = ACK_TIMEOUT_S,
         ack_attempts: int = ACK_ATTEMPTS,
+        signing_key: bytes | None = None,
     ) -> None:
         if not (1 <= source_system <= 255 and 0 <= source_component <= 255):
             raise ValueError("source system is 1..255, component 0..255")
@@ -115,6 +116,7 @@ class ClientBase:
             on_messages=self._on_messages,
             target_system=target_system,
             heartbeat_period_s=1.0 / heartbeat_hz,
+            signing_key=signing_key,
         )
         self._link.start()
 
@@ -132,8 +134,10 @@ class ClientBase:
         heartbeat_hz: float = 1.0,
         ack_timeout_s: float = ACK_TIMEOUT_S,
         ack_attempts: int = ACK_ATTEMPTS,
+        signing_key: bytes | None = None,
     ) -> Self:
-        """Open the link and wait for the vehicle's HEARTBEAT; :class:`VehicleConnectionError` after ``timeout_s``."""
+        """Open the link and wait for the vehicle's HEARTBEAT; :class:`VehicleConnectionError` after ``timeout_s``.
+        With ``signing_key`` (32 bytes) every message is signed and only the vehicle's signed messages are taken."""
         client = cls(
             address,
             source_system=source_system,
@@ -142,6 +146,7 @@ class ClientBase:
             heartbeat_hz=heartbeat_hz,
             ack_timeout_s=ack_timeout_s,
             ack_attempts=ack_attempts,
+            signing_key=signing_key,
         )
         try:
             beat = await client._wait(lambda m: m if m is not None and m.get_type() == "HEARTBEAT" else None, timeout_s)
@@ -191,6 +196,14 @@ class ClientBase:
         """Call ``hook`` with every MAVLink frame this client sends to or takes from its vehicle, from now on (in
         the thread that sends or reads it), e.g. a :class:`flight.tlog.TlogWriter`."""
         self._link.on_wire.append(hook)
+
+    def link_report(self) -> dict[str, int]:
+        """What the link refused: messages from elsewhere than the vehicle (``foreign``) and the signing verdicts."""
+        link = self._link
+        out = {"messages": link.rx_messages, "dropped": link.rx_dropped, "foreign": link.rx_foreign}
+        if link.signing is not None:
+            out.update(link.signing.counters.as_dict())
+        return out
 
     def close(self) -> None:
         """Stop the reader thread and close the socket (idempotent). Pending waits end as timeouts."""

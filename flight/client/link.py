@@ -13,6 +13,12 @@ the vehicle's messages come from.
 
 The vehicle is the first system whose HEARTBEAT is not a ground station's (MAV_TYPE_GCS 6) nor
 MAV_AUTOPILOT_INVALID 8, unless a system id was given.
+
+Trust: only messages from the vehicle's address (the one sent to, resolved; when listening, the one its first
+heartbeat came from) and system id are taken; anything else is counted in ``rx_foreign`` and ignored, so a
+spoofer on another socket cannot feed the client telemetry. With a signing key (:mod:`flight.signing`) every
+message we send is signed, and every message from the vehicle must be signed with the key and fresh (counted in
+``signing.counters`` when not).
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from agentic_core.contracts.errors import RunFailure
+from flight.signing import Signer
 
 Address = tuple[str, int]
 MAX_DATAGRAMS_PER_WAKE = 1000
@@ -53,6 +60,17 @@ def parse_address(address: str | Address) -> tuple[Address, bool]:
     return (host or "0.0.0.0", int(port)), listen
 
 
+def _resolved(where: Address) -> Address:
+    """``where`` with its host as the IPv4 address replies come from (a name resolved; any-address as loopback)."""
+    host, port = where
+    if host in ("", "0.0.0.0"):
+        return "127.0.0.1", port
+    try:
+        return socket.gethostbyname(host), port
+    except OSError as exc:
+        raise VehicleConnectionError(f"cannot resolve the vehicle's host {host!r}: {exc}") from exc
+
+
 class VehicleConnectionError(RunFailure, ConnectionError):
     """No heartbeat from a vehicle within the connect timeout (or the socket could not be opened)."""
 
@@ -70,6 +88,7 @@ class Link:
         on_messages: Callable[[list[Any]], None],
         target_system: int | None = None,
         heartbeat_period_s: float = 1.0,
+        signing_key: bytes | None = None,
     ) -> None:
         where, listen = parse_address(address)
         self.target_system = target_system
@@ -80,11 +99,19 @@ class Link:
         self.on_wire: list[Callable[[bytes], None]] = []
         """Called with every frame sent to or kept from the vehicle (e.g. a flight log), in the sending or reading
         thread; what one raises is ignored."""
+        self.rx_foreign = 0
+        """Messages from another address than the vehicle's (or, once known, claiming its id from elsewhere)."""
+        self.signing: Signer | None = None
+        """With a key: signs what we send, and judges what we hear (nothing unsigned is taken from the vehicle)."""
+        if signing_key is not None:
+            self.signing = Signer(signing_key, required=True, allow_unsigned=frozenset(), link_id=1)
+            self.signing.attach(mav)
         self._mav = mav
         self._lock = lock
         self._on_messages = on_messages
         self._heartbeat_period_s = heartbeat_period_s
         self._closed = threading.Event()
+        remote = None if listen else _resolved(where)
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             loopback = where[0] in ("127.0.0.1", "localhost")
@@ -93,7 +120,7 @@ class Link:
         except OSError as exc:
             self._sock.close()
             raise VehicleConnectionError(f"cannot open a UDP socket for {address!r}: {exc}") from exc
-        self.remote: Address | None = None if listen else where
+        self.remote: Address | None = remote
         """Where the vehicle is (None until heard from, when listening)."""
         self._thread = threading.Thread(target=self._read_loop, name="mavlink-client", daemon=True)
 
@@ -126,6 +153,8 @@ class Link:
         if remote is None or self._closed.is_set():
             return
         with self._lock:
+            if self.signing is not None:
+                self.signing.tick()
             buf = msg.pack(self._mav)
             self._mav.seq = (self._mav.seq + 1) % 256
         try:
@@ -176,6 +205,12 @@ class Link:
             self.rx_dropped += 1
             return
         with self._lock:
+            if self.remote is not None and sender != self.remote:
+                self.rx_foreign += len(msgs)
+                return
+            signing = self.signing
+            if signing is not None:
+                msgs = [msg for msg in msgs if signing.check(msg).accepted]
             mine = [msg for msg in msgs if self._from_vehicle(msg, sender)]
             self.rx_messages += len(mine)
             for msg in mine:

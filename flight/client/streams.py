@@ -8,7 +8,7 @@ callback.
 
 Facts relied on (MAVLink ``common.xml`` through pymavlink's ``dialects/v20/common.py``): MAV_CMD_SET_MESSAGE_INTERVAL
 511, param1 the message id, param2 the interval in µs (-1 stops the stream, 0 restores the default); PX4 keeps one
-rate table per link, so the rates change for this client's link only (the simulated vehicle keeps one for all).
+rate table per link, so the rates change for this client's link only (so does the simulated vehicle).
 """
 
 from __future__ import annotations

@@ -28,6 +28,9 @@ Facts relied on (MAVLink ``common.xml`` as generated into pymavlink's ``dialects
   (``goto_location`` converts its ``yaw_deg`` to radians), so we read radians too. NAV_TAKEOFF's param4 is read in
   degrees as ``common.xml`` says (PX4 1.14 ignores it).
 
+A forced disarm (param2 21196) while flying is carried out only for a command signed with the vehicle's key
+(:meth:`~flight.mavlink.guard.LinkGuard.may_force_disarm`); PX4 obeys it from anyone.
+
 Payload: DO_GRIPPER RELEASE and DO_SET_SERVO with a PWM of at least :data:`PAYLOAD_RELEASE_PWM` (any instance)
 release the simulator's payload; it cannot be grabbed again.
 """
@@ -67,6 +70,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from flight.mavlink.failures import FailureInjector
+from flight.mavlink.guard import LinkGuard
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.px4 import FlightMode
 from flight.sim import Simulator, geodetic_to_ned
@@ -133,6 +137,8 @@ class CommandContext(Protocol):
     sim: Simulator
     navigator: Navigator
     failures: FailureInjector
+    guard: LinkGuard
+    """Whether the command in hand came signed (a forced disarm in the air needs it)."""
 
     def statustext(self, text: str, severity: int = ...) -> None: ...
     def set_message_interval(self, message_id: int, interval_us: float) -> bool: ...
@@ -185,6 +191,9 @@ def _arm_disarm(ctx: CommandContext, req: CommandRequest) -> CommandOutcome:
         ctx.navigator.arm(force)
         return _ok()
     if arm == 0:
+        flying = ctx.sim.armed and not ctx.sim.truth().on_ground
+        if force and not ctx.guard.may_force_disarm(flying=flying):
+            raise CommandDenied("Disarming denied: a forced disarm in flight needs a signed link")
         ctx.navigator.disarm(force)
         return _ok()
     raise CommandDenied("Command denied: param1 must be 0 (disarm) or 1 (arm)")

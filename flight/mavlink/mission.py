@@ -31,7 +31,8 @@ repository, read for this; MAVLink developer guide, "Mission Protocol"):
   ignored with an informational STATUSTEXT.
 * No message from the partner for 5 s ends a transfer with the STATUSTEXT "Operation timeout".
 * MISSION_CLEAR_ALL (any plan type, or MAV_MISSION_TYPE_ALL 255) is ACCEPTED; during a transfer it is ignored
-  with a STATUSTEXT, as are MISSION_SET_CURRENT and stray items.
+  with a STATUSTEXT, as are MISSION_SET_CURRENT and stray items. Ours: a clear the ``accept`` hook refuses (for an
+  empty plan) is MAV_MISSION_ERROR with its reason.
 
 Ours, not PX4's: the vehicle starts in MISSION_REQUEST_INT (PX4's first request of a session is a legacy
 MISSION_REQUEST until the partner sends a MISSION_ITEM_INT; the MAVLink guide asks for MISSION_REQUEST_INT); an
@@ -383,6 +384,11 @@ class MissionProtocol:
         kinds = MISSION_TYPES if kind == MAV_MISSION_TYPE_ALL else (kind,) if kind in MISSION_TYPES else ()
         if not kinds:
             self._ack(sender, partner, MAV_MISSION_UNSUPPORTED, kind)
+            return
+        refusal = next((why for k in kinds if (why := self._accept(k, [])) is not None), None)
+        if refusal is not None:
+            self._critical(refusal)
+            self._ack(sender, partner, MAV_MISSION_ERROR, kind)
             return
         for k in kinds:
             self.store.clear(k)

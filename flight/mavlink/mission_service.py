@@ -1,15 +1,25 @@
 """The vehicle's mission service: the plan store, the transfer protocol and Mission mode, wired to one another and
 to the link.
 
-Why: keeps :mod:`flight.mavlink.vehicle` to the link. :class:`MissionService` owns the :class:`MissionStore`, the
-:class:`MissionProtocol` that fills it, and the :class:`MissionRunner` that flies it; it applies an uploaded fence
-to the navigator's :class:`~flight.mavlink.geofence.Geofence`, re-checks the flight plan whenever the plan or the
-fence changes, answers the mission commands, and sends MISSION_CURRENT and MISSION_ITEM_REACHED.
+Why: keeps :mod:`flight.mavlink.vehicle` to the link. :class:`MissionService` owns the :class:`MissionStore`, one
+:class:`MissionProtocol` per link (peer address) that fills it, and the :class:`MissionRunner` that flies it; it
+applies an uploaded fence to the navigator's :class:`~flight.mavlink.geofence.Geofence`, re-checks the flight plan
+whenever the plan or the fence changes, answers the mission commands, and sends MISSION_CURRENT and
+MISSION_ITEM_REACHED.
 
 Behaviour kept from PX4 (``mavlink_mission.cpp``, ``MavlinkMissionManager::send``): MISSION_CURRENT is sent once a
 second and whenever it changes (ours: any of its fields, PX4 only the sequence number), and at once after the
 current item is set; MISSION_ITEM_REACHED is sent when an item is reached, then the last one is repeated once a
 second, ten times (for a lossy link; ours: not after the current item is set). Both are broadcast to every peer.
+
+Transfers are per link, each with its own protocol timeouts (PX4 allows one transfer at a time on the whole
+vehicle): a peer that keeps reopening an upload blocks only itself. Each upload still replaces its plan whole; the
+last one completed wins. At most :data:`MAX_TRANSFER_LINKS` links keep a protocol: a new one takes the place of
+the least recently active idle one, else of the least recently active one that is not ``protected`` (the
+commanding ground station's).
+
+A fence plan cannot be replaced or cleared while ``fence_locked`` gives a reason (the vehicle's: armed, and the
+message not signed with its key; :mod:`flight.mavlink.guard`).
 """
 
 from __future__ import annotations
@@ -25,6 +35,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 
 from flight.mavlink.commands import CommandOutcome, CommandRequest
 from flight.mavlink.geofence import FenceInvalid, Geofence
+from flight.mavlink.links import MAX_PEERS
 from flight.mavlink.mission import MESSAGES, MissionProtocol, MissionStore
 from flight.mavlink.mission_items import StoredItem
 from flight.mavlink.mission_runner import MISSION_COMMANDS, MissionRunner, MissionStatus, mission_command
@@ -33,6 +44,7 @@ from flight.mavlink.navigator import Navigator
 Address = tuple[str, int]
 
 REACHED_REPEATS = 10
+MAX_TRANSFER_LINKS = MAX_PEERS
 REPEAT_INTERVAL_S = 1.0
 
 __all__ = ["MESSAGES", "MISSION_COMMANDS", "MissionService"]
@@ -51,6 +63,8 @@ class MissionService:
         send: Callable[[Any, Address | None], None],
         notify: Callable[[str, int], None],
         clock: Callable[[], float],
+        protected: Callable[[Address], bool] = lambda address: False,
+        fence_locked: Callable[[], str | None] = lambda: None,
     ) -> None:
         self.navigator = navigator
         self._mav = mav
@@ -58,7 +72,7 @@ class MissionService:
         self.store = MissionStore()
         self.runner = MissionRunner(navigator, self.store, notify)
         navigator.mission = self.runner
-        self.protocol = MissionProtocol(
+        self._new_protocol: Callable[[], MissionProtocol] = lambda: MissionProtocol(
             self.store,
             mav,
             system_id=system_id,
@@ -70,15 +84,38 @@ class MissionService:
             changed=self._changed,
             set_current=self._set_current,
         )
+        self._clock = clock
+        self._protected = protected
+        self._fence_locked = fence_locked
+        self.protocols: dict[Address, MissionProtocol] = {}
+        """One protocol per link, least recently active first."""
         self._announced: MissionStatus | None = None
         self._repeat_due = 0.0
         self._repeats_left = 0
 
     # -- in ---------------------------------------------------------------------------------------------------
 
+    @property
+    def busy(self) -> bool:
+        """Whether a transfer is under way on any link."""
+        return any(p.busy for p in self.protocols.values())
+
     def handle(self, msg: Any, sender: Address) -> None:
-        """A mission protocol message (one of :data:`~flight.mavlink.mission.MESSAGES`)."""
-        self.protocol.handle(msg, sender)
+        """A mission protocol message (one of :data:`~flight.mavlink.mission.MESSAGES`), for its link's transfer."""
+        self._protocol(sender).handle(msg, sender)
+
+    def _protocol(self, sender: Address) -> MissionProtocol:
+        protocols = self.protocols
+        found = protocols.pop(sender, None)
+        if found is None:
+            if len(protocols) >= MAX_TRANSFER_LINKS:
+                idle = [a for a, p in protocols.items() if not p.busy]
+                others = [a for a in protocols if not self._protected(a)]
+                victims = idle or others or list(protocols)
+                del protocols[victims[0]]
+            found = self._new_protocol()
+        protocols[sender] = found  # most recently active last
+        return found
 
     def command(self, req: CommandRequest) -> CommandOutcome:
         """MAV_CMD_MISSION_START or MAV_CMD_DO_SET_MISSION_CURRENT (see :data:`MISSION_COMMANDS`)."""
@@ -87,6 +124,9 @@ class MissionService:
     def _accept(self, mission_type: int, items: list[StoredItem]) -> str | None:
         if mission_type != MAV_MISSION_TYPE_FENCE:
             return None
+        locked = self._fence_locked()
+        if locked is not None:
+            return locked
         home = self.navigator.sim.environment.home
         try:
             Geofence.areas_from_items(items, home.lat_deg, home.lon_deg)
@@ -122,7 +162,8 @@ class MissionService:
     def tick(self, now_s: float) -> None:
         """Once per vehicle tick, after the navigator: protocol resends and timeouts, then what changed goes out.
         ``now_s`` is simulated time (the repeats of MISSION_ITEM_REACHED are paced on it)."""
-        self.protocol.tick()
+        for protocol in list(self.protocols.values()):
+            protocol.tick()
         runner = self.runner
         for seq in runner.reached_events:
             self._send(self._mav.mission_item_reached_encode(seq), None)

@@ -82,7 +82,7 @@ def take(vehicle: MavlinkVehicle) -> VehicleSnapshot:
             fence_breached=vehicle.failsafes.fence_breached, battery_level=vehicle.failsafes.battery_level
         ),
         params=dict(vehicle.params.values),
-        stream_intervals_s=dict(vehicle._intervals_s),
+        stream_intervals_s=dict(vehicle.streams.intervals_s),
     )
 
 
@@ -128,11 +128,9 @@ def apply(vehicle: MavlinkVehicle, snap: VehicleSnapshot) -> None:
     nav.offboard_time_s = None
     vehicle.failsafes.fence_breached = snap.failsafes.fence_breached
     vehicle.failsafes.battery_level = snap.failsafes.battery_level
-    now = vehicle.sim.time_s
     for msg_id, interval in snap.stream_intervals_s.items():
-        vehicle._intervals_s[msg_id] = interval
-        vehicle._next_due[msg_id] = now
-    vehicle._streams_due_s = now
+        vehicle.streams.intervals_s[msg_id] = interval
+    vehicle.streams.restart(vehicle.sim.time_s)
     vehicle.missions.runner.recheck()  # the fence parameters may have changed
 
 

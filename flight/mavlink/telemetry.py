@@ -88,6 +88,8 @@ class LinkStats:
     """Datagrams that held no valid MAVLink message (garbage, truncated, bad CRC)."""
     rx_bad_chunks: int = 0
     """Bad-data chunks reported by the parser (a datagram can hold several, and valid messages besides)."""
+    rx_refused: int = 0
+    """Datagrams whose every message the guard refused (unsigned, badly signed, replayed: :mod:`flight.signing`)."""
     tx_messages: int = 0
     tx_errors: int = 0
 
@@ -242,7 +244,7 @@ class TelemetryBuilders:
             _clamp_int(b.current_a * 100.0, -1, 32767),
             _clamp_int(b.percent, 0, 100),
             0,
-            min(self.stats.rx_dropped, UINT16_MAX),
+            min(self.stats.rx_dropped + self.stats.rx_refused, UINT16_MAX),
             0,
             0,
             0,

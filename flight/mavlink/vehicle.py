@@ -14,7 +14,8 @@ possible), usually on a thread started by :meth:`MavlinkVehicle.start` and ended
 
 Robustness: each datagram is parsed by a fresh pymavlink parser in robust mode, so a truncated or corrupt datagram
 cannot leave bytes behind that spoil the next one; a datagram that yields no valid message is counted in
-``stats.rx_dropped`` and ignored, and a sender is only learned as a peer after a valid message.
+``stats.rx_dropped`` and ignored, and a sender is only learned as a peer after a message the guard accepted (a
+datagram whose every message it refused counts in ``stats.rx_refused``).
 
 Facts relied on (MAVLink ``common.xml`` via pymavlink's generated ``dialects/v20/common.py``; PX4 behaviour from
 the PX4 user guide and MAVLink developer guide):
@@ -29,10 +30,15 @@ the PX4 user guide and MAVLink developer guide):
   ``chunk_seq``, the last one shorter than 50 (an empty one if the text is a multiple of 50 long).
 * SET_POSITION_TARGET_LOCAL_NED 84 and SET_POSITION_TARGET_GLOBAL_INT 86 (offboard; :mod:`flight.mavlink.offboard`).
 
-Message builders live in :mod:`flight.mavlink.telemetry`; failsafes (checked every tick after the navigator) in
-:mod:`flight.mavlink.failsafe`. The data-link failsafe counts seconds since the last valid message from any peer:
-simulated seconds in lockstep (the caller drives time and its messages), wall-clock seconds while :meth:`run` runs
-free, so a client's real-time heartbeat keeps the link alive at any speed.
+Message builders live in :mod:`flight.mavlink.telemetry`, sending and the streams in :mod:`flight.mavlink.sending`;
+failsafes (checked every tick after the navigator) in :mod:`flight.mavlink.failsafe`. The data-link failsafe counts
+seconds since the last HEARTBEAT of the *commanding ground station* (:mod:`flight.mavlink.links`): simulated
+seconds in lockstep (the caller drives time and its messages), wall-clock seconds while :meth:`run` runs free, so a
+client's real-time heartbeat keeps the link alive at any speed.
+
+Links and signing: every accepted message is judged first by the :class:`~flight.mavlink.guard.LinkGuard`
+(MAVLink 2 signing with PX4's semantics; refusals counted in :meth:`MavlinkVehicle.security`), then learnt in the
+:class:`~flight.mavlink.links.LinkTable` (one entry per peer address, the commanding ground station never evicted).
 
 Missions (upload, download, clear, fences, Mission mode, MISSION_CURRENT at 1 Hz, MISSION_ITEM_REACHED,
 MAV_CMD_MISSION_START, MAV_CMD_DO_SET_MISSION_CURRENT) are :class:`~flight.mavlink.mission_service.MissionService`'s;
@@ -42,7 +48,8 @@ Failure injection (MAV_CMD_INJECT_FAILURE, guarded by ``SYS_FAILURE_EN``) is
 :class:`~flight.mavlink.failures.FailureInjector`'s; with the MAVLink signal failed the vehicle reads only the
 command that restores it and sends nothing but that command's ACK.
 
-Rates are one table for all peers (PX4 keeps one per link); SET_MESSAGE_INTERVAL changes it for everyone.
+Rates are kept per link, as PX4 keeps them: SET_MESSAGE_INTERVAL changes the rates of the link it came on only.
+Mission transfers are per link too (:class:`~flight.mavlink.mission_service.MissionService`).
 
 The offboard setpoint timeout (``COM_OF_LOSS_T``) runs on the link clock too, for the same reason: clients stream
 setpoints at wall-clock rates (MAVSDK at 20 Hz), which faster than real time would look like a lost stream.
@@ -57,6 +64,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
@@ -66,10 +74,10 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_AUTOPILOT_PX4,
     MAV_CMD_INJECT_FAILURE,
     MAV_PARAM_TYPE_INT32,
-    MAV_SEVERITY_WARNING,
     MAV_STATE_ACTIVE,
     MAV_STATE_CRITICAL,
     MAV_STATE_STANDBY,
+    MAV_TYPE_GCS,
     MAV_TYPE_QUADROTOR,
 )
 
@@ -78,12 +86,15 @@ from flight.mavlink import snapshot as vehicle_snapshot
 from flight.mavlink.commands import CommandRequest, handle_command
 from flight.mavlink.failsafe import Failsafes
 from flight.mavlink.failures import FailureInjector
+from flight.mavlink.guard import LinkGuard
+from flight.mavlink.links import MAX_PEERS, LinkTable, StreamSchedule
 from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
 from flight.mavlink.mission_service import MISSION_COMMANDS, MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
 from flight.mavlink.pacing import Pacer, Speed
 from flight.mavlink.params import ParamStore, decode_value, encode_value
+from flight.mavlink.sending import STATUSTEXT_LEN, Sender
 from flight.mavlink.snapshot import VehicleSnapshot
 from flight.mavlink.telemetry import (
     ATTITUDE,
@@ -104,6 +115,7 @@ from flight.mavlink.telemetry import (
     WireCodec,
 )
 from flight.px4 import FlightMode, mavlink_text
+from flight.signing import MSG_SETUP_SIGNING, Verdict
 from flight.sim import Simulator, VehicleState
 
 Address = tuple[str, int]
@@ -147,9 +159,7 @@ DEFAULT_RATES_HZ: dict[int, float] = {
 the same tick go out in this order: attitude and local position before GLOBAL_POSITION_INT, which completes a
 client's sample (:meth:`flight.client.streams.StreamsClient.on_sample`)."""
 
-MAX_PEERS = 16
 MAX_DATAGRAMS_PER_POLL = 1000
-STATUSTEXT_LEN = 50
 SETPOINT_WARNING_INTERVAL_S = 1.0
 """At most one STATUSTEXT per this many simulated seconds about rejected offboard setpoints."""
 
@@ -160,6 +170,8 @@ __all__ = [
     "MAV_STATE_CRITICAL",
     "MAV_STATE_STANDBY",
     "MAV_TYPE_QUADROTOR",
+    "MAX_PEERS",
+    "STATUSTEXT_LEN",
     "LinkStats",
     "MavlinkVehicle",
 ]
@@ -185,8 +197,12 @@ def _readiness(sock: socket.socket) -> Callable[[int], object]:
     return poller.poll
 
 
-class MavlinkVehicle(TelemetryBuilders):
-    """The simulator on the network as a PX4 quadrotor. Close it (or use ``with``) to free the socket."""
+class MavlinkVehicle(TelemetryBuilders, Sender):
+    """The simulator on the network as a PX4 quadrotor. Close it (or use ``with``) to free the socket.
+
+    Signing: ``signing_key`` (32 bytes) turns MAVLink 2 signing on; ``key_store`` is where the key lives between
+    runs, PX4's way (read at start, written by SETUP_SIGNING); ``require_signing`` (default: whether there is a
+    key) refuses commands while there is no key (:mod:`flight.mavlink.guard`)."""
 
     def __init__(
         self,
@@ -199,6 +215,9 @@ class MavlinkVehicle(TelemetryBuilders):
         component_id: int = 1,
         params: dict[str, float] | None = None,
         tick_steps: int = 5,
+        signing_key: bytes | None = None,
+        key_store: str | Path | None = None,
+        require_signing: bool | None = None,
     ) -> None:
         if not (1 <= system_id <= 255 and 1 <= component_id <= 255):
             raise ValueError("system and component ids are 1..255")
@@ -233,11 +252,18 @@ class MavlinkVehicle(TelemetryBuilders):
         """Called with every frame the vehicle sends or takes in (e.g. a flight log), in the thread holding its lock."""
         self._mav = mavlink2.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self._targets: list[Address] = [a for a in (gcs, api) if a is not None]
-        self._peers: dict[Address, float] = {}
-        self._intervals_s: dict[int, float] = {m: 1.0 / hz for m, hz in DEFAULT_RATES_HZ.items()}
-        self._next_due: dict[int, float] = dict.fromkeys(DEFAULT_RATES_HZ, 0.0)
+        self.links = LinkTable()
+        """The peers, the commanding ground station (:mod:`flight.mavlink.links`)."""
+        self.streams = StreamSchedule({m: 1.0 / hz for m, hz in DEFAULT_RATES_HZ.items()})
+        """The default stream rates (a peer that sets its own gets a copy)."""
+        self._in_hand: Address | None = None
         self._text_id = 0
         self._lock = threading.RLock()
+        self.guard = LinkGuard(
+            key=signing_key, key_store=key_store, required=require_signing, notify=lambda t, s: self.statustext(t, s)
+        )
+        """Signing and the armed-vehicle rules (:mod:`flight.mavlink.guard`)."""
+        self.guard.signer.attach(self._mav)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.missions = MissionService(
@@ -248,6 +274,8 @@ class MavlinkVehicle(TelemetryBuilders):
             send=self._send,
             notify=self.statustext,
             clock=lambda: self._link_clock(),
+            protected=lambda address: self.links.commander is not None and self.links.commander[0] == address,
+            fence_locked=lambda: self.guard.fence_plan_locked(armed=self.sim.armed),
         )
         self._builders: dict[int, tuple[WireCodec, Callable[[], Fields]]] = {
             MSG_HEARTBEAT: (HEARTBEAT, self._heartbeat_fields),
@@ -264,9 +292,7 @@ class MavlinkVehicle(TelemetryBuilders):
             MSG_WIND_COV: (WIND_COV, self._wind_cov_fields),
         }
         """Every message the vehicle can build: streams and REQUEST_MESSAGE."""
-        self._streams_due_s = 0.0
-        """The earliest time any enabled stream falls due (inf: none enabled)."""
-        self._destinations_cache: tuple[Address, ...] | None = None
+        self._destinations_cache: tuple[int, tuple[Address, ...]] | None = None
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             self._sock.bind(bind)
@@ -291,8 +317,15 @@ class MavlinkVehicle(TelemetryBuilders):
 
     @property
     def peers(self) -> list[Address]:
-        """Addresses that have sent a valid message, most recent last."""
-        return list(self._peers)
+        """Addresses that have sent an accepted message, most recent last."""
+        return list(self.links.peers)
+
+    def security(self) -> dict[str, int]:
+        """What the guard refused and accepted (signing verdicts, armed-vehicle rules) and the link table's
+        evictions and impostors: the counters an operator (or a test) reads."""
+        out = self.guard.report()
+        out.update(evicted_peers=self.links.evicted, gcs_impostors=self.links.impostors)
+        return out
 
     def close(self) -> None:
         """Stop a running pacer and close the socket (idempotent)."""
@@ -339,6 +372,7 @@ class MavlinkVehicle(TelemetryBuilders):
             self.failsafes.update(self.last_rx_s, self._link_clock())
             self.failures.update()
             self.missions.tick(self.sim.time_s)
+            self.guard.signer.tick()
             self._send_streams()
             if self.on_tick:
                 state = self.sim.state()
@@ -376,6 +410,8 @@ class MavlinkVehicle(TelemetryBuilders):
         self._link_clock = time.monotonic
         if self.last_rx_s is not None:
             self.last_rx_s = time.monotonic()
+        if self.links.commander_heard is not None:
+            self.links.commander_heard = time.monotonic()
         if self.navigator.offboard_time_s is not None:
             self.navigator.offboard_time_s = time.monotonic()
         current = pacer.speed
@@ -449,31 +485,43 @@ class MavlinkVehicle(TelemetryBuilders):
         if not valid:
             self.stats.rx_dropped += 1
             return
-        self._learn_peer(sender)
-        for msg in valid:
+        armed = self.sim.armed
+        accepted = [(m, v) for m in valid if (v := self.guard.judge(m, armed=armed)).accepted]
+        if not accepted:
+            self.stats.rx_refused += 1
+            return
+        first = accepted[0][0]
+        signed = any(v is Verdict.SIGNED for _, v in accepted)
+        self.links.heard(sender, self.sim.time_s, first.get_srcSystem(), first.get_srcComponent(), signed)
+        guard = self.guard
+        for msg, verdict in accepted:
             self.stats.rx_messages += 1
             self._tap(msg.get_msgbuf())
+            self._in_hand, guard.in_hand_signed = sender, verdict is Verdict.SIGNED
             try:
                 self._handle(msg, sender)
             except Exception:  # a message we could not act on must never stop the vehicle
                 self.stats.rx_dropped += 1
+            finally:
+                self._in_hand, guard.in_hand_signed = None, True
 
-    def _learn_peer(self, addr: Address) -> None:
-        if next(reversed(self._peers), None) != addr:  # else the order of peers (and of destinations) is unchanged
-            self._peers.pop(addr, None)
-            self._destinations_cache = None
-        self._peers[addr] = self.sim.time_s
-        self.last_rx_s = self._link_clock()
-        while len(self._peers) > MAX_PEERS:
-            del self._peers[next(iter(self._peers))]
-            self._destinations_cache = None
+    def _heartbeat(self, msg: Any, sender: Address) -> None:
+        """A ground station's heartbeat (signed, when signing is on) from the commander keeps the link alive."""
+        if msg.type != MAV_TYPE_GCS or (self.guard.active and not self.guard.in_hand_signed):
+            return
+        now = self._link_clock()
+        timeout = self.params.values["COM_DL_LOSS_T"]
+        if self.links.gcs_heartbeat(sender, msg.get_srcSystem(), now, timeout):
+            self.last_rx_s = now
 
     def _for_us(self, msg: Any) -> bool:
         return msg.target_system in (0, self.system_id) and msg.target_component in (0, self.component_id)
 
     def _handle(self, msg: Any, sender: Address) -> None:
         msg_id = msg.get_msgId()
-        if msg_id in (MSG_COMMAND_LONG, MSG_COMMAND_INT):
+        if msg_id == MSG_HEARTBEAT:
+            self._heartbeat(msg, sender)
+        elif msg_id in (MSG_COMMAND_LONG, MSG_COMMAND_INT):
             if not self._for_us(msg):
                 return
             req = CommandRequest.from_long(msg) if msg_id == MSG_COMMAND_LONG else CommandRequest.from_int(msg)
@@ -504,6 +552,8 @@ class MavlinkVehicle(TelemetryBuilders):
             self._setpoint(msg, msg_id)
         elif msg_id in MISSION_MESSAGES:
             self.missions.handle(msg, sender)
+        elif msg_id == MSG_SETUP_SIGNING and self._for_us(msg):
+            self.guard.setup_signing(msg, armed=self.sim.armed)
 
     def _setpoint(self, msg: Any, msg_id: int) -> None:
         decode = decode_local_ned if msg_id == MSG_SET_POSITION_TARGET_LOCAL_NED else decode_global_int
@@ -551,122 +601,11 @@ class MavlinkVehicle(TelemetryBuilders):
             return
         spec = self.params.specs[name]
         value = decode_value(msg.param_value, spec.param_type)
-        if not self.params.set(name, value):
+        if not self.guard.may_set_param(name, armed=self.sim.armed):
+            self.statustext(f"{name}: denied while armed: needs a signed link")
+        elif not self.params.set(name, value):
             shown = f"{value:.0f}" if spec.param_type == MAV_PARAM_TYPE_INT32 else f"{value:g}"
             self.statustext(f"{name}: {shown} out of range {spec.minimum:g}..{spec.maximum:g}")
         elif name.startswith("GF_"):
             self.missions.runner.recheck()  # the fence moved: is the stored mission still inside it?
         self._send(self._param_value(name), sender)
-
-    # -- sending ----------------------------------------------------------------------------------------------
-
-    def _destinations(self) -> tuple[Address, ...]:
-        """The configured targets, then every peer not among them (kept until the peers change)."""
-        out = self._destinations_cache
-        if out is None:
-            targets = list(self._targets)
-            targets.extend(a for a in self._peers if a not in targets)
-            out = self._destinations_cache = tuple(targets)
-        return out
-
-    def _send(self, msg: Any, to: Address | None = None, *, force: bool = False) -> None:
-        """Send ``msg`` to ``to``, or to the configured targets and every peer (nothing while an injected failure
-        has the link off, unless ``force``)."""
-        self._transmit(msg.pack(self._mav), to, force=force)
-
-    def _transmit(self, buf: bytes, to: Address | None = None, *, force: bool = False) -> None:
-        """Send a frame packed with the current sequence number, and count it as sent."""
-        if self.failures.link_off and not force:
-            return
-        self._mav.seq = (self._mav.seq + 1) % 256
-        sock, stats = self._sock, self.stats
-        for addr in self._destinations() if to is None else (to,):
-            try:
-                sock.sendto(buf, addr)
-                stats.tx_messages += 1
-            except OSError:
-                stats.tx_errors += 1
-        self._tap(buf)
-
-    def _tap(self, frame: bytes) -> None:
-        for hook in self.on_wire:
-            try:
-                hook(frame)
-            except Exception as exc:
-                self._hook_failed(hook, exc)
-
-    def statustext(self, text: str, severity: int = MAV_SEVERITY_WARNING) -> None:
-        """Send a STATUSTEXT to everyone (chunked when longer than 50 characters)."""
-        with self._lock:
-            self.statustexts.append((severity, text))
-            raw = text.encode("utf-8", "replace")
-            if len(raw) <= STATUSTEXT_LEN:
-                self._send(self._mav.statustext_encode(severity, raw, 0, 0))
-                return
-            self._text_id = self._text_id % 0xFFFF + 1
-            chunks = [raw[i : i + STATUSTEXT_LEN] for i in range(0, len(raw), STATUSTEXT_LEN)]
-            if len(chunks[-1]) == STATUSTEXT_LEN:
-                chunks.append(b"")
-            for seq, chunk in enumerate(chunks[:256]):
-                self._send(self._mav.statustext_encode(severity, chunk, self._text_id, seq))
-
-    def _send_streams(self) -> None:
-        """Send every stream that has fallen due (in simulated time); most ticks, none has."""
-        now = self.sim.time_s
-        eps = 1e-9
-        if now + eps < self._streams_due_s:
-            return
-        next_due, builders, mav = self._next_due, self._builders, self._mav
-        soonest = math.inf
-        for msg_id, interval in self._intervals_s.items():
-            if interval <= 0:
-                continue
-            due = next_due[msg_id]
-            if now + eps >= due:
-                codec, fields = builders[msg_id]
-                self._transmit(codec.pack(mav, fields()))
-                due += interval
-                due = next_due[msg_id] = due if due > now + eps else now + interval
-            if due < soonest:
-                soonest = due
-        self._streams_due_s = soonest
-
-    # -- message intervals (used by command handling) ---------------------------------------------------------
-
-    def set_message_interval(self, message_id: int, interval_us: float) -> bool:
-        """SET_MESSAGE_INTERVAL: -1 stops the stream, 0 restores the default, >0 sets it. False if not streamed."""
-        if message_id not in DEFAULT_RATES_HZ:
-            return False
-        if interval_us == -1:
-            self._intervals_s[message_id] = 0.0
-        elif interval_us == 0:
-            self._intervals_s[message_id] = 1.0 / DEFAULT_RATES_HZ[message_id]
-        elif interval_us > 0:
-            self._intervals_s[message_id] = interval_us / 1e6
-        else:
-            return False
-        self._next_due[message_id] = self._streams_due_s = self.sim.time_s
-        return True
-
-    def message_interval_us(self, message_id: int) -> int | None:
-        """The stream's interval in µs, -1 when off, None when the message is not streamed."""
-        if message_id not in self._intervals_s:
-            return None
-        interval = self._intervals_s[message_id]
-        return round(interval * 1e6) if interval > 0 else -1
-
-    def message_rate_hz(self, message_id: int) -> float:
-        """The stream's rate (0 when off or not streamed)."""
-        interval = self._intervals_s.get(message_id, 0.0)
-        return 1.0 / interval if interval > 0 else 0.0
-
-    def build_message(self, message_id: int, param2: float = math.nan) -> Any | None:
-        """The message ``message_id`` as it would be sent now (for REQUEST_MESSAGE), or None if not available."""
-        builder = self._builders.get(message_id)
-        if builder is None:
-            return None
-        codec, fields = builder
-        return codec.message(fields())
-
-    def build_message_interval(self, message_id: int, interval_us: int) -> Any:
-        return self._mav.message_interval_encode(message_id, interval_us)

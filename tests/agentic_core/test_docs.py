@@ -72,6 +72,7 @@ MODULES = [
     "agentic_core.agent.failsafes",
     "agentic_core.agent.pacing",
     "agentic_core.run.backends",
+    "agentic_core.run.link_key",
     "agentic_core.run.perception_loop",
     "agentic_core.run.trace",
     "agentic_core.run.cli",

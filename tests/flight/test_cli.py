@@ -14,6 +14,7 @@ import time
 import pytest
 
 from flight.cli import build_parser, parse_address, parse_home, parse_speed
+from flight.signing import new_key, write_key_file
 from flight.vehicle import VehicleClient
 
 
@@ -96,3 +97,36 @@ def test_sim_reports_a_port_in_use():
             timeout=30,
         )
     assert done.returncode == 1 and "error" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_sim_with_a_signing_key_answers_only_signed_clients_and_says_what_it_refused(tmp_path):
+    key = new_key()
+    write_key_file(tmp_path / "key.hex", key)
+    argv = ["--speed", "max", "--bind", "127.0.0.1:0", "--gcs", "none", "--api", "none"]
+    argv += ["--signing-key", str(tmp_path / "key.hex")]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "flight.cli", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        line = read_line(proc.stdout, 20.0)
+        assert line is not None and "signing on" in line, line
+        found = re.search(r"listening on 127\.0\.0\.1:(\d+)", line)
+        assert found, line
+        address = ("127.0.0.1", int(found.group(1)))
+
+        async def talk():
+            async with await VehicleClient.connect(address, timeout_s=5.0, signing_key=key) as client:
+                assert await client.get_param("MIS_TAKEOFF_ALT") == 2.5
+            async with await VehicleClient.connect(address, timeout_s=5.0) as unsigned:  # it hears; it is not heard
+                assert await unsigned.get_param("MIS_TAKEOFF_ALT", timeout_s=1.0) is None
+
+        asyncio.run(talk())
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=10.0)
+        assert proc.returncode == 0 and "Traceback" not in err, err
+        assert re.search(r"stopped; refused \{.*'unsigned': [1-9]", out), out
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.communicate()

@@ -60,7 +60,8 @@ def test_camera_rates_and_a_callback_per_sample_on_another_thread(realtime_vehic
             client.on_sample(broken)  # recorded; the others go on
             accepted = await client.set_stream_rates({name: 30.0 for name in CAMERA_STREAMS})
             assert accepted == {30: True, 33: True, 32: True}
-            assert realtime_vehicle.message_rate_hz(33) == pytest.approx(30.0)
+            assert realtime_vehicle.message_rate_hz(33, client.address) == pytest.approx(30.0)  # its link only
+            assert realtime_vehicle.message_rate_hz(33) == pytest.approx(5.0)
             refused = await client.set_stream_rates({"PARAM_VALUE": 5.0})  # not a stream: the vehicle says no
             assert refused == {22: False}
             while not inbox.empty():

@@ -10,7 +10,10 @@ MODULES = [
     "flight.client.safety",
     "flight.client.streams",
     "flight.client.telemetry",
+    "flight.mavlink.guard",
+    "flight.mavlink.links",
     "flight.mavlink.pacing",
+    "flight.signing",
     "flight.sim.snapshot",
 ]
 

@@ -18,6 +18,7 @@ from agentic_core.cli import main
 from agentic_core.contracts.geodesy import local_offset
 from agentic_core.run.operator import OperatorAnswer
 from agentic_core.run.runner import MissionRun, RunResult, RunSettings, run_mission
+from flight.signing import read_key_file
 from flight.sim.scene_file import load_scene
 from tools import ToolSpec
 
@@ -110,6 +111,8 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     assert not re.search(r"\d\.\d{7,}", report), "a raw float in the report"
     position = json.loads(next(p for p in folder.glob("alerts/*position.json")).read_text(encoding="utf-8"))
     assert position["subject"]["id"] == tracked and len(str(position["subject"]["lat"]).split(".")[1]) <= 6
+    key_file = folder / "signing.key"  # the in-process vehicle took only what its client signed with this
+    assert key_file.stat().st_mode & 0o777 == 0o600 and len(read_key_file(key_file)) == 32
 
 
 def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
 from flight.mavlink import MavlinkVehicle
+from flight.signing import new_key, now_timestamp
 from flight.sim import Simulator
 
 ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED = 0, 1, 2, 3
@@ -104,16 +105,35 @@ class Link:
         return False
 
 
-@pytest.fixture
-def link():
+def open_link(key=None):
+    """A :class:`Link`; with ``key``, vehicle and client sign with it (pymavlink's ``setup_signing``)."""
     port = free_port()
     client = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
-    vehicle = MavlinkVehicle(Simulator(seed=3), gcs=("127.0.0.1", port), api=None)
+    if key is not None:
+        client.setup_signing(key, sign_outgoing=True, initial_timestamp=now_timestamp(), link_id=1)
+    vehicle = MavlinkVehicle(Simulator(seed=3), gcs=("127.0.0.1", port), api=None, signing_key=key)
+    return Link(vehicle, client)
+
+
+@pytest.fixture
+def link():
+    link = open_link()
     try:
-        yield Link(vehicle, client)
+        yield link
     finally:
-        vehicle.close()
-        client.close()
+        link.vehicle.close()
+        link.client.close()
+
+
+@pytest.fixture
+def signed_link():
+    """A link signed with a fresh key: what changes safety parameters or forces a disarm in the air."""
+    link = open_link(new_key())
+    try:
+        yield link
+    finally:
+        link.vehicle.close()
+        link.client.close()
 
 
 def take_off(link, alt_m):

@@ -36,7 +36,8 @@ def test_default_geofence_is_ours_and_denies_a_takeoff_above_it(link):
         (5, FlightMode.LAND, True),
     ],
 )
-def test_vertical_breach_triggers_gf_action(link, action, mode, armed):
+def test_vertical_breach_triggers_gf_action(signed_link, action, mode, armed):
+    link = signed_link
     take_off(link, 10.0)
     assert link.vehicle.failsafes.triggered == []
     assert set_param(link, "GF_ACTION", action) is not None
@@ -51,7 +52,8 @@ def test_vertical_breach_triggers_gf_action(link, action, mode, armed):
         assert link.vehicle.failsafes.triggered == ["geofence"]  # acted once
 
 
-def test_horizontal_breach_returns_home(link):
+def test_horizontal_breach_returns_home(signed_link):
+    link = signed_link
     take_off(link, 6.0)
     set_param(link, "GF_ACTION", 3)
     set_param(link, "RTL_RETURN_ALT", 8.0)

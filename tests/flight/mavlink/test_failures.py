@@ -92,7 +92,8 @@ def test_link_loss_silences_the_vehicle_and_fires_the_data_link_failsafe(enabled
     assert link.vehicle.failsafes.triggered == ["data_link"]
     assert link.command(INJECT, LINK, OK, 0).result == ACCEPTED
     assert link.wait("HEARTBEAT", 2.0) is not None  # the vehicle is heard again
-    assert "Failure cleared: MAVLink signal" in texts(link) and "Data link regained" in texts(link)
+    assert link.wait("STATUSTEXT", 2.0, lambda t: "Data link regained" in t.text) is not None  # our next heartbeat
+    assert "Failure cleared: MAVLink signal" in texts(link)
 
 
 def test_a_motor_off_brings_the_f450_down_and_it_disarms_on_impact(enabled):

@@ -121,7 +121,7 @@ def test_upload_and_download_round_trip_with_int_messages(link):
         assert [back.param1, back.param2, back.param3] == pytest.approx([p1, p2, p3])
         assert back.autocontinue == 1 and back.mission_type == 0
         assert back.current == (1 if seq == 0 else 0)
-    assert not link.vehicle.missions.protocol.busy  # the final ACK ended the download
+    assert not link.vehicle.missions.busy  # the final ACK ended the download
 
 
 def test_legacy_mission_item_and_mission_request_are_answered_the_px4_way(link):
@@ -235,7 +235,7 @@ def test_out_of_sequence_and_wrong_type_items(link):
     send_item(link, 1, items[1], kind=m.MAV_MISSION_TYPE_FENCE)  # the wrong plan type ends the upload
     ack = link.wait("MISSION_ACK", 2.0)
     assert ack.type == m.MAV_MISSION_ERROR
-    assert not link.vehicle.missions.protocol.busy and download(link)[0].count == 0
+    assert not link.vehicle.missions.busy and download(link)[0].count == 0
 
 
 def test_stray_items_and_requests_are_refused_or_ignored(link):
@@ -254,7 +254,22 @@ def test_stray_items_and_requests_are_refused_or_ignored(link):
     assert any("unexpected" in t for t in texts(link))
 
 
-def test_a_second_partner_is_refused_during_an_upload(link):
+def _answer_to(link, sock, parser, msg_type, ticks=50):
+    """Step the vehicle until ``sock`` receives a ``msg_type`` (None if it does not within ``ticks``)."""
+    for _ in range(ticks):
+        link.step()
+        while True:
+            try:
+                data = sock.recv(4096)
+            except BlockingIOError:
+                break
+            for msg in parser.parse_buffer(data) or []:
+                if msg.get_type() == msg_type:
+                    return msg
+    return None
+
+
+def test_an_upload_on_another_link_runs_beside_the_first(link):
     other_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     other_sock.bind(("127.0.0.1", 0))
     other_sock.setblocking(False)
@@ -264,24 +279,28 @@ def test_a_second_partner_is_refused_during_an_upload(link):
         link.mav.mission_count_send(1, 1, 2, 0)
         assert link.wait("MISSION_REQUEST_INT", 2.0).seq == 0
         other_sock.sendto(other.mission_count_encode(1, 1, 3, 0).pack(other), link.vehicle.address)
-        answer = None
-        for _ in range(20):
-            link.step()
-            try:
-                data = other_sock.recv(4096)
-            except BlockingIOError:
-                continue
-            answer = other.parse_char(data)
-            break
-        assert answer is not None and answer.get_type() == "MISSION_ACK"
-        assert answer.type == m.MAV_MISSION_ERROR and answer.target_system == 254
+        answer = _answer_to(link, other_sock, other, "MISSION_REQUEST_INT")
+        assert answer is not None and answer.seq == 0 and answer.target_system == 254  # its own transfer
         # the first partner's upload goes on undisturbed
         send_item(link, 0, wp(link, 10, 0, 10))
-        assert link.wait("MISSION_REQUEST_INT", 2.0).seq == 1
+        assert link.wait("MISSION_REQUEST_INT", 2.0, lambda r: r.target_system == 255).seq == 1
         send_item(link, 1, wp(link, 20, 0, 10))
         assert link.wait("MISSION_ACK", 2.0).type == ACCEPTED
+        assert link.vehicle.missions.store.count(0) == 2
     finally:
         other_sock.close()
+
+
+def test_a_second_partner_on_the_same_link_is_refused_during_an_upload(link):
+    link.drain()
+    link.mav.mission_count_send(1, 1, 2, 0)
+    assert link.wait("MISSION_REQUEST_INT", 2.0).seq == 0
+    other = mavutil.mavlink.MAVLink(None, srcSystem=254, srcComponent=190)
+    link.client.write(other.mission_count_encode(1, 1, 3, 0).pack(other))
+    answer = link.wait("MISSION_ACK", 2.0, lambda a: a.target_system == 254)
+    assert answer is not None and answer.type == m.MAV_MISSION_ERROR
+    send_item(link, 0, wp(link, 10, 0, 10))
+    assert link.wait("MISSION_REQUEST_INT", 2.0, lambda r: r.target_system == 255).seq == 1
 
 
 def test_malformed_mission_messages_do_not_stop_the_vehicle(link):
@@ -313,7 +332,7 @@ def test_a_dropped_request_is_sent_again_and_a_silent_partner_times_out(link):
     requests = link.collect("MISSION_REQUEST_INT", 6.0)  # never answered
     assert len(requests) >= 5 and all(r.seq == 1 for r in requests)
     assert "Operation timeout" in texts(link)
-    assert not link.vehicle.missions.protocol.busy and download(link)[0].count == 0
+    assert not link.vehicle.missions.busy and download(link)[0].count == 0
     assert upload(link, items)[0].type == ACCEPTED
 
 

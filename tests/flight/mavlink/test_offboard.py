@@ -101,7 +101,8 @@ def test_velocity_and_global_setpoints(link):
     assert mode_of(link) is FlightMode.OFFBOARD
 
 
-def test_setpoints_outside_the_fence_or_unflyable_are_ignored(link):
+def test_setpoints_outside_the_fence_or_unflyable_are_ignored(signed_link):
+    link = signed_link
     take_off(link, 5.0)
     link.mav.param_set_send(1, 1, b"GF_MAX_HOR_DIST", 50.0, m.MAV_PARAM_TYPE_REAL32)
     near = local(link, 5.0, 0.0, -5.0)

@@ -82,7 +82,8 @@ def test_command_int_altitude_frames_cannot_slip_under_the_floor(link, frame, he
         assert alt_now(link) > 5.0
 
 
-def test_with_the_floor_off_a_low_reposition_is_flown(link):
+def test_with_the_floor_off_a_low_reposition_is_flown(signed_link):
+    link = signed_link
     take_off(link, 6.0)
     set_param(link, "GF_MIN_ALT", 0.0)
     assert reposition_int(link, m.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 1.0).result == ACCEPTED
@@ -195,7 +196,8 @@ def test_rtl_never_climbs_above_a_25_m_ceiling(link):
     assert math.hypot(s.north_m, s.east_m) < 1.5
 
 
-def test_rtl_from_above_a_lowered_ceiling_descends_to_it(link):
+def test_rtl_from_above_a_lowered_ceiling_descends_to_it(signed_link):
+    link = signed_link
     take_off(link, 12.0)
     set_param(link, "GF_ACTION", 1)  # warn only: the breach must not hide what the return does
     set_param(link, "GF_MAX_VER_DIST", 8.0)
@@ -273,7 +275,8 @@ def test_a_plain_disarm_in_flight_is_refused_and_the_vehicle_flies_on(link):
     assert link.vehicle.sim.armed and alt_now(link) == pytest.approx(8.0, abs=0.5)
 
 
-def test_a_forced_disarm_in_flight_stops_the_motors(link):
+def test_a_forced_disarm_in_flight_stops_the_motors(signed_link):
+    link = signed_link
     take_off(link, 8.0)
     assert link.command(m.MAV_CMD_COMPONENT_ARM_DISARM, 0, FORCE).result == ACCEPTED
     assert not link.vehicle.sim.armed
