@@ -3,7 +3,8 @@ the tools the mission itself uses or lists in ``allow_tools``.
 
 The scopes are the mission's ``scopes:`` when it declares them, else those of every tool its steps and triggers
 call (plus what the run itself sends the vehicle: status, the fence, hold, return, land). A model that proposes a
-webhook to an arbitrary URL in a mission that never posts one is refused with the reason, before any of it runs.
+webhook to an arbitrary URL in a mission that never posts one is refused with the reason, before any of it runs;
+so is a plan whose alerts are addressed off the configured allowlists (:func:`destination_review`).
 
 >>> from agentic_core.mission.validate import load_mission
 >>> plan = load_mission("plan_id: P\\ngoal: g\\nsteps: [{id: up, action: takeoff}, {id: look, action: analyze_scene}]")
