@@ -102,10 +102,14 @@ def fenced(text: str, limit: int = BODY_CHARS) -> str:
 @dataclass(frozen=True)
 class EgressPolicy:
     """Which hosts outbound HTTP may reach. ``allow``: host names (exact, any case), addresses and networks
-    (``10.0.0.0/8``) let through although internal; ``resolve(host, port)`` gives a name's addresses."""
+    (``10.0.0.0/8``) let through although internal; ``resolve(host, port)`` gives a name's addresses. ``hosts``,
+    when set, narrows one client to those host names (a webhook's allowlist, named by ``hosts_setting``), checked
+    on every request before the rest of the policy."""
 
     allow: tuple[str, ...] = ()
     resolve: Resolver | None = field(default=None, compare=False, repr=False)  # None: :func:`system_resolve`
+    hosts: tuple[str, ...] | None = None
+    hosts_setting: str = ""
 
     @classmethod
     def from_env(cls, environ: Mapping[str, str] | None = None) -> EgressPolicy:
@@ -120,6 +124,8 @@ class EgressPolicy:
         port = url.port or (443 if url.scheme == "https" else 80)
         if url.scheme not in ("http", "https") or not host:
             raise self._refuse(f"{url.scheme}://{host}: only http(s) URLs with a host")
+        if self.hosts is not None and host not in self.hosts:
+            raise self._refuse(f"{host} is not an allowed host of this client", self.hosts_setting or ENV_VAR)
         if host in self.allow:
             return self._first(host, port)
         if host in METADATA_HOSTS or host == "localhost" or host.endswith(".localhost"):
@@ -160,8 +166,8 @@ class EgressPolicy:
                 continue
         return False
 
-    def _refuse(self, reason: str) -> EgressDenied:
-        message = f"egress refused: {reason} (allow it in {ENV_VAR})"
+    def _refuse(self, reason: str, setting: str = ENV_VAR) -> EgressDenied:
+        message = f"egress refused: {reason} (allow it in {setting})"
         log.warning(message)
         return EgressDenied(message)
 

@@ -2,11 +2,14 @@
 a long flight action flies.
 
 A trigger may fire when it has not fired yet, or (``once: false``) when the sub-plan of its last firing has
-finished, and then only for an event other than the last one it fired for.
+finished, and then only for an event other than the last one it fired for. An object of the same class within
+:data:`REID_M` of where that one was, while that one's track is gone, is the same one under a new track id (the
+casualty a patrol comes back over), so a response that did not help is not started again and again.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -14,6 +17,9 @@ from .functions import MISSING, get_field
 from .model import Trigger
 from .state import FINISHED
 from .steps import Environment, StepFailed, evaluate, scope
+
+REID_M = 8.0
+"""How near (m) an object must be to where a trigger's last object was, that object's track gone, to be it."""
 
 
 def identity(event: Any) -> Any:
@@ -56,8 +62,37 @@ def trigger_events(trigger: Trigger, state: Mapping[str, Any], env: Environment)
     events = value if isinstance(value, list) else [value]
     if trigger.id not in (state.get("fired") or []):
         return events
-    last = identity((state.get("events") or {}).get(trigger.id))
-    return [e for e in events if identity(e) != last]
+    last = (state.get("events") or {}).get(trigger.id)
+    tracked = {identity(o) for o in _objects(env.world()) if get_field(o, "state") != "lost"}
+    return [e for e in events if not same_event(e, last, tracked)]
 
 
-__all__ = ["identity", "may_fire", "object_id", "trigger_events"]
+def _objects(world: Any) -> list[Any]:
+    found = get_field(world, "objects")
+    return [] if found is MISSING or not isinstance(found, list) else found
+
+
+def _north_east(event: Any) -> tuple[float, float] | None:
+    pose = get_field(event, "pose")
+    north, east = (MISSING, MISSING) if pose is MISSING else (get_field(pose, "north"), get_field(pose, "east"))
+    return (float(north), float(east)) if isinstance(north, int | float) and isinstance(east, int | float) else None
+
+
+def same_event(event: Any, last: Any, tracked: set[Any]) -> bool:
+    """Whether ``event`` is ``last`` again: the same identity, or (``last``'s object no longer among ``tracked``)
+    an object of its class within :data:`REID_M` of where it was.
+
+    >>> was = {"id": "P-1", "class": "person", "pose": {"north": 40.0, "east": 5.0}}
+    >>> again = {"id": "P-9", "class": "person", "pose": {"north": 42.0, "east": 6.0}}
+    >>> same_event(again, was, tracked={"P-9"}), same_event(again, was, tracked={"P-1", "P-9"})
+    (True, False)
+    """
+    if identity(event) == identity(last):
+        return True
+    if object_id(last) is None or identity(last) in tracked or get_field(event, "class") != get_field(last, "class"):
+        return False
+    here, there = _north_east(event), _north_east(last)
+    return here is not None and there is not None and math.dist(here, there) <= REID_M
+
+
+__all__ = ["REID_M", "identity", "may_fire", "object_id", "same_event", "trigger_events"]

@@ -19,6 +19,7 @@ from ..reasoning.reasoners import Reasoner
 from ..reasoning.reflection import LLMReflector
 from .privilege import plan_tools
 from .settings import AGENT
+from .untrusted_reads import UntrustedReads
 
 
 class ModelSide:
@@ -42,19 +43,22 @@ class ModelSide:
         self.client: StructuredChat | None = getattr(reasoner, "client", None) or getattr(
             getattr(reasoner, "model", None), "client", None
         )
+        self.reads = UntrustedReads(publish)  # once the model reads untrusted text, only the mission's tools
         self.planner = (
             LLMPlanner(
-                self.client, plan, _tools_for_plans(registry, caller, plan_tools(plan)), record=self._exchange("plan")
+                self.reads.watch(self.client, "plan"), plan, _tools_for_plans(registry, caller, plan_tools(plan)),
+                record=self._exchange("plan"),
             )
             if self.client is not None
             else None
-        )
+        )  # fmt: skip
 
     def reflector(self) -> Reflector:
         """A model's reflection when the reasoner has a model (llm, hybrid); else the default, which aborts."""
         if self.client is None:
             return abort_reflector
-        reflect = LLMReflector(self.client, self.mission, record=self._exchange("reflection"))
+        reflect = LLMReflector(self.reads.watch(self.client, "reflection"), self.mission,
+                               record=self._exchange("reflection"))  # fmt: skip
 
         def paced(failure: Any) -> Any:
             with self.pace.waiting("model"):

@@ -54,7 +54,7 @@ from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
 from .perception_loop import PerceptionLoop
 from .plan_review import review
-from .privilege import mission_caller, plan_tools, tool_problems
+from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import RunSummary, TrackPoint, write_report
 from .responses import ResponseLedger
@@ -91,7 +91,7 @@ class MissionRun:
         self.run_dir = settings.runs_dir / self.run_id
         self.alerts_dir = self.run_dir / "alerts"
         snapshot = read_snapshot(self.run_dir) if self.resuming else None
-        config = BuiltinConfig.from_env(
+        self.config = config = BuiltinConfig.from_env(
             outbox_dir=self.alerts_dir, incidents_db=self.run_dir / "incidents.db", attachment_dirs=[self.run_dir]
         )
         self.registry, self.agent = run_tools(settings.tools, config)
@@ -188,7 +188,8 @@ class MissionRun:
                                                                               self.bus.publish),
             gate=self.gate,
             planner=self.model.plan if self.model.planner is not None else None,
-            review=lambda steps: review(steps, self.registry, self.agent) + tool_problems(steps, plan_tools(self.plan)),
+            review=lambda steps: review(steps, self.registry, self.agent) + self.model.reads.problems(steps, self.plan)
+            + destination_review(steps, self.config),
         )  # fmt: skip
 
     @classmethod

@@ -18,6 +18,7 @@ from tools import Caller, ToolExecutor, ToolRegistry
 from tools import egress as egress_module
 from tools.audit import MemoryAuditLog
 from tools.builtin import BuiltinConfig, register_builtins
+from tools.builtin.allowlist import host_of
 from tools.egress import AsyncEgressTransport, EgressDenied, EgressPolicy, address_kind, fenced, guarded_client
 from tools.http_endpoint import HttpEndpoint, http_tool
 
@@ -80,7 +81,7 @@ def test_webhook_to_an_internal_address_is_refused_and_audited(
     url: str, tools: Callable[..., ToolExecutor], resolved: dict[str, list[str]]
 ) -> None:
     resolved["localhost"] = ["127.0.0.1"]
-    executor = tools()
+    executor = tools(webhook_allow=[host_of(url)])  # on the webhook allowlist, the egress policy still refuses it
     result = executor.call("alerts.webhook", {"payload": {"steal": "creds"}, "url": url})
     assert result.status == "error" and result.error is not None
     assert "egress refused" in result.error, result.error
@@ -92,9 +93,12 @@ def test_webhook_to_an_internal_address_is_refused_and_audited(
 @pytest.mark.timeout(30)
 def test_the_loopback_server_is_never_contacted_unless_allowed(tools: Callable[..., ToolExecutor]) -> None:
     with LocalHTTPServer([text_reply("secret internal page")]) as server:
-        refused = tools().call("alerts.webhook", {"payload": {"n": 1}, "url": server.url + "/admin"})
+        hook = ["127.0.0.1"]
+        refused = tools(webhook_allow=hook).call("alerts.webhook", {"payload": {"n": 1}, "url": server.url + "/admin"})
         assert refused.status == "error" and not server.requests
-        allowed = tools(allow=["127.0.0.1"]).call("alerts.webhook", {"payload": {"n": 2}, "url": server.url + "/ok"})
+        allowed = tools(allow=hook, webhook_allow=hook).call(
+            "alerts.webhook", {"payload": {"n": 2}, "url": server.url + "/ok"}
+        )
     assert allowed.ok, allowed.error
     assert [r.path for r in server.requests] == ["/ok"]
     excerpt = allowed.output["response_excerpt"]
@@ -119,7 +123,7 @@ def test_a_redirect_from_an_allowed_server_to_a_forbidden_address_is_refused(
 
     with LocalHTTPServer(answer) as server:
         port = server.url.rsplit(":", 1)[1]
-        result = tools(allow=["hooks.test"]).call(
+        result = tools(allow=["hooks.test"], webhook_allow=["hooks.test", "127.0.0.1", "localhost"]).call(
             "alerts.webhook", {"payload": {"n": 1}, "url": f"http://hooks.test:{port}/hook"}
         )
     assert result.status == "error" and result.error is not None and "egress refused" in result.error

@@ -18,6 +18,8 @@ from pydantic import BaseModel, ConfigDict, Field, SecretStr, ValidationError
 from ..egress import EgressPolicy, parse_allow
 
 ENV_PREFIX = "AGENTIC_UAV_"
+LIST_SETTINGS = frozenset({"alert_recipients", "alert_allow", "attachment_dirs", "egress_allow", "webhook_allow"})
+"""The settings written as comma-separated lists."""
 
 
 class SimulatedWeather(BaseModel):
@@ -52,8 +54,11 @@ class BuiltinConfig(BaseModel):
       ``AGENTIC_UAV_SMTP_USERNAME``, ``AGENTIC_UAV_SMTP_PASSWORD`` (kept as a secret, never logged),
       ``AGENTIC_UAV_SMTP_FROM``, ``AGENTIC_UAV_SMTP_CA_FILE`` (a PEM bundle to trust instead of the system's, for a
       private CA): mail delivery; with no host, mail goes to the outbox.
-    - ``AGENTIC_UAV_ALERT_RECIPIENTS``: the addresses ``alerts.notify`` mails when given none (comma-separated).
+    - ``AGENTIC_UAV_ALERT_RECIPIENTS``: the addresses ``alerts.notify`` mails when given none (comma-separated);
+      with ``AGENTIC_UAV_ALERT_ALLOW`` (more addresses, or ``@domain``), the only ones mail may go out to
+      (:mod:`tools.builtin.allowlist`).
     - ``AGENTIC_UAV_WEBHOOK_URL``: where ``alerts.webhook`` posts when given no URL; unset, payloads go to the outbox.
+      Its host and ``AGENTIC_UAV_WEBHOOK_ALLOW`` (host names) are the only hosts a webhook may reach.
     - ``AGENTIC_UAV_EGRESS_ALLOW``: internal hosts outbound HTTP (webhooks, weather, HTTP endpoint tools) may reach
       although the egress policy refuses internal addresses (comma-separated host names, addresses, networks such
       as ``10.20.0.0/16``); see :mod:`tools.egress`.
@@ -76,7 +81,9 @@ class BuiltinConfig(BaseModel):
     smtp_from: str = "agentic-uav@localhost"
     smtp_ca_file: Path | None = None
     alert_recipients: list[str] = Field(default_factory=list)
+    alert_allow: list[str] = Field(default_factory=list)
     webhook_url: str | None = None
+    webhook_allow: list[str] = Field(default_factory=list)
     http_timeout_s: float = Field(default=10.0, gt=0)
     egress_allow: list[str] = Field(default_factory=list)
     weather_provider: Callable[[float, float], SimulatedWeather] | None = Field(default=None, exclude=True, repr=False)
@@ -92,7 +99,7 @@ class BuiltinConfig(BaseModel):
             raw = env.get(ENV_PREFIX + name.upper(), "").strip()
             if raw:
                 split = [a.strip() for a in raw.replace(";", ",").split(",") if a.strip()]
-                values[name] = split if name in ("alert_recipients", "attachment_dirs", "egress_allow") else raw
+                values[name] = split if name in LIST_SETTINGS else raw
         values.update(overrides)
         try:
             return cls(**values)

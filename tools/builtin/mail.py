@@ -31,6 +31,7 @@ from typing import Literal
 from pydantic import BaseModel, Field
 
 from ..errors import ToolError, TransientToolError
+from .allowlist import check_recipients_allowed
 from .config import BuiltinConfig, may_attach
 from .eml import PLAIN_NAME, PLAIN_TYPE, attachment_type, base64_lines, new_boundary, plain_message
 from .outbox import discard_undelivered, keep_undelivered, write_file
@@ -324,6 +325,7 @@ def _send(
     message_id: str | None = None,
 ) -> EmailReceipt:
     recipients = check_recipients(to)
+    check_recipients_allowed(config, recipients)  # before anything is kept: a refused message is not an alert
     data, message_id = encode_message(config, to, subject, body, files, message_id)
     names = [f.name for f in files]
     if not config.smtp_host:

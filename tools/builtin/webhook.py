@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any, Literal
 from urllib.parse import urlsplit
 
@@ -25,6 +26,7 @@ from pydantic import BaseModel, Field
 from ..egress import fenced, guarded_client
 from ..errors import ToolError, TransientToolError
 from ..idempotency import header_value
+from .allowlist import HOST_SETTINGS, check_webhook_allowed, webhook_hosts
 from .config import BuiltinConfig, egress_policy
 from .outbox import discard_undelivered, keep_undelivered, now_iso, write_file
 
@@ -66,6 +68,7 @@ def post_webhook(
     if not target:
         path = write_file(config.outbox_dir, ".json", json.dumps(record, ensure_ascii=False, indent=2).encode())
         return WebhookReceipt(delivered_via="outbox", path=str(path))
+    check_webhook_allowed(config, target)  # before anything is kept: a refused payload is not an alert
     try:
         receipt = _post(config, target, body, idempotency_key)
     except Exception as exc:
@@ -86,7 +89,8 @@ def _post(config: BuiltinConfig, target: str, body: str, idempotency_key: str | 
     if idempotency_key is not None:
         headers["Idempotency-Key"] = header_value(idempotency_key)
     try:
-        with guarded_client(egress_policy(config), config.http_timeout_s) as client:
+        policy = replace(egress_policy(config), hosts=webhook_hosts(config), hosts_setting=HOST_SETTINGS)
+        with guarded_client(policy, config.http_timeout_s) as client:  # a redirect must stay on an allowed host
             response = client.post(target, content=body.encode(), headers=headers)
     except (httpx.ConnectError, httpx.ConnectTimeout, httpx.PoolTimeout) as exc:
         raise TransientToolError(f"cannot reach the webhook {endpoint} (nothing was sent): {exc}") from None

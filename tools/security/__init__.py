@@ -19,6 +19,15 @@ True
 
 from agentic_core.contracts.tool_result import Finding, InjectionReport
 
-from .injection import DEFAULT_THRESHOLD, scan, scan_value, wrap_untrusted
+from .injection import DEFAULT_THRESHOLD, UNTRUSTED_BEGIN, holds_untrusted, scan, scan_value, wrap_untrusted
 
-__all__ = ["DEFAULT_THRESHOLD", "Finding", "InjectionReport", "scan", "scan_value", "wrap_untrusted"]
+__all__ = [
+    "DEFAULT_THRESHOLD",
+    "UNTRUSTED_BEGIN",
+    "Finding",
+    "InjectionReport",
+    "holds_untrusted",
+    "scan",
+    "scan_value",
+    "wrap_untrusted",
+]

@@ -13,6 +13,7 @@ from agentic_core.run.cli import main as run_main
 from agentic_core.run.responses import DEGRADED_EXIT
 from agentic_core.run.runner import MissionRun, RunSettings
 
+from ..conftest import MEDICAL_TEAM
 from .conftest import EMERGENCY, NEAR, PARAMS, distance_to_casualty, of_kind, slow_server, telemetry, tools_ok, trace
 
 
@@ -48,9 +49,11 @@ def test_a_model_slower_than_the_deadline_holds_over_the_casualty_and_never_comp
 def test_a_confirmed_casualty_with_no_alert_fails_the_run(tmp_path: Path, smtp: Any) -> None:
     """The model judges the casualty critical, then writes a response plan that only hovers: every step of it
     succeeds, the patrol goes home, and today's flight would say "completed". It is ``failed``, and the report
-    says which event went without its response."""
+    says which event went without its response. Coming back over the casualty (a new track id) is not a new
+    event: the useless plan is not started again and again until the run times out."""
     server, model = slow_server(0.0)
     model.model.plan = [{"id": "look_longer", "action": "hover", "args": {"duration_s": 2}}]
+    model.model.still_s = 2.0  # critical at the first look, when the trigger's rule fires
     with server:
         result = MissionRun(settings(tmp_path, server.url)).execute()
     records = trace(result.run_dir)
@@ -61,6 +64,7 @@ def test_a_confirmed_casualty_with_no_alert_fails_the_run(tmp_path: Path, smtp: 
     report = result.report.read_text(encoding="utf-8")
     assert "**failed**" in report and "was judged critical at" in report and "no alert was sent" in report
     assert not smtp.inbox.envelopes
+    assert len([r for r in of_kind(records, "mission") if r["status"] == "planned"]) == 1  # once, not in a loop
 
 
 def _closed_port() -> int:
@@ -73,6 +77,7 @@ def _closed_port() -> int:
 def test_an_alert_that_reached_only_the_outbox_is_degraded_with_exit_3(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    monkeypatch.setenv("AGENTIC_UAV_ALERT_RECIPIENTS", MEDICAL_TEAM)
     monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", "127.0.0.1")
     monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(_closed_port()))
     monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")

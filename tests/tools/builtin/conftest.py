@@ -33,6 +33,8 @@ def config(tmp_path: Path) -> BuiltinConfig:
         attachment_dirs=[tmp_path],
         http_timeout_s=5,
         egress_allow=["127.0.0.1"],  # the tests' HTTP servers; the egress policy refuses loopback otherwise
+        webhook_allow=["127.0.0.1"],  # ... and the webhook allowlist any host it does not name
+        alert_allow=["@team.example", "@example.org", "@b.example"],  # the addresses the tests mail
     )
 
 
