@@ -17,6 +17,7 @@ from pymavlink import mavutil
 from agentic_core.cli import main
 from agentic_core.run.runner import RunResult, RunSettings, run_mission
 from agentic_core.run.settings import GCS_ENV
+from flight.signing import read_key_file
 from tests.flight.test_cli import free_udp_port
 
 from ..platform.conftest import EMERGENCY, NEAR, PARAMS, read_tlog
@@ -24,7 +25,7 @@ from ..platform.conftest import EMERGENCY, NEAR, PARAMS, read_tlog
 MAV = mavutil.mavlink
 
 
-def test_a_ground_station_on_the_gcs_port_follows_the_mission_and_can_command_the_vehicle(
+def test_a_ground_station_on_the_gcs_port_follows_the_mission_and_commands_it_with_the_runs_key(
     tmp_path: Path, smtp: Any
 ) -> None:
     port = free_udp_port()
@@ -53,6 +54,11 @@ def test_a_ground_station_on_the_gcs_port_follows_the_mission_and_can_command_th
             elif kind in ("COMMAND_ACK", "AUTOPILOT_VERSION") and msg.get_srcSystem() == 1:
                 answers.append(msg)
             if airborne and asked_at is None:  # in the air, mid-mission: ask as QGroundControl does on connecting
+                # unsigned first: the run's vehicle takes commands only signed with the run's key
+                gcs.mav.command_long_send(1, 1, MAV.MAV_CMD_REQUEST_MESSAGE, 0,
+                                          MAV.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0)  # fmt: skip
+                (key_file,) = (tmp_path / "runs").glob("*/signing.key")
+                gcs.setup_signing(read_key_file(key_file), sign_outgoing=True, link_id=2)
                 gcs.mav.heartbeat_send(MAV.MAV_TYPE_GCS, MAV.MAV_AUTOPILOT_INVALID, 0, 0, 0)
                 gcs.mav.command_long_send(1, 1, MAV.MAV_CMD_REQUEST_MESSAGE, 0,
                                           MAV.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0)  # fmt: skip
@@ -64,6 +70,7 @@ def test_a_ground_station_on_the_gcs_port_follows_the_mission_and_can_command_th
     assert seen["HEARTBEAT"] >= 5 and seen["ATTITUDE"] and seen["SYS_STATUS"], seen
     assert len(airborne) >= 10, "no positions in the air reached the ground station"
     acks = [m for m in answers if m.get_type() == "COMMAND_ACK"]
+    # one answer: to the signed request; the unsigned one was refused without a word, as PX4 does
     assert [(m.command, m.result, m.target_system) for m in acks] == [(MAV.MAV_CMD_REQUEST_MESSAGE, 0, 255)]
     assert [m for m in answers if m.get_type() == "AUTOPILOT_VERSION"], "the request was not answered"
     # the ground station's own messages are in the vehicle's flight log, between the vehicle's
