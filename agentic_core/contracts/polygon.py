@@ -74,13 +74,16 @@ def points_in_polygon(points: ArrayLike, polygon: ArrayLike) -> BoolArray:
     a, b = _corners(polygon)
     if len(a) == 0:
         return np.zeros(len(pts), dtype=bool)
-    inside: BoolArray = _crossings_odd(pts, a, b) | (distance_to_edge(pts, a) <= EDGE_TOLERANCE_M)
+    inside: BoolArray = _crossings_odd(pts, a, b)
+    if not inside.all():  # only the points outside by the crossings can still lie on an edge
+        rest = ~inside
+        inside[rest] = distance_to_edge(pts[rest], a) <= EDGE_TOLERANCE_M
     return inside
 
 
-def point_in_polygon(point: Sequence[float], polygon: ArrayLike) -> bool:
-    """:func:`points_in_polygon` for one point."""
-    return bool(points_in_polygon([point], polygon)[0])
+def point_in_polygon(point: Sequence[float], polygon: Sequence[Sequence[float]]) -> bool:
+    """:func:`points_in_polygon` for one point, in plain Python (the vehicle asks this every tick)."""
+    return outside_by(point, polygon) == 0.0
 
 
 def outside_by(point: Sequence[float], polygon: Sequence[Sequence[float]]) -> float:

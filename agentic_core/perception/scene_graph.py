@@ -141,7 +141,9 @@ def _landmark_geometry(lm: Landmark, points: FloatArray) -> tuple[FloatArray, ND
     if lm.polygon is not None:
         poly = np.asarray(lm.polygon, dtype=float)
         inside = points_in_polygon(points, poly)
-        return np.where(inside, 0.0, distance_to_edge(points, poly)), inside
+        dist = np.zeros(len(points))
+        dist[~inside] = distance_to_edge(points[~inside], poly)
+        return dist, inside
     d = np.hypot(points[:, 0] - lm.north, points[:, 1] - lm.east)
     if lm.radius_m is not None:
         inside = d <= lm.radius_m

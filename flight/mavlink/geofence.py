@@ -67,7 +67,7 @@ class Circle:
     inclusion: bool
 
     def contains(self, north: float, east: float) -> bool:
-        return bool(points_in_circle([(north, east)], self.centre, self.radius_m)[0])
+        return math.hypot(north - self.centre[0], east - self.centre[1]) <= self.radius_m  # as points_in_circle
 
 
 Area = Polygon | Circle

@@ -193,7 +193,10 @@ class Zone(BaseModel):
             c = self.circle.center
             d: FloatArray = np.maximum(np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east) - self.circle.radius_m, 0.0)
             return d
-        return np.where(self.contains(pts), 0.0, distance_to_edge(pts, self.vertices()))
+        inside = self.contains(pts)
+        dist: FloatArray = np.zeros(len(pts))
+        dist[~inside] = distance_to_edge(pts[~inside], self.vertices())
+        return dist
 
     def sample(self, n: int, rng: np.random.Generator) -> FloatArray:
         """``n`` points drawn uniformly inside the zone."""

@@ -88,7 +88,7 @@ def test_regular_polygons_area_and_distance(cx: float, cy: float, r: float, k: i
     assert polygon_area(corners[::-1]) == pytest.approx(polygon_area(corners))  # either winding
     apothem = r * math.cos(math.pi / k)
     assert distance_to_edge([(cx, cy)], corners)[0] == pytest.approx(apothem, rel=1e-9)
-    assert point_in_polygon((cx, cy), corners)
+    assert point_in_polygon((cx, cy), corners.tolist())
 
 
 def test_circle_includes_its_rim() -> None:
