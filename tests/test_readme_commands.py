@@ -21,6 +21,15 @@ NOT_RUN_HERE = {
     "tests/agentic_core/test_examples.py checks that a copied mission finds its copied scene",
     "agentic-uav run missions/hajj_emergency.yaml --gcs none": "minutes of flight; runs with --gcs fly in "
     "tests/agentic_core/run/test_ground_station.py",
+    "export AGENTIC_UAV_SMTP_HOST=smtp.example.org AGENTIC_UAV_ALERT_RECIPIENTS=medical-team@example.org": "a "
+    "shell setting for the reader's own mail server; tests/tools/builtin/test_allowlist.py tests the allowlist",
+    "agentic-uav run missions/hajj_emergency.yaml --reasoner llm --llm ollama:gemma3:4b": "needs an Ollama server "
+    "with the model; llm with a stand-in model flies in tests/agentic_core/platform/test_slow_model.py",
+    'python -c "import secrets; print(secrets.token_hex(32))" > key.hex && chmod 600 key.hex': "not agentic-uav; "
+    "key files are tested in tests/flight/attacks/",
+    "agentic-uav sim --signing-key key.hex": "serves until stopped; tests/flight/attacks/ start signed vehicles",
+    "agentic-uav sim --state-dir sim-state": "serves until stopped; tests/flight/attacks/ keep a key across restarts",
+    "agentic-uav sim --require-signing": "serves until stopped; tests/flight/attacks/ test a vehicle without a key",
     "make demo": "reinstalls .venv; it runs `agentic-uav demo` (tests/agentic_core/test_cli.py checks that)",
     "make test": "reinstalls .venv and runs this suite",
     "agentic-uav run missions/hajj_emergency.yaml": "a few minutes of flight; flown in test_shipped_missions.py",
@@ -70,6 +79,8 @@ COMMANDS = readme_commands()
 
 def test_the_readme_has_commands_and_every_exception_is_still_in_it() -> None:
     assert len(COMMANDS) > 20
+    serving = [c for c in COMMANDS if c.startswith("agentic-uav sim") and c not in NOT_RUN_HERE]
+    assert not serving, f"these serve until stopped: list them in NOT_RUN_HERE, with where they are tested: {serving}"
     assert set(NOT_RUN_HERE) <= set(COMMANDS), set(NOT_RUN_HERE) - set(COMMANDS)
     assert all(reason.strip() for reason in NOT_RUN_HERE.values())
 

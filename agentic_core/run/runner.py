@@ -414,15 +414,15 @@ class MissionRun:
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)
 
     def _carry_out(self, command: str) -> None:
-        """What a stop asks of the aircraft: an operator's ``abort`` does what the mission's ``on_abort`` says; a
-        stop by signal (Ctrl-C, SIGTERM) holds where it is, so that ``--resume`` goes on from there; ``rtl`` and
-        ``land`` as said (nothing to do for a landing on the ground, disarmed)."""
+        """What a stop asks of the aircraft: an ``abort`` (the operator's, or Ctrl-C and SIGTERM) does what the
+        mission's ``on_abort`` says, and ``--resume`` goes on from wherever that left it; ``rtl`` and ``land`` as
+        said (nothing to do for a landing on the ground, disarmed)."""
         view = self.view()
         if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
             self.bus.publish("log", level="info", summary="land: the aircraft is on the ground already")
             return
         if command == "abort":
-            tool = "flight.hold" if self.control.stopped_by == "signal" else ON_ABORT_TOOLS[self.plan.on_abort]
+            tool = ON_ABORT_TOOLS[self.plan.on_abort]
         else:
             tool = STOP_TOOLS[command]
         self.dispatch.call(tool, {})

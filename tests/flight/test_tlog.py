@@ -17,6 +17,7 @@ from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.tlog import STAMP, TlogWriter, complete_records, frame_length, simulated_clock
 from flight.vehicle import VehicleClient
+from tests.tlogs import read_tlog
 from tests.waiting import wait_for, wait_for_async
 
 MAV = common.MAVLink(None, srcSystem=1, srcComponent=1)
@@ -25,15 +26,6 @@ MAV = common.MAVLink(None, srcSystem=1, srcComponent=1)
 def heartbeat(n: int = 0) -> bytes:
     frame: bytes = common.MAVLink_heartbeat_message(2, 12, 0, n, 3, 3).pack(MAV)
     return frame
-
-
-def read(path: Path) -> list[Any]:
-    log = mavutil.mavlink_connection(str(path))
-    out = []
-    while (msg := log.recv_match()) is not None:
-        out.append(msg)
-    log.close()
-    return out
 
 
 class Clock:
@@ -51,7 +43,7 @@ def test_frames_come_back_in_order_with_their_stamps_which_never_go_back(tmp_pat
         log(heartbeat(n))
     log.close()
     log(heartbeat(9))  # after close: ignored
-    msgs = read(path)
+    msgs = read_tlog(path)
     assert [m.custom_mode for m in msgs] == [0, 1, 2, 3]
     assert [m._timestamp for m in msgs] == [100.0, 101.5, 101.5, 102.25]
 
@@ -71,7 +63,7 @@ def test_a_log_cut_mid_record_is_mended_and_appended_to(tmp_path: Path) -> None:
         assert again.last_us == 2_000_000
         again(heartbeat(7))
         again.close()
-        msgs = read(path)
+        msgs = read_tlog(path)
         assert [m.custom_mode for m in msgs] == [0, 1, 7] and msgs[-1]._timestamp == 2.0
 
 
@@ -109,7 +101,7 @@ def test_threads_writing_at_once_never_mix_their_frames(tmp_path: Path) -> None:
     for t in threads:
         t.join()
     log.close()
-    msgs = read(path)
+    msgs = read_tlog(path)
     assert len(msgs) == 4 * per_thread
     assert sorted({m.custom_mode for m in msgs}) == [0, 1, 2, 3]
     stamps = [m._timestamp for m in msgs]
@@ -168,7 +160,7 @@ def test_the_client_taps_what_it_sends_and_hears_from_its_vehicle(tmp_path: Path
         vehicle.start(speed=None)
         asyncio.run(talk(f"{vehicle.address[0]}:{vehicle.address[1]}"))
     log.close()
-    msgs = read(path)
+    msgs = read_tlog(path)
     assert {m.get_srcSystem() for m in msgs} == {1, 255}
     sent = [m for m in msgs if m.get_srcSystem() == 255]
     assert {m.command for m in sent if m.get_type() == "COMMAND_LONG"} == {common.MAV_CMD_SET_MESSAGE_INTERVAL}

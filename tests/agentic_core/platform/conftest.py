@@ -10,8 +10,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-from pymavlink import mavutil
-
 from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
 
@@ -50,16 +48,6 @@ def trace(run_dir: Path) -> list[dict[str, Any]]:
             out.append(json.loads(line))
         except json.JSONDecodeError:  # a line cut by a kill
             continue
-    return out
-
-
-def read_tlog(path: Path) -> list[Any]:
-    """Every message of a ``.tlog`` as pymavlink's log reader gives them (each with its ``_timestamp``)."""
-    log = mavutil.mavlink_connection(str(path))
-    out = []
-    while (msg := log.recv_match()) is not None:
-        out.append(msg)
-    log.close()
     return out
 
 

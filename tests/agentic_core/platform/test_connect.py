@@ -14,8 +14,9 @@ from agentic_core.run.runner import RunSettings, run_mission
 from flight.signing import new_key, write_key_file
 from tests.flight.test_cli import free_udp_port
 from tests.flight.test_cli_vehicle import listening_port, stop
+from tests.tlogs import read_tlog
 
-from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, read_tlog, trace
+from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, trace
 
 
 def start_vehicle(port: int, speed: str, key: Path) -> subprocess.Popen[str]:

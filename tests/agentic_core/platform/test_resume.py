@@ -15,9 +15,10 @@ from typing import Any
 
 import pytest
 
+from tests.tlogs import read_tlog
 from tests.waiting import wait_for
 
-from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, read_tlog, tools_ok, trace
+from .conftest import EMERGENCY, NEAR, PARAMS, REPO, assert_served, of_kind, tools_ok, trace
 
 Condition = Callable[[list[dict[str, Any]]], bool]
 
@@ -124,8 +125,8 @@ def test_resuming_what_does_not_exist_is_a_clear_error(tmp_path: Path, smtp: Any
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_a_signal_stops_the_run_cleanly_and_it_resumes(tmp_path: Path, smtp: Any, signum: int) -> None:
-    """Ctrl-C or SIGTERM mid-flight: no traceback, the aircraft holds, the report says ``interrupted``, exit 1; the
-    run then resumes and finishes the mission."""
+    """Ctrl-C or SIGTERM mid-flight: no traceback, the aircraft does what ``on_abort`` says (RTL), the report says
+    ``interrupted``, exit 1; the run then resumes and finishes the mission."""
     runs = tmp_path / "runs"
     proc = subprocess.Popen(
         command(runs), cwd=REPO, env=environment(smtp), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
@@ -147,6 +148,8 @@ def test_a_signal_stops_the_run_cleanly_and_it_resumes(tmp_path: Path, smtp: Any
     records = trace(folder)
     (stop,) = of_kind(records, "control")
     assert stop["command"] == "abort" and stop["by"] == "signal"
+    # the aircraft did what the mission's on_abort says (rtl, the default), after the signal
+    assert [r for r in tools_ok(records, "flight.rtl") if r["seq"] > stop["seq"]], "no RTL on the signal"
     done = resume(runs, folder.name, smtp)
     assert done.returncode == 0, done.stderr[-3000:]
     assert_served(folder, smtp)

@@ -19,8 +19,9 @@ from agentic_core.run.runner import RunResult, RunSettings, run_mission
 from agentic_core.run.settings import GCS_ENV
 from flight.signing import read_key_file
 from tests.flight.test_cli import free_udp_port
+from tests.tlogs import read_tlog
 
-from ..platform.conftest import EMERGENCY, NEAR, PARAMS, read_tlog
+from ..platform.conftest import EMERGENCY, NEAR, PARAMS
 
 MAV = mavutil.mavlink
 
