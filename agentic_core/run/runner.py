@@ -370,6 +370,8 @@ class MissionRun:
             self.reach_vehicle()
             self.fence_vehicle()
             self.prepare()
+            if self.resuming:
+                self._take_off_again()
             with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
                     self.plan, self.env, checkpointer=saver, reflector=self.model.reflector(), tools=self.registry
@@ -421,11 +423,20 @@ class MissionRun:
         if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
             self.bus.publish("log", level="info", summary="land: the aircraft is on the ground already")
             return
-        if command == "abort":
-            tool = ON_ABORT_TOOLS[self.plan.on_abort]
-        else:
-            tool = STOP_TOOLS[command]
+        tool = ON_ABORT_TOOLS[self.plan.on_abort] if command == "abort" else STOP_TOOLS[command]
         self.dispatch.call(tool, {})
+
+    def _take_off_again(self) -> None:
+        """A resumed run whose aircraft a stop brought down (``on_abort: rtl`` after Ctrl-C, say) takes off again to
+        the height it last took off to, so the mission goes on where it stopped; nothing for one still flying."""
+        view, records = self.view(), self.trace.records
+        stops = [r for r in records if r.get("kind") == "control"]
+        lifts = [r for r in records if r.get("kind") == "tool" and r.get("name") == "flight.takeoff"
+                 and r.get("status") == "ok"]  # fmt: skip
+        if not stops or not lifts or view.get("landed_state") != "on_ground" or view.get("armed"):
+            return
+        self.bus.publish("log", level="info", summary="resume: the stop brought the aircraft down; taking off again")
+        self.dispatch.call("flight.takeoff", dict(lifts[-1].get("args") or {}))
 
     def where_it_ended(self) -> str:
         """Where the aircraft is now, as its telemetry says, in words (for the trace and the report)."""

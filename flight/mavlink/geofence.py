@@ -33,7 +33,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 
 from agentic_core.contracts.errors import AgenticUAVError
 from agentic_core.contracts.geodesy import local_offset
-from agentic_core.contracts.polygon import point_in_polygon, points_in_circle
+from agentic_core.contracts.polygon import point_in_polygon
 from flight.mavlink.mission_items import (
     FENCE_CIRCLE_COMMANDS,
     FENCE_POLYGON_COMMANDS,

@@ -61,15 +61,16 @@ def tools_ok(records: list[dict[str, Any]], name: str) -> list[dict[str, Any]]:
             and not r.get("replayed")]  # fmt: skip
 
 
-def assert_served(run_dir: Path, inbox: Any, *, until_kit: bool = False) -> list[dict[str, Any]]:
-    """The casualty was found (a trigger acted), assessed critical, the medical team alerted once by SMTP, and the
-    kit released once, on the ground, within metres of the casualty."""
+def assert_served(run_dir: Path, inbox: Any, *, until_kit: bool = False, alone: bool = True) -> list[dict[str, Any]]:
+    """The casualty was found (a trigger acted), assessed critical, the medical team alerted once by SMTP (the
+    inbox holds that one e-mail, unless the run was not ``alone`` in sending to it), and the kit released once, on
+    the ground, within metres of the casualty."""
     records = trace(run_dir)
     assert [r for r in of_kind(records, "trigger") if r["act"]], "no trigger acted"
     verdicts = [r["assessment"]["severity"] for r in of_kind(records, "decision") if r.get("assessment")]
     assert "critical" in verdicts, verdicts
     assert len(tools_ok(records, "alerts.notify")) == 1
-    assert len(inbox.inbox.envelopes) == 1
+    assert not alone or len(inbox.inbox.envelopes) == 1
     assert len(tools_ok(records, "flight.deploy_payload")) == 1
     order = [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
     assert order.index("alerts.notify") < order.index("flight.deploy_payload")

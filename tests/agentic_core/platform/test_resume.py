@@ -152,4 +152,7 @@ def test_a_signal_stops_the_run_cleanly_and_it_resumes(tmp_path: Path, smtp: Any
     assert [r for r in tools_ok(records, "flight.rtl") if r["seq"] > stop["seq"]], "no RTL on the signal"
     done = resume(runs, folder.name, smtp)
     assert done.returncode == 0, done.stderr[-3000:]
-    assert_served(folder, smtp)
+    records = assert_served(folder, smtp)
+    # the RTL brought it down at home; the resumed run took off again to the mission's height before going on
+    lifts = [r for r in tools_ok(records, "flight.takeoff") if r["seq"] > stop["seq"]]
+    assert lifts and lifts[0]["args"] == tools_ok(records, "flight.takeoff")[0]["args"], lifts
