@@ -21,6 +21,7 @@ import tarfile
 import time
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -33,6 +34,9 @@ BUILD_INPUTS = ("pyproject.toml", "README.md", "LICENSE", "NOTICE", *PACKAGES, "
 """What the build reads: the packages, their metadata files, and the folders the examples link to."""
 THIN_SCENE = ROOT / "tests" / "agentic_core" / "run" / "scenes" / "small_emergency.yaml"
 
+MAIL_SETTINGS = ("AGENTIC_UAV_SMTP_", "AGENTIC_UAV_ALERT_RECIPIENTS")
+"""The test's own mail server (the ``smtp`` fixture), the one setting the installed run is given."""
+
 pytestmark = [pytest.mark.release, pytest.mark.slow, pytest.mark.timeout(900)]
 
 
@@ -42,10 +46,11 @@ def _env() -> dict[str, str]:
     return env | {"PYTHONNOUSERSITE": "1"}
 
 
-def _run(*argv: str | Path, cwd: Path, timeout_s: float = 600.0) -> str:
+def _run(*argv: str | Path, cwd: Path, timeout_s: float = 600.0, env: dict[str, str] | None = None) -> str:
     done = subprocess.run(
-        [str(a) for a in argv], cwd=cwd, env=_env(), capture_output=True, text=True, timeout=timeout_s, check=False
-    )
+        [str(a) for a in argv], cwd=cwd, env=_env() | (env or {}), capture_output=True, text=True,
+        timeout=timeout_s, check=False,
+    )  # fmt: skip
     assert done.returncode == 0, f"{argv} exited {done.returncode}:\n{done.stdout}\n{done.stderr}"
     return done.stdout
 
@@ -83,7 +88,7 @@ class Clock:
         return f"release check {total}: " + ", ".join(self.phases)
 
 
-def test_the_wheel_installs_in_a_fresh_venv_and_flies_the_emergency_mission_by_name(tmp_path: Path) -> None:
+def test_the_wheel_installs_in_a_fresh_venv_and_flies_the_emergency_mission_by_name(tmp_path: Path, smtp: Any) -> None:
     clock = Clock()
     source, dist, venv, work = (tmp_path / name for name in ("source", "dist", "venv", "work"))
     for folder in (source, work):
@@ -147,14 +152,16 @@ def test_the_wheel_installs_in_a_fresh_venv_and_flies_the_emergency_mission_by_n
 
     shutil.copy(THIN_SCENE, work / "thin.yaml")
     out = _run(cli, "run", "hajj_emergency", "--scene", "thin.yaml", "--param", "rounds=1", "--camera-hz", "15",
-               "--runs-dir", "runs", "--quiet", cwd=work)  # fmt: skip
+               "--runs-dir", "runs", "--quiet", cwd=work,
+               env={k: v for k, v in os.environ.items() if k.startswith(MAIL_SETTINGS)})  # fmt: skip
     clock.lap("flight")
-    assert ": completed: " in out or ": returned: " in out, out
+    assert ": completed: " in out or ": returned: " in out, out  # the alert went out by SMTP: not degraded
+    assert len(smtp.inbox.envelopes) == 1
     (run_dir,) = (work / "runs").iterdir()
     assert Path(json.loads((run_dir / "run.json").read_text())["settings"]["mission"]).is_relative_to(site)
     trace = [json.loads(line) for line in (run_dir / "trace.jsonl").read_text().splitlines()]
     done = [r["name"] for r in trace if r["kind"] == "tool" and r.get("status") == "ok"]
     for tool in ("alerts.notify", "flight.land", "flight.deploy_payload"):
         assert tool in done, (tool, done)
-    assert (run_dir / "report.md").is_file() and list((run_dir / "alerts").glob("*.eml"))
+    assert (run_dir / "report.md").is_file()
     print(clock)

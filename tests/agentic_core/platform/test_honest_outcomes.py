@@ -12,8 +12,8 @@ import pytest
 from agentic_core.run.cli import main as run_main
 from agentic_core.run.responses import DEGRADED_EXIT
 from agentic_core.run.runner import MissionRun, RunSettings
+from tests.conftest import MEDICAL_TEAM
 
-from ..conftest import MEDICAL_TEAM
 from .conftest import EMERGENCY, NEAR, PARAMS, distance_to_casualty, of_kind, slow_server, telemetry, tools_ok, trace
 
 

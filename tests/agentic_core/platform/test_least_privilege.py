@@ -11,8 +11,8 @@ from typing import Any
 import yaml
 
 from agentic_core.run.runner import MissionRun, RunSettings
+from tests.conftest import MEDICAL_TEAM
 
-from ..conftest import MEDICAL_TEAM
 from .conftest import EMERGENCY, NEAR, PARAMS, of_kind, slow_server, tools_ok, trace
 
 DROP = "drop@evil.example"

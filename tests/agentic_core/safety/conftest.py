@@ -66,7 +66,9 @@ def judge(run_dir: Path, mission: Path) -> Judged:
         outside_m=outside,
         over_ceiling_m=max(s["alt_m"] for s in samples) - limits.max_altitude_m,
         ended_from_home_m=math.hypot(last["north_m"], last["east_m"]),
-        ended_on_ground=last["alt_m"] < 0.5 and last["landed_state"] in ("on_ground", "unknown"),
+        # on the ground: said so, or disarmed at ground level (over a link the disarm's heartbeat can come before
+        # the next EXTENDED_SYS_STATE; the run's own where_it_ended judges the same way)
+        ended_on_ground=last["alt_m"] < 0.5 and (last["landed_state"] in ("on_ground", "unknown") or not last["armed"]),
         samples=samples,
     )
 
