@@ -28,7 +28,7 @@ typecheck: $(VENV)/.installed-dev
 	$(PY) -m mypy
 
 pytest: $(VENV)/.installed-dev
-	$(PY) -m pytest -n 2 --dist worksteal
+	$(PY) -m pytest -n 3 --dist worksteal
 
 test: lint typecheck pytest
 
