@@ -13,7 +13,6 @@ its snapshot, and no side effect twice (each call's idempotency key is in the au
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from pathlib import Path
@@ -35,7 +34,7 @@ from ..agent.envelope import FLOOR_M, Envelope
 from ..agent.failsafes import TelemetryFailsafes, VehicleTexts
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
-from ..contracts.policy_graph import ON_ABORT_TOOLS, Circle
+from ..contracts.policy_graph import Circle
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
 from ..mission.model import Trigger
@@ -61,12 +60,8 @@ from .responses import ResponseLedger
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
+from .stops import STOP_OUTCOMES, carry_out, take_off_again, where_it_ended
 from .trace import TelemetryLog, TraceWriter
-
-STOP_TOOLS = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}
-"""What the aircraft does when the operator stops the run (``abort``: what the mission's ``on_abort`` says)."""
-
-STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed", "hold": "held"}
 
 DEFAULT_CEILING_M = 120.0
 """The ceiling handed to the vehicle with a fence when the mission names none (a common legal limit)."""
@@ -371,7 +366,7 @@ class MissionRun:
             self.fence_vehicle()
             self.prepare()
             if self.resuming:
-                self._take_off_again()
+                take_off_again(self.trace.records, self.view(), self.dispatch.call, self.bus.publish)
             with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
                     self.plan, self.env, checkpointer=saver, reflector=self.model.reflector(), tools=self.registry
@@ -387,7 +382,7 @@ class MissionRun:
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
             if result.stopped is not None:
-                self._carry_out(result.stopped)
+                carry_out(result.stopped, self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
                 signalled = self.control.stopped_by == "signal"
                 outcome = "interrupted" if signalled else STOP_OUTCOMES[result.stopped]
             elif result.over_time:
@@ -415,38 +410,9 @@ class MissionRun:
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
         return RunResult(self.run_id, self.run_dir, report, summary, final, track)
 
-    def _carry_out(self, command: str) -> None:
-        """What a stop asks of the aircraft: an ``abort`` (the operator's, or Ctrl-C and SIGTERM) does what the
-        mission's ``on_abort`` says, and ``--resume`` goes on from wherever that left it; ``rtl`` and ``land`` as
-        said (nothing to do for a landing on the ground, disarmed)."""
-        view = self.view()
-        if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
-            self.bus.publish("log", level="info", summary="land: the aircraft is on the ground already")
-            return
-        tool = ON_ABORT_TOOLS[self.plan.on_abort] if command == "abort" else STOP_TOOLS[command]
-        self.dispatch.call(tool, {})
-
-    def _take_off_again(self) -> None:
-        """A resumed run whose aircraft a stop brought down (``on_abort: rtl`` after Ctrl-C, say) takes off again to
-        the height it last took off to, so the mission goes on where it stopped; nothing for one still flying."""
-        view, records = self.view(), self.trace.records
-        stops = [r for r in records if r.get("kind") == "control"]
-        lifts = [r for r in records if r.get("kind") == "tool" and r.get("name") == "flight.takeoff"
-                 and r.get("status") == "ok"]  # fmt: skip
-        if not stops or not lifts or view.get("landed_state") != "on_ground" or view.get("armed"):
-            return
-        self.bus.publish("log", level="info", summary="resume: the stop brought the aircraft down; taking off again")
-        self.dispatch.call("flight.takeoff", dict(lifts[-1].get("args") or {}))
-
     def where_it_ended(self) -> str:
         """Where the aircraft is now, as its telemetry says, in words (for the trace and the report)."""
-        sample = self.last_sample
-        if sample is None:
-            return "where it was: no telemetry was heard"
-        away = f"{math.hypot(sample.north_m, sample.east_m):.1f} m from home"
-        if sample.landed_state == "on_ground" or (not sample.armed and sample.alt_m < 0.5):
-            return f"on the ground, {'armed' if sample.armed else 'disarmed'}, {away}"
-        return f"in the air at {sample.alt_m:.1f} m, {away} (mode {sample.mode})"
+        return where_it_ended(self.last_sample)
 
     def track(self) -> list[TrackPoint]:
         """The flight as ``telemetry.jsonl`` recorded it (every resumed part included)."""

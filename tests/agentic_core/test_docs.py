@@ -75,6 +75,7 @@ MODULES = [
     "agentic_core.run.link_key",
     "agentic_core.run.perception_loop",
     "agentic_core.run.trace",
+    "agentic_core.run.stops",
     "agentic_core.run.cli",
     "agentic_core.reasoning.reasoners",
     "agentic_core.reasoning.llm",
