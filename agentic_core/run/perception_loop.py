@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from agentic_core.contracts.geodesy import local_offset
@@ -83,12 +83,20 @@ class PerceptionLoop:
             )  # fmt: skip
             self.observe(pose, sample.time_s)
 
-    def restore(self, world: WorldModel) -> None:
+    def restore(
+        self, world: WorldModel, last_seen: Mapping[str, tuple[float, float, str, float]] | None = None
+    ) -> None:
         """Start from a World Model saved before (a resumed run): it stands until the first new frame, and the
-        objects it knows can still be found as targets after that."""
+        objects it knows, or that were seen before it (``last_seen``: a stop flew the aircraft away from them), can
+        still be found as targets after that."""
         with self._lock:
             self._world = world
             self.restored = world
+            self._last_seen.update(last_seen or {})
+
+    def last_seen(self) -> dict[str, tuple[float, float, str, float]]:
+        """Where each object was last seen (latitude, longitude, class, time), for a snapshot."""
+        return dict(self._last_seen)
 
     def target(self, object_id: str) -> tuple[float, float] | None:
         """Where an object is (latitude, longitude): in the World Model now, else where it was last seen (a track

@@ -114,7 +114,7 @@ class MissionRun:
         camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
         self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
-            self.loop.restore(WorldModel.model_validate(snapshot.world))
+            self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen)
         self.last_sample: TelemetrySample | None = None
         self._clock0 = snapshot.sim_t if snapshot is not None and snapshot.sim_t is not None else 0.0
         self._client: VehicleClient | None = None
@@ -313,7 +313,8 @@ class MissionRun:
     def save_snapshot(self) -> None:
         """Write ``snapshot.json``: the simulated vehicle and the World Model now."""
         world = self.loop.world.model_dump(mode="json") if self.loop is not None else None
-        self.snapshots.write(Snapshot(vehicle=self.backend.snapshot(), world=world, sim_t=self.clock()))
+        seen = self.loop.last_seen() if self.loop is not None else {}
+        self.snapshots.write(Snapshot(vehicle=self.backend.snapshot(), world=world, last_seen=seen, sim_t=self.clock()))
 
     # ---- running ----
 
@@ -382,7 +383,8 @@ class MissionRun:
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
             if result.stopped is not None:
-                carry_out(result.stopped, self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
+                carry_out(result.stopped, self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish,
+                          by=self.control.stopped_by)  # fmt: skip
                 signalled = self.control.stopped_by == "signal"
                 outcome = "interrupted" if signalled else STOP_OUTCOMES[result.stopped]
             elif result.over_time:

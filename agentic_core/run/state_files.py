@@ -11,7 +11,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..contracts import InputError
 from .settings import RunSettings
@@ -36,6 +36,8 @@ class Snapshot(BaseModel):
 
     vehicle: dict[str, Any] | None = None
     world: dict[str, Any] | None = None
+    last_seen: dict[str, tuple[float, float, str, float]] = Field(default_factory=dict)
+    """Where each object was last seen (lat, lon, class, time): targets a resumed run can still fly to."""
     sim_t: float | None = None
 
 

@@ -1,8 +1,8 @@
 """What a stop does to the aircraft, and what a resumed run does about it: the run's one place for the tools a stop
 calls, the outcome it gives, re-taking off after a stop brought the aircraft down, and where the aircraft ended.
 
->>> STOP_OUTCOMES["rtl"], stop_tool("abort", "land")
-('returned', 'flight.land')
+>>> STOP_OUTCOMES["rtl"], stop_tool("abort", "land"), stop_tool("abort", "land", by="signal")
+('returned', 'flight.land', 'flight.hold')
 >>> where_it_ended(None)
 'where it was: no telemetry was heard'
 """
@@ -25,18 +25,23 @@ Call = Callable[[str, dict[str, Any]], Any]
 Publish = Callable[..., Any]
 
 
-def stop_tool(command: str, on_abort: OnAbort) -> str:
-    """The tool a stop calls: an ``abort`` (the operator's, or Ctrl-C and SIGTERM) does what the mission's
-    ``on_abort`` says; ``rtl``, ``land`` and ``hold`` as said."""
-    return ON_ABORT_TOOLS[on_abort] if command == "abort" else STOP_TOOLS[command]
+def stop_tool(command: str, on_abort: OnAbort, *, by: str | None = None) -> str:
+    """The tool a stop calls: an operator's ``abort`` does what the mission's ``on_abort`` says; a stop by signal
+    (Ctrl-C, SIGTERM) holds where it is, so that ``--resume`` goes on from there with the aircraft still over
+    whatever it was attending to; ``rtl``, ``land`` and ``hold`` as said."""
+    if command == "abort":
+        return "flight.hold" if by == "signal" else ON_ABORT_TOOLS[on_abort]
+    return STOP_TOOLS[command]
 
 
-def carry_out(command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish) -> None:
+def carry_out(
+    command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish, *, by: str | None = None
+) -> None:
     """Do what a stop asks of the aircraft (nothing for a landing asked of an aircraft on the ground, disarmed)."""
     if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
         publish("log", level="info", summary="land: the aircraft is on the ground already")
         return
-    call(stop_tool(command, on_abort), {})
+    call(stop_tool(command, on_abort, by=by), {})
 
 
 def take_off_again(records: Sequence[Mapping[str, Any]], view: Mapping[str, Any], call: Call, publish: Publish) -> None:
