@@ -5,7 +5,8 @@ Kept cheap: the build runs without isolation (setuptools and build come with the
 pip, and the wheel is installed without its dependencies, which the new venv sees through a ``.pth`` file naming
 this interpreter's site-packages (a path line there does not run that folder's own ``.pth`` files, so an editable
 install of the checkout does not leak in; the test asserts the package imported is the wheel's). The flight is the
-emergency mission by name, one round, over the end-to-end tests' thin-crowd scene. Select it with ``-m release``.
+emergency mission by name over its shipped scene (found by name too), one round, with a 5 Hz camera (as the
+shipped-missions tests fly it). Select it with ``-m release``.
 """
 
 from __future__ import annotations
@@ -32,7 +33,6 @@ from .notice import PACKAGES, package_files, problems
 ROOT = Path(__file__).resolve().parents[2]
 BUILD_INPUTS = ("pyproject.toml", "README.md", "LICENSE", "NOTICE", *PACKAGES, "missions", "scenes")
 """What the build reads: the packages, their metadata files, and the folders the examples link to."""
-THIN_SCENE = ROOT / "tests" / "agentic_core" / "run" / "scenes" / "small_emergency.yaml"
 
 MAIL_SETTINGS = ("AGENTIC_UAV_SMTP_", "AGENTIC_UAV_ALERT_RECIPIENTS")
 """The test's own mail server (the ``smtp`` fixture), the one setting the installed run is given."""
@@ -150,15 +150,16 @@ def test_the_wheel_installs_in_a_fresh_venv_and_flies_the_emergency_mission_by_n
     assert (work / "mine" / "missions" / "hajj_emergency.yaml").read_bytes() == Path(seen["mission"]).read_bytes()
     clock.lap("probes")
 
-    shutil.copy(THIN_SCENE, work / "thin.yaml")
-    out = _run(cli, "run", "hajj_emergency", "--scene", "thin.yaml", "--param", "rounds=1", "--camera-hz", "15",
+    out = _run(cli, "run", "hajj_emergency", "--param", "rounds=1", "--camera-hz", "5",
                "--runs-dir", "runs", "--quiet", cwd=work,
                env={k: v for k, v in os.environ.items() if k.startswith(MAIL_SETTINGS)})  # fmt: skip
     clock.lap("flight")
     assert ": completed: " in out or ": returned: " in out, out  # the alert went out by SMTP: not degraded
     assert len(smtp.inbox.envelopes) == 1
     (run_dir,) = (work / "runs").iterdir()
-    assert Path(json.loads((run_dir / "run.json").read_text())["settings"]["mission"]).is_relative_to(site)
+    settings = json.loads((run_dir / "run.json").read_text())["settings"]
+    assert Path(settings["mission"]).is_relative_to(site) and settings["scene"] is None  # the shipped scene, by name
+    assert "over scene `hajj-emergency`" in (run_dir / "report.md").read_text()
     trace = [json.loads(line) for line in (run_dir / "trace.jsonl").read_text().splitlines()]
     done = [r["name"] for r in trace if r["kind"] == "tool" and r.get("status") == "ok"]
     for tool in ("alerts.notify", "flight.land", "flight.deploy_payload"):
