@@ -45,8 +45,9 @@ def carry_out(
 
 
 def take_off_again(records: Sequence[Mapping[str, Any]], view: Mapping[str, Any], call: Call, publish: Publish) -> None:
-    """A resumed run whose aircraft a stop brought down (``on_abort: rtl`` after Ctrl-C, say) takes off again to
-    the height it last took off to, so the mission goes on where it stopped; nothing for one still flying."""
+    """A resumed run whose aircraft a stop brought down (an operator's abort with ``on_abort: rtl``, say) takes off
+    again to the height it last took off to, so the mission goes on where it stopped; nothing for one still flying,
+    nor for one the mission itself landed (no stop in the records)."""
     stops = [r for r in records if r.get("kind") == "control"]
     lifts = [r for r in records if r.get("kind") == "tool" and r.get("name") == "flight.takeoff"
              and r.get("status") == "ok"]  # fmt: skip
