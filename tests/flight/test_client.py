@@ -14,6 +14,8 @@ from flight.sim import Simulator
 from flight.vehicle import VehicleClient, VehicleConnectionError, parse_address
 from tests.waiting import wait_for_async
 
+from .conftest import FAST_FORWARD
+
 
 def free_udp_port():
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
@@ -28,24 +30,6 @@ def run(coro, timeout_s=30.0):
         return await asyncio.wait_for(coro, timeout_s)
 
     return asyncio.run(bounded())
-
-
-FAST_FORWARD = 50.0
-"""Fifty times real time: minutes of flight in seconds, yet the vehicle thread sleeps between ticks, so on a
-loaded 2-core machine the client's threads are not starved (``speed=None`` would spin a core flat out)."""
-
-
-@pytest.fixture
-def vehicle():
-    """The vehicle ticking as fast as it can (``speed=None``), sending only to clients that talk to it, with every
-    failsafe on: running free, it judges link loss on the wall clock, so the client's 1 Hz heartbeat keeps the
-    link alive however fast simulated time runs (a return home mid-test would fail these flights)."""
-    v = MavlinkVehicle(Simulator(seed=5), gcs=None, api=None)
-    v.start(speed=FAST_FORWARD)
-    try:
-        yield v
-    finally:
-        v.close()
 
 
 def horizontal(telemetry, lat, lon):

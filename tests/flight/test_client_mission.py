@@ -14,7 +14,8 @@ from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import MissionItem, MissionType, VehicleClient
 
-from .test_client import FAST_FORWARD, run
+from .conftest import FAST_FORWARD
+from .test_client import run
 
 HOME = (21.4133, 39.8933)
 

@@ -9,24 +9,13 @@ import pytest
 from pymavlink import mavutil
 
 from flight.geodesy import offset_position
-from flight.mavlink import FlightMode, MavlinkVehicle
+from flight.mavlink import FlightMode
 from flight.mavlink.geofence import Circle, Polygon
-from flight.sim import Simulator
 from flight.vehicle import VehicleClient
 
-from .test_client import FAST_FORWARD, run
+from .test_client import run
 
 m = mavutil.mavlink
-
-
-@pytest.fixture
-def vehicle():
-    v = MavlinkVehicle(Simulator(seed=5), gcs=None, api=None)
-    v.start(speed=FAST_FORWARD)
-    try:
-        yield v
-    finally:
-        v.close()
 
 
 def at(vehicle, north, east):
