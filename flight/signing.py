@@ -14,8 +14,9 @@ Facts relied on (mavlink.io "Message signing"; pymavlink's ``MAVLink_message.sig
 * Replay: a *stream* is (link id, system id, component id); a frame whose timestamp is not newer than the last
   accepted on its stream is refused; a new stream is refused when its timestamp is more than a minute behind ours.
   pymavlink keeps these timestamps in ``signing.stream_timestamps`` and raises its own timestamp to the newest it
-  accepted; it records a stream's timestamp *before* comparing signatures, so :meth:`Signer.check` compares the
-  signature first: a forged frame with a future timestamp cannot lock a stream's real sender out.
+  accepted; it records a stream's timestamp *before* comparing signatures, so :meth:`Signer.check` applies the same
+  rules itself after the signature, hashing each frame once: a forged frame with a future timestamp cannot lock a
+  stream's real sender out.
 * PX4 accepts HEARTBEAT 0, RADIO_STATUS 109, ADSB_VEHICLE 246 and COLLISION 247 unsigned while signing is on
   (:data:`UNSIGNED_ALLOWED`); PX4 stores the key as 32 bytes of key then the timestamp as a little-endian uint64
   (``mavlink-signing-key.bin``, mode 0600, its directory 0700).
@@ -51,6 +52,7 @@ UNSIGNED_ALLOWED = frozenset({0, 109, 246, 247})
 MSG_SETUP_SIGNING = mavlink2.MAVLINK_MSG_ID_SETUP_SIGNING
 _SIGNED_FLAG = mavlink2.MAVLINK_IFLAG_SIGNED
 _STORE = struct.Struct("<32sQ")
+_NEW_STREAM_SLACK = 6000 * 1000  # a minute, in the timestamp's 10 µs units
 
 
 def now_timestamp() -> int:
@@ -216,8 +218,6 @@ class Signer:
         self.required = required
         self.allow_unsigned = allow_unsigned
         self.counters = SigningCounters()
-        self._checker = mavlink2.MAVLink(None)
-        self._checker.signing = self.state
         self.set_key(key, timestamp)
 
     @property
@@ -266,11 +266,27 @@ class Signer:
         if not msg.get_header().incompat_flags & _SIGNED_FLAG:
             return Verdict.ALLOWED_UNSIGNED if msg_id in self.allow_unsigned else Verdict.UNSIGNED
         buf = msg.get_msgbuf()
-        if len(buf) < 13 or hashlib.sha256(key + bytes(buf[:-6])).digest()[:6] != bytes(buf[-6:]):
+        if len(buf) < 13:
             return Verdict.BAD_SIGNATURE
-        if not self._checker.check_signature(buf, msg.get_srcSystem(), msg.get_srcComponent()):
-            return Verdict.REPLAYED
-        return Verdict.SIGNED
+        digest = hashlib.sha256(key)
+        digest.update(memoryview(buf)[:-6])
+        if digest.digest()[:6] != bytes(buf[-6:]):
+            return Verdict.BAD_SIGNATURE
+        return Verdict.SIGNED if self._fresh(buf, msg.get_srcSystem(), msg.get_srcComponent()) else Verdict.REPLAYED
+
+    def _fresh(self, buf: bytes | bytearray, system: int, component: int) -> bool:
+        """The replay rule of MAVLink 2 signing, for a frame whose signature is good: a stream's timestamps only go
+        up, and a new stream may start at most a minute behind this end's clock. Checked after the signature, so a
+        forged frame cannot move a stream's clock (pymavlink's own check moves it first)."""
+        timestamp = int.from_bytes(buf[-12:-6], "little")
+        stream = (buf[-13], system, component)
+        state = self.state
+        last = state.stream_timestamps.get(stream)
+        if (timestamp <= last) if last is not None else (timestamp + _NEW_STREAM_SLACK < state.timestamp):
+            return False
+        state.stream_timestamps[stream] = timestamp
+        state.timestamp = max(state.timestamp, timestamp)
+        return True
 
 
 __all__ = [

@@ -20,7 +20,7 @@ from .measurement import NoiseModel, ground_measurements
 from .metrics import TrackingScore
 from .pipeline import STAGES, Perception, PerceptionConfig
 from .scene_graph import RelationConfig, SceneGraph, as_landmark
-from .tracker import Tracker, TrackerConfig, TrackTable
+from .tracker import Tracker, TrackerConfig, TrackerState, TrackTable
 from .world_model import (
     EgoPose,
     GeoPose,
@@ -48,6 +48,7 @@ __all__ = [
     "TrackTable",
     "Tracker",
     "TrackerConfig",
+    "TrackerState",
     "TrackingScore",
     "Velocity",
     "WorldModel",

@@ -25,6 +25,7 @@ tracks only with ``publish_tentative``.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -39,7 +40,7 @@ from agentic_core.contracts.pinhole import footprint
 
 from .measurement import NoiseModel, common_covariance, ego_covariance, ground_measurements
 from .scene_graph import Rel, RelationConfig, SceneGraph, as_landmark
-from .tracker import STATE_NAMES, TENTATIVE, Tracker, TrackerConfig, TrackTable
+from .tracker import STATE_NAMES, TENTATIVE, Tracker, TrackerConfig, TrackerState, TrackTable
 from .world_model import Landmark, Relation, WorldModel, WorldObject, trusted_objects, trusted_relations
 
 STAGES = ("measure", "track", "relations", "contract")
@@ -74,6 +75,7 @@ class Perception:
         self.config = config or PerceptionConfig()
         self.home = home
         self.tracker = Tracker(self.config.tracker)
+        self._tracking = threading.Lock()  # held while the tracker steps, so its state is read whole
         self.scene_graph = SceneGraph(self.config.relations)
         self.landmarks: list[Landmark] = []
         self.set_landmarks(landmarks)
@@ -100,7 +102,8 @@ class Perception:
         lift = cfg.noise.centre_height_m.get("person", 0.0)  # a person is in sight when their middle is
         sight = footprint(frame.spec, frame.pose, cfg.noise.ground_down_m - lift) if lift else corners
         t1 = time.perf_counter()
-        tracks = self.tracker.step(frame.time_s, measurements, sight)
+        with self._tracking:
+            tracks = self.tracker.step(frame.time_s, measurements, sight)
         t2 = time.perf_counter()
         ego = {"north": frame.pose.north_m, "east": frame.pose.east_m, "down": frame.pose.down_m, "time": frame.time_s}
         relations = self.scene_graph.update(tracks, landmarks=self.landmarks, footprint=corners, ego=ego)
@@ -110,6 +113,16 @@ class Perception:
         t4 = time.perf_counter()
         self.timings = dict(zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3), strict=True))
         return world
+
+    def tracker_state(self) -> TrackerState:
+        """The tracker's tracks and id counters now, whole (safe from any thread): for a run's snapshot."""
+        with self._tracking:
+            return self.tracker.state()
+
+    def restore_tracks(self, state: TrackerState) -> None:
+        """Go on from tracks saved by :meth:`tracker_state` (a resumed run)."""
+        with self._tracking:
+            self.tracker.restore(state)
 
     @property
     def world(self) -> WorldModel | None:

@@ -10,7 +10,12 @@ run each track's life cycle:
 * **confirmed → lost** after ``lost_after_misses`` frames in a row without a detection (coasting meanwhile), or
   at once when it is predicted outside the camera's footprint (out of sight is not a miss); a lost track keeps
   its id for ``reid_window_s`` and takes it back if it is detected again (a person the drone looks away from and
-  back at), after which it is deleted.
+  back at), after which it is deleted;
+* a lost track that had been seen motionless for ``dormant_after_still_s`` or more instead goes *dormant* after
+  ``reid_window_s``: it stays where it was (neither its position nor its uncertainty is predicted on), is listed
+  nowhere (not in :meth:`Tracker.table`, so neither in the scene graph nor the World Model), and takes its id and
+  stillness clock back if it is detected there again within ``dormant_window_s`` (a collapsed person the drone
+  flew away from, and came back to after a stop); a motionless person out of sight is most likely where they were.
 
 Stillness: a track is *clearly moving* when its filtered speed is more than ``moving_sigmas`` standard deviations
 above ``still_speed_mps``; or its mean velocity since its stillness began is (the distance from where it began,
@@ -38,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from agentic_core.contracts.polygon import points_in_polygon
 
@@ -68,10 +73,55 @@ class TrackerConfig(BaseModel):
     confirm_window: int = Field(default=5, ge=1, le=8)
     lost_after_misses: int = Field(default=10, ge=1, description="frames without a detection before 'lost'")
     reid_window_s: float = Field(default=3.0, ge=0, description="how long a lost track keeps its id")
+    dormant_after_still_s: float = Field(
+        default=2.0, ge=0, description="seen motionless this long, a lost track goes dormant instead of being deleted"
+    )
+    dormant_window_s: float = Field(default=600.0, ge=0, description="how long a dormant track keeps its id")
     still_speed_mps: float = Field(default=0.3, gt=0, description="faster than this (clearly) is moving")
     still_radius_m: float = Field(default=1.0, gt=0, description="drifting farther than this is moving")
     moving_sigmas: float = Field(default=2.0, ge=0, description="how clearly the speed must exceed the bound")
     conf_smoothing: float = Field(default=0.3, gt=0, le=1, description="weight of the newest detection's conf")
+
+
+class TrackerState(BaseModel):
+    """Every track and id counter of a :class:`Tracker` at one moment, as plain lists: what a stopped run keeps
+    so that, resumed, it goes on tracking the same people under the same ids with the same stillness clocks."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    time_s: float | None = None
+    classes: list[str] = Field(default_factory=list, description="class names in the order they were first seen")
+    counters: dict[str, int] = Field(default_factory=dict, description="the last number given per id prefix")
+    ids: list[str] = Field(default_factory=list)
+    cls: list[int] = Field(default_factory=list)
+    state: list[int] = Field(default_factory=list)
+    x: list[tuple[float, float, float, float]] = Field(default_factory=list)
+    P: list[list[list[float]]] = Field(default_factory=list)
+    hist: list[int] = Field(default_factory=list)
+    misses: list[int] = Field(default_factory=list)
+    age: list[int] = Field(default_factory=list)
+    last_seen: list[float] = Field(default_factory=list)
+    still_since: list[float] = Field(default_factory=list)
+    anchor: list[tuple[float, float]] = Field(default_factory=list)
+    anchor_var: list[float] = Field(default_factory=list)
+    conf: list[float] = Field(default_factory=list)
+    boxes: list[tuple[float, float, float, float]] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _one_row_per_track(self) -> TrackerState:
+        n = len(self.ids)
+        for name in _ROWS:
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"{name} has {len(getattr(self, name))} rows for {n} tracks")
+        if any(c < 0 or c >= len(self.classes) for c in self.cls) or any(s not in (0, 1, 2) for s in self.state):
+            raise ValueError("a track's class or state is out of range")
+        if any(np.shape(p) != (4, 4) for p in self.P):
+            raise ValueError("P: every covariance is 4×4")
+        return self
+
+
+_ROWS = ("cls", "state", "x", "P", "hist", "misses", "age", "last_seen", "still_since", "anchor", "anchor_var",
+         "conf", "boxes")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -143,7 +193,10 @@ class Tracker:
         cfg = self.config
         dt = 0.0 if self.time_s is None else max(0.0, time_s - self.time_s)
         self.time_s = time_s
+        still = self._resting()
+        x0, P0 = self._x[still], self._P[still]
         self._x, self._P = kalman.predict(self._x, self._P, dt, cfg.q)
+        self._x[still], self._P[still] = x0, P0  # a motionless person out of sight stays where they were
         self._hist = (self._hist << 1) & 0xFF
         self._age += 1
         self._det_index = np.full(len(self._ids), -1, np.intp)
@@ -212,6 +265,17 @@ class Tracker:
         self._boxes = np.concatenate([self._boxes, m.boxes[new]])
         self._det_index = np.concatenate([self._det_index, m.index[new]])
 
+    def _resting(self) -> NDArray[np.bool_]:
+        """Lost tracks that had been seen motionless long enough to be kept where they were (see the module docs)."""
+        still = self._last_seen - self._still_since >= self.config.dormant_after_still_s
+        return np.asarray((self._state == LOST) & still, dtype=np.bool_)
+
+    def _dormant(self) -> NDArray[np.bool_]:
+        """Resting tracks past the re-identification window: kept, but listed nowhere."""
+        if self.time_s is None:
+            return np.zeros(len(self._ids), bool)
+        return np.asarray(self._resting() & (self.time_s - self._last_seen > self.config.reid_window_s), dtype=np.bool_)
+
     def _life_cycle(self, time_s: float) -> None:
         cfg = self.config
         window = (1 << cfg.confirm_window) - 1
@@ -222,7 +286,8 @@ class Tracker:
         hopeless = (self._state == TENTATIVE) & (
             (self._misses > cfg.confirm_window - cfg.confirm_hits) | (self._age >= cfg.confirm_window)
         )
-        expired = (self._state == LOST) & (time_s - self._last_seen > cfg.reid_window_s)
+        keep_for = np.where(self._resting(), cfg.dormant_window_s, cfg.reid_window_s)
+        expired = (self._state == LOST) & (time_s - self._last_seen > keep_for)
         keep = ~(hopeless | expired)
         if keep.all():
             return
@@ -233,21 +298,54 @@ class Tracker:
         for name in ("_anchor", "_anchor_var", "_conf", "_boxes", "_det_index"):
             setattr(self, name, getattr(self, name)[rows])
 
+    def state(self) -> TrackerState:
+        """Every track and id counter now, to be restored later with :meth:`restore` (call it from the thread that
+        steps the tracker, or under the lock that thread holds)."""
+        rows = {name: getattr(self, f"_{name}").tolist() for name in _ROWS}
+        return TrackerState(
+            time_s=self.time_s, classes=list(self._class_index), counters=dict(self._counters), ids=list(self._ids),
+            **rows,
+        )  # fmt: skip
+
+    def restore(self, state: TrackerState) -> None:
+        """Take up the tracks and id counters of :meth:`state` (a resumed run): the same people keep their ids,
+        stillness clocks and re-identification windows, and new tracks are numbered after the old ones."""
+        self.time_s = state.time_s
+        self._class_index = {name: k for k, name in enumerate(state.classes)}
+        self._counters = dict(state.counters)
+        self._ids = list(state.ids)
+        n = len(state.ids)
+        self._cls = np.array(state.cls, np.intp)
+        self._state = np.array(state.state, np.int8)
+        self._x = np.array(state.x, float).reshape(n, 4)
+        self._P = np.array(state.P, float).reshape(n, 4, 4)
+        self._hist = np.array(state.hist, np.int64)
+        self._misses = np.array(state.misses, np.int64)
+        self._age = np.array(state.age, np.int64)
+        self._last_seen = np.array(state.last_seen, float)
+        self._still_since = np.array(state.still_since, float)
+        self._anchor = np.array(state.anchor, float).reshape(n, 2)
+        self._anchor_var = np.array(state.anchor_var, float)
+        self._conf = np.array(state.conf, float)
+        self._boxes = np.array(state.boxes, float).reshape(n, 4)
+        self._det_index = np.full(n, -1, np.intp)
+
     def table(self) -> TrackTable:
-        """The live tracks as arrays (copies: safe to keep)."""
+        """The live tracks as arrays (copies: safe to keep); dormant ones are not listed."""
         names = list(self._class_index)
+        rows = np.flatnonzero(~self._dormant())
         return TrackTable(
-            ids=list(self._ids),
-            classes=[names[c] for c in self._cls],
-            state=self._state.copy(),
-            x=self._x.copy(),
-            P=self._P.copy(),
-            age_frames=self._age.copy(),
-            stationary_s=np.maximum(self._last_seen - self._still_since, 0.0),
-            conf=np.clip(self._conf, 0.0, 1.0),
-            last_seen=self._last_seen.copy(),
-            detected=self._det_index >= 0,
-            boxes=self._boxes.copy(),
-            detection_index=self._det_index.copy(),
-            recent_hits=_POPCOUNT[self._hist],
+            ids=[self._ids[k] for k in rows],
+            classes=[names[c] for c in self._cls[rows]],
+            state=self._state[rows],
+            x=self._x[rows],
+            P=self._P[rows],
+            age_frames=self._age[rows],
+            stationary_s=np.maximum(self._last_seen[rows] - self._still_since[rows], 0.0),
+            conf=np.clip(self._conf[rows], 0.0, 1.0),
+            last_seen=self._last_seen[rows],
+            detected=self._det_index[rows] >= 0,
+            boxes=self._boxes[rows],
+            detection_index=self._det_index[rows],
+            recent_hits=_POPCOUNT[self._hist[rows]],
         )

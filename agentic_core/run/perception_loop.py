@@ -31,6 +31,7 @@ from flight.sim.simulator import VehicleState
 
 from ..contracts import TelemetrySample
 from ..perception.pipeline import Perception, PerceptionConfig
+from ..perception.tracker import TrackerState
 from ..perception.world_model import WorldModel
 
 REID_RADIUS_M = 8.0
@@ -84,15 +85,25 @@ class PerceptionLoop:
             self.observe(pose, sample.time_s)
 
     def restore(
-        self, world: WorldModel, last_seen: Mapping[str, tuple[float, float, str, float]] | None = None
+        self,
+        world: WorldModel,
+        last_seen: Mapping[str, tuple[float, float, str, float]] | None = None,
+        tracks: TrackerState | None = None,
     ) -> None:
         """Start from a World Model saved before (a resumed run): it stands until the first new frame, and the
         objects it knows, or that were seen before it (``last_seen``: a stop flew the aircraft away from them), can
-        still be found as targets after that."""
+        still be found as targets after that; with the tracker's ``tracks``, the same people go on under the same
+        ids with their stillness clocks (a casualty still for 8 s before the stop is not judged afresh)."""
+        if tracks is not None:
+            self.perception.restore_tracks(tracks)
         with self._lock:
             self._world = world
             self.restored = world
             self._last_seen.update(last_seen or {})
+
+    def tracker_state(self) -> TrackerState:
+        """The tracker's tracks now, for a snapshot."""
+        return self.perception.tracker_state()
 
     def last_seen(self) -> dict[str, tuple[float, float, str, float]]:
         """Where each object was last seen (latitude, longitude, class, time), for a snapshot."""

@@ -60,7 +60,7 @@ from .responses import ResponseLedger
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
-from .stops import STOP_OUTCOMES, carry_out, take_off_again, where_it_ended
+from .stops import STOP_OUTCOMES, carry_out, go_back, where_it_ended
 from .trace import TelemetryLog, TraceWriter
 
 DEFAULT_CEILING_M = 120.0
@@ -114,7 +114,7 @@ class MissionRun:
         camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
         self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
-            self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen)
+            self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen, snapshot.tracks)
         self.last_sample: TelemetrySample | None = None
         self._clock0 = snapshot.sim_t if snapshot is not None and snapshot.sim_t is not None else 0.0
         self._client: VehicleClient | None = None
@@ -313,8 +313,10 @@ class MissionRun:
     def save_snapshot(self) -> None:
         """Write ``snapshot.json``: the simulated vehicle and the World Model now."""
         world = self.loop.world.model_dump(mode="json") if self.loop is not None else None
-        seen = self.loop.last_seen() if self.loop is not None else {}
-        self.snapshots.write(Snapshot(vehicle=self.backend.snapshot(), world=world, last_seen=seen, sim_t=self.clock()))
+        seen, tracks = (self.loop.last_seen(), self.loop.tracker_state()) if self.loop is not None else ({}, None)
+        self.snapshots.write(
+            Snapshot(vehicle=self.backend.snapshot(), world=world, last_seen=seen, tracks=tracks, sim_t=self.clock())
+        )
 
     # ---- running ----
 
@@ -367,7 +369,7 @@ class MissionRun:
             self.fence_vehicle()
             self.prepare()
             if self.resuming:
-                take_off_again(self.trace.records, self.view(), self.dispatch.call, self.bus.publish)
+                go_back(self.trace.records, self.view(), self.dispatch.call, self.bus.publish)
             with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
                 graph = compile_mission(
                     self.plan, self.env, checkpointer=saver, reflector=self.model.reflector(), tools=self.registry
@@ -383,8 +385,7 @@ class MissionRun:
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
             if result.stopped is not None:
-                carry_out(result.stopped, self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish,
-                          by=self.control.stopped_by)  # fmt: skip
+                carry_out(result.stopped, self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
                 signalled = self.control.stopped_by == "signal"
                 outcome = "interrupted" if signalled else STOP_OUTCOMES[result.stopped]
             elif result.over_time:

@@ -14,6 +14,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..contracts import InputError
+from ..perception.tracker import TrackerState
 from .settings import RunSettings
 
 RUN_FILE = "run.json"
@@ -38,6 +39,8 @@ class Snapshot(BaseModel):
     world: dict[str, Any] | None = None
     last_seen: dict[str, tuple[float, float, str, float]] = Field(default_factory=dict)
     """Where each object was last seen (lat, lon, class, time): targets a resumed run can still fly to."""
+    tracks: TrackerState | None = None
+    """The tracker's tracks: a resumed run goes on tracking the same people under the same ids."""
     sim_t: float | None = None
 
 

@@ -1,7 +1,7 @@
 """What a stop does to the aircraft, and what a resumed run does about it: the run's one place for the tools a stop
-calls, the outcome it gives, re-taking off after a stop brought the aircraft down, and where the aircraft ended.
+calls, the outcome it gives, going back to where a stop took the aircraft from, and where the aircraft ended.
 
->>> STOP_OUTCOMES["rtl"], stop_tool("abort", "land"), stop_tool("abort", "land", by="signal")
+>>> STOP_OUTCOMES["rtl"], stop_tool("abort", "land"), stop_tool("hold", "rtl")
 ('returned', 'flight.land', 'flight.hold')
 >>> where_it_ended(None)
 'where it was: no telemetry was heard'
@@ -13,6 +13,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+from ..contracts.geodesy import local_offset
 from ..contracts.policy_graph import ON_ABORT_TOOLS, OnAbort
 from ..contracts.telemetry import TelemetrySample
 
@@ -25,36 +26,50 @@ Call = Callable[[str, dict[str, Any]], Any]
 Publish = Callable[..., Any]
 
 
-def stop_tool(command: str, on_abort: OnAbort, *, by: str | None = None) -> str:
-    """The tool a stop calls: an operator's ``abort`` does what the mission's ``on_abort`` says; a stop by signal
-    (Ctrl-C, SIGTERM) holds where it is, so that ``--resume`` goes on from there with the aircraft still over
-    whatever it was attending to; ``rtl``, ``land`` and ``hold`` as said."""
-    if command == "abort":
-        return "flight.hold" if by == "signal" else ON_ABORT_TOOLS[on_abort]
-    return STOP_TOOLS[command]
+def stop_tool(command: str, on_abort: OnAbort) -> str:
+    """The tool a stop calls: ``abort`` (the operator's, or Ctrl-C and SIGTERM) does what the mission's ``on_abort``
+    says; ``rtl``, ``land`` and ``hold`` as said."""
+    return ON_ABORT_TOOLS[on_abort] if command == "abort" else STOP_TOOLS[command]
 
 
-def carry_out(
-    command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish, *, by: str | None = None
-) -> None:
-    """Do what a stop asks of the aircraft (nothing for a landing asked of an aircraft on the ground, disarmed)."""
+def carry_out(command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish) -> None:
+    """Do what a stop asks of the aircraft (nothing for a landing asked of an aircraft on the ground, disarmed); when
+    that takes it away from where it was, say where that was (``stopped_at``), for a resumed run to go back to."""
     if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
         publish("log", level="info", summary="land: the aircraft is on the ground already")
         return
-    call(stop_tool(command, on_abort, by=by), {})
+    tool = stop_tool(command, on_abort)
+    lat, lon, alt = view.get("lat_deg"), view.get("lon_deg"), view.get("alt_m") or 0.0
+    if tool != "flight.hold" and view.get("landed_state") != "on_ground" and alt > 0.5 and None not in (lat, lon):
+        where = {"lat": lat, "lon": lon, "alt_m": round(float(alt), 1)}
+        publish("log", level="info", stopped_at=where, summary=f"stopped at {lat:.6f}, {lon:.6f}, {alt:.1f} m: {tool}")
+    call(tool, {})
 
 
-def take_off_again(records: Sequence[Mapping[str, Any]], view: Mapping[str, Any], call: Call, publish: Publish) -> None:
-    """A resumed run whose aircraft a stop brought down (an operator's abort with ``on_abort: rtl``, say) takes off
-    again to the height it last took off to, so the mission goes on where it stopped; nothing for one still flying,
-    nor for one the mission itself landed (no stop in the records)."""
+GONE_M = 3.0
+"""Farther than this from where a stop found it, a resumed run's aircraft goes back there first."""
+
+
+def go_back(records: Sequence[Mapping[str, Any]], view: Mapping[str, Any], call: Call, publish: Publish) -> None:
+    """A resumed run whose aircraft a stop took away (an abort with ``on_abort: rtl`` or ``land``) goes back to
+    where the stop found it, so the mission goes on where it stopped (a casualty being answered is still there):
+    it takes off again, to the height it last took off to, if the stop brought it down; then it flies back. Nothing
+    for a run with no stop in its records (the mission itself landed, say), nor for one that held where it was."""
     stops = [r for r in records if r.get("kind") == "control"]
+    if not stops:
+        return
     lifts = [r for r in records if r.get("kind") == "tool" and r.get("name") == "flight.takeoff"
              and r.get("status") == "ok"]  # fmt: skip
-    if not stops or not lifts or view.get("landed_state") != "on_ground" or view.get("armed"):
+    if lifts and view.get("landed_state") == "on_ground" and not view.get("armed"):
+        publish("log", level="info", summary="resume: the stop brought the aircraft down; taking off again")
+        call("flight.takeoff", dict(lifts[-1].get("args") or {}))
+    at = next((r["stopped_at"] for r in reversed(records) if r.get("stopped_at")), None)
+    lat, lon = view.get("lat_deg"), view.get("lon_deg")
+    if at is None or lat is None or lon is None:
         return
-    publish("log", level="info", summary="resume: the stop brought the aircraft down; taking off again")
-    call("flight.takeoff", dict(lifts[-1].get("args") or {}))
+    if math.hypot(*local_offset(lat, lon, at["lat"], at["lon"])) > GONE_M:
+        publish("log", level="info", summary="resume: going back to where the stop found the aircraft")
+        call("flight.fly_to", {"lat": at["lat"], "lon": at["lon"], "alt_m": at["alt_m"]})
 
 
 def where_it_ended(sample: TelemetrySample | None) -> str:
@@ -67,4 +82,4 @@ def where_it_ended(sample: TelemetrySample | None) -> str:
     return f"in the air at {sample.alt_m:.1f} m, {away} (mode {sample.mode})"
 
 
-__all__ = ["STOP_OUTCOMES", "STOP_TOOLS", "carry_out", "stop_tool", "take_off_again", "where_it_ended"]
+__all__ = ["GONE_M", "STOP_OUTCOMES", "STOP_TOOLS", "carry_out", "go_back", "stop_tool", "where_it_ended"]

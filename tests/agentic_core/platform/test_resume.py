@@ -5,6 +5,7 @@ is replayed from the audit log instead of done again."""
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import subprocess
@@ -15,6 +16,9 @@ from typing import Any
 
 import pytest
 
+from agentic_core.contracts.geodesy import local_offset
+from agentic_core.run.stops import GONE_M
+from flight.sim.scene_file import load_scene
 from tests.tlogs import read_tlog
 from tests.waiting import wait_for
 
@@ -136,8 +140,9 @@ def responding(records: list[dict[str, Any]]) -> bool:
 def test_a_signal_stops_the_run_cleanly_and_it_resumes(
     tmp_path: Path, smtp: Any, signum: int, moment: Condition
 ) -> None:
-    """Ctrl-C or SIGTERM mid-flight, on patrol or while answering the casualty: no traceback, the aircraft holds,
-    the report says ``interrupted``, exit 1; the run then resumes and finishes the mission, the casualty served."""
+    """Ctrl-C or SIGTERM mid-flight, on patrol or while answering the casualty: no traceback, the aircraft does what
+    the mission's ``on_abort`` says (RTL), the report says ``interrupted``, exit 1; the run then resumes, goes back to
+    where it stopped and finishes the mission, the casualty served."""
     runs = tmp_path / "runs"
     proc = subprocess.Popen(
         command(runs), cwd=REPO, env=environment(smtp), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
@@ -159,9 +164,17 @@ def test_a_signal_stops_the_run_cleanly_and_it_resumes(
     records = trace(folder)
     (stop,) = of_kind(records, "control")
     assert stop["command"] == "abort" and stop["by"] == "signal"
-    # the aircraft held where it was, over whatever it was attending to (not the mission's on_abort: an RTL here
-    # would take it away from a casualty it was answering, and the resumed run would have to find them again)
-    assert [r for r in tools_ok(records, "flight.hold") if r["seq"] > stop["seq"]], "no hold on the signal"
+    # the aircraft did what the mission's on_abort says (rtl, the default), and the trace says where it was taken from
+    assert [r for r in tools_ok(records, "flight.rtl") if r["seq"] > stop["seq"]], "no RTL on the signal"
+    (left,) = [r["stopped_at"] for r in records if r.get("stopped_at")]
     done = resume(runs, folder.name, smtp)
     assert done.returncode == 0, done.stderr[-3000:]
-    assert_served(folder, smtp)
+    # resumed, it took off again and flew back to where the stop found it, then went on: the casualty, found before
+    # the stop (or after it, on patrol), is served, their stillness observed before the stop not judged afresh
+    records = assert_served(folder, smtp)
+    after = [r for r in records if r["seq"] > stop["seq"]]
+    assert tools_ok(after, "flight.takeoff"), "the resumed run did not take off again"
+    home = load_scene(NEAR).home
+    if math.hypot(*local_offset(home.lat_deg, home.lon_deg, left["lat"], left["lon"])) > GONE_M:
+        back = [r for r in tools_ok(after, "flight.fly_to") if r["args"].get("lat") == left["lat"]]
+        assert back, "the resumed run did not go back to where it stopped"

@@ -1,4 +1,4 @@
-"""What a stop does to the aircraft, and the take-off again of a resumed run that a stop brought down."""
+"""What a stop does to the aircraft, and how a resumed run goes back to where a stop took the aircraft from."""
 
 from __future__ import annotations
 
@@ -6,16 +6,22 @@ from typing import Any
 
 import pytest
 
-from agentic_core.run.stops import carry_out, stop_tool, take_off_again
+from agentic_core.contracts.geodesy import ned_to_geodetic
+from agentic_core.run.stops import GONE_M, carry_out, go_back, stop_tool
 
 LIFT = {"kind": "tool", "name": "flight.takeoff", "status": "ok", "args": {"altitude_m": 30}}
 STOP = {"kind": "control", "command": "abort", "by": "operator"}
-DOWN = {"landed_state": "on_ground", "armed": False}
+HOME = {"lat_deg": 21.4133, "lon_deg": 39.8933, "alt_m": 0.0}
+DOWN = {**HOME, "landed_state": "on_ground", "armed": False}
+AWAY = {"lat": 21.4136, "lon": 39.8934, "alt_m": 15.8}  # about 35 m north of home
+GONE = {"kind": "log", "stopped_at": AWAY}
+
+Calls = list[tuple[str, dict[str, Any]]]
 
 
-def calls_of(records: list[dict[str, Any]], view: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
-    made: list[tuple[str, dict[str, Any]]] = []
-    take_off_again(records, view, lambda name, args: made.append((name, args)), lambda *a, **k: None)
+def calls_of(records: list[dict[str, Any]], view: dict[str, Any]) -> Calls:
+    made: Calls = []
+    go_back(records, view, lambda name, args: made.append((name, args)), lambda *a, **k: None)
     return made
 
 
@@ -24,30 +30,48 @@ def test_a_resumed_run_that_a_stop_brought_down_takes_off_to_the_height_it_last_
     assert calls_of([LIFT, higher, STOP], DOWN) == [("flight.takeoff", {"altitude_m": 45})]
 
 
+def test_it_then_flies_back_to_where_the_stop_found_it() -> None:
+    assert calls_of([LIFT, STOP, GONE], DOWN) == [("flight.takeoff", {"altitude_m": 30}), ("flight.fly_to", AWAY)]
+    flying = {**HOME, "landed_state": "in_air", "armed": True, "alt_m": 30.0}  # an RTL cut short by the stop
+    assert calls_of([LIFT, STOP, GONE], flying) == [("flight.fly_to", AWAY)]
+
+
+def test_close_enough_to_where_it_stopped_it_does_not_move() -> None:
+    lat, lon, _ = ned_to_geodetic(GONE_M * 0.9, 0.0, 0.0, AWAY["lat"], AWAY["lon"], 0.0)
+    here = {"lat_deg": lat, "lon_deg": lon, "alt_m": 15.0, "landed_state": "in_air", "armed": True}
+    assert calls_of([LIFT, STOP, GONE], here) == []
+
+
 @pytest.mark.parametrize(
     ("records", "view"),
     [
-        ([LIFT, STOP], {"landed_state": "in_air", "armed": True}),  # still flying: nothing to do
+        ([LIFT, STOP], {"landed_state": "in_air", "armed": True}),  # still flying, held: nothing to do
         ([LIFT, STOP], {"landed_state": "on_ground", "armed": True}),  # armed on the ground: not brought down
         ([LIFT], DOWN),  # the mission itself landed (no stop): its own steps take off again
+        ([LIFT, GONE], DOWN),  # a position with no stop: nothing to go back to
         ([STOP], DOWN),  # never took off: nothing to go back to
         ([{**LIFT, "status": "error"}, STOP], DOWN),  # a take-off that failed is no height to go back to
     ],
 )
-def test_nothing_takes_off_unless_a_stop_brought_a_flying_aircraft_down(
+def test_nothing_moves_unless_a_stop_took_a_flying_aircraft_away(
     records: list[dict[str, Any]], view: dict[str, Any]
 ) -> None:
     assert calls_of(records, view) == []
 
 
-def test_a_signal_holds_and_an_operators_abort_does_what_the_mission_says() -> None:
-    assert stop_tool("abort", "rtl", by="signal") == "flight.hold"
+def test_an_abort_by_anyone_does_what_the_mission_says() -> None:
     assert [stop_tool("abort", on) for on in ("rtl", "land", "hold")] == ["flight.rtl", "flight.land", "flight.hold"]
     assert stop_tool("rtl", "hold") == "flight.rtl"  # an explicit stop is what it says, whatever on_abort is
     made: list[str] = []
     carry_out("land", "rtl", DOWN, lambda name, args: made.append(name), lambda *a, **k: None)
     assert made == []  # a landing asked of an aircraft on the ground, disarmed: nothing to send
-    carry_out(
-        "abort", "land", {"landed_state": "in_air", "armed": True}, lambda n, a: made.append(n), lambda *a, **k: None
-    )
-    assert made == ["flight.land"]
+
+
+@pytest.mark.parametrize(("on_abort", "noted"), [("rtl", True), ("land", True), ("hold", False)])
+def test_a_stop_that_takes_the_aircraft_away_says_where_it_was(on_abort: Any, noted: bool) -> None:
+    flying = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 15.83, "landed_state": "in_air", "armed": True}
+    made: list[str] = []
+    said: list[dict[str, Any]] = []
+    carry_out("abort", on_abort, flying, lambda n, a: made.append(n), lambda *a, **k: said.append(k))
+    assert made == [f"flight.{on_abort}"]
+    assert [k["stopped_at"] for k in said if "stopped_at" in k] == ([AWAY] if noted else [])
