@@ -33,15 +33,17 @@ def stop_tool(command: str, on_abort: OnAbort) -> str:
 
 
 def carry_out(command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish) -> None:
-    """Do what a stop asks of the aircraft (nothing for a landing asked of an aircraft on the ground, disarmed); when
-    that takes it away from where it was, say where that was (``stopped_at``), for a resumed run to go back to."""
-    if command == "land" and view.get("landed_state") == "on_ground" and not view.get("armed"):
-        publish("log", level="info", summary="land: the aircraft is on the ground already")
+    """Do what a stop asks of the aircraft (nothing for an aircraft on the ground, disarmed); when
+    that takes it away from where it was, in the air or landed and armed (beside a casualty, say), say where that
+    was (``stopped_at``), for a resumed run to go back to."""
+    if view.get("landed_state") == "on_ground" and not view.get("armed"):
+        publish("log", level="info", summary=f"{command}: the aircraft is on the ground, disarmed: nothing to do")
         return
     tool = stop_tool(command, on_abort)
     lat, lon, alt = view.get("lat_deg"), view.get("lon_deg"), view.get("alt_m") or 0.0
-    if tool != "flight.hold" and view.get("landed_state") != "on_ground" and alt > 0.5 and None not in (lat, lon):
-        where = {"lat": lat, "lon": lon, "alt_m": round(float(alt), 1)}
+    landed = view.get("landed_state") == "on_ground" or alt <= 0.5
+    if tool != "flight.hold" and (view.get("armed") or not landed) and None not in (lat, lon):
+        where = {"lat": lat, "lon": lon, "alt_m": round(float(alt), 1), "landed": landed}
         publish("log", level="info", stopped_at=where, summary=f"stopped at {lat:.6f}, {lon:.6f}, {alt:.1f} m: {tool}")
     call(tool, {})
 
@@ -53,23 +55,30 @@ GONE_M = 3.0
 def go_back(records: Sequence[Mapping[str, Any]], view: Mapping[str, Any], call: Call, publish: Publish) -> None:
     """A resumed run whose aircraft a stop took away (an abort with ``on_abort: rtl`` or ``land``) goes back to
     where the stop found it, so the mission goes on where it stopped (a casualty being answered is still there):
-    it takes off again, to the height it last took off to, if the stop brought it down; then it flies back. Nothing
-    for a run with no stop in its records (the mission itself landed, say), nor for one that held where it was."""
-    stops = [r for r in records if r.get("kind") == "control"]
-    if not stops:
+    it takes off again, to the height it last took off to, if the stop brought it down; then it flies back, and
+    lands there if the stop found it landed. Nothing for a run with no stop in its records (the mission itself
+    landed, say), nor for one that held where it was."""
+    last_stop = max((k for k, r in enumerate(records) if r.get("kind") == "control"), default=None)
+    if last_stop is None:
         return
+    at = next((r["stopped_at"] for r in records[last_stop:] if r.get("stopped_at")), None)
+    if at is None:
+        return  # the stop held, or found the aircraft on the ground, disarmed: it is where the stop left it
     lifts = [r for r in records if r.get("kind") == "tool" and r.get("name") == "flight.takeoff"
              and r.get("status") == "ok"]  # fmt: skip
-    if lifts and view.get("landed_state") == "on_ground" and not view.get("armed"):
+    took_off = bool(lifts) and view.get("landed_state") == "on_ground" and not view.get("armed")
+    if took_off:
         publish("log", level="info", summary="resume: the stop brought the aircraft down; taking off again")
         call("flight.takeoff", dict(lifts[-1].get("args") or {}))
-    at = next((r["stopped_at"] for r in reversed(records) if r.get("stopped_at")), None)
     lat, lon = view.get("lat_deg"), view.get("lon_deg")
-    if at is None or lat is None or lon is None:
+    if lat is None or lon is None:
         return
-    if math.hypot(*local_offset(lat, lon, at["lat"], at["lon"])) > GONE_M:
+    far = math.hypot(*local_offset(lat, lon, at["lat"], at["lon"])) > GONE_M
+    if far:
         publish("log", level="info", summary="resume: going back to where the stop found the aircraft")
-        call("flight.fly_to", {"lat": at["lat"], "lon": at["lon"], "alt_m": at["alt_m"]})
+        call("flight.fly_to", {"lat": at["lat"], "lon": at["lon"], "alt_m": None if at.get("landed") else at["alt_m"]})
+    if at.get("landed") and (far or took_off):
+        call("flight.land", {"lat": at["lat"], "lon": at["lon"]})
 
 
 def where_it_ended(sample: TelemetrySample | None) -> str:

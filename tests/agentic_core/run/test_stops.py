@@ -14,7 +14,7 @@ STOP = {"kind": "control", "command": "abort", "by": "operator"}
 HOME = {"lat_deg": 21.4133, "lon_deg": 39.8933, "alt_m": 0.0}
 DOWN = {**HOME, "landed_state": "on_ground", "armed": False}
 AWAY = {"lat": 21.4136, "lon": 39.8934, "alt_m": 15.8}  # about 35 m north of home
-GONE = {"kind": "log", "stopped_at": AWAY}
+GONE = {"kind": "log", "stopped_at": {**AWAY, "landed": False}}
 
 Calls = list[tuple[str, dict[str, Any]]]
 
@@ -27,11 +27,19 @@ def calls_of(records: list[dict[str, Any]], view: dict[str, Any]) -> Calls:
 
 def test_a_resumed_run_that_a_stop_brought_down_takes_off_to_the_height_it_last_took_off_to() -> None:
     higher = {**LIFT, "args": {"altitude_m": 45}}
-    assert calls_of([LIFT, higher, STOP], DOWN) == [("flight.takeoff", {"altitude_m": 45})]
+    assert calls_of([LIFT, higher, STOP, GONE], DOWN)[0] == ("flight.takeoff", {"altitude_m": 45})
 
 
 def test_it_then_flies_back_to_where_the_stop_found_it() -> None:
     assert calls_of([LIFT, STOP, GONE], DOWN) == [("flight.takeoff", {"altitude_m": 30}), ("flight.fly_to", AWAY)]
+
+
+def test_found_landed_beside_someone_it_flies_back_at_its_height_and_lands_there_again() -> None:
+    beside = {"kind": "log", "stopped_at": {**AWAY, "alt_m": 0.1, "landed": True}}
+    spot = {"lat": AWAY["lat"], "lon": AWAY["lon"]}
+    assert calls_of([LIFT, STOP, beside], DOWN) == [
+        ("flight.takeoff", {"altitude_m": 30}), ("flight.fly_to", {**spot, "alt_m": None}), ("flight.land", spot),
+    ]  # fmt: skip
     flying = {**HOME, "landed_state": "in_air", "armed": True, "alt_m": 30.0}  # an RTL cut short by the stop
     assert calls_of([LIFT, STOP, GONE], flying) == [("flight.fly_to", AWAY)]
 
@@ -45,11 +53,11 @@ def test_close_enough_to_where_it_stopped_it_does_not_move() -> None:
 @pytest.mark.parametrize(
     ("records", "view"),
     [
-        ([LIFT, STOP], {"landed_state": "in_air", "armed": True}),  # still flying, held: nothing to do
-        ([LIFT, STOP], {"landed_state": "on_ground", "armed": True}),  # armed on the ground: not brought down
+        ([LIFT, STOP], {**HOME, "landed_state": "in_air", "armed": True}),  # still flying, held: nothing to do
+        ([LIFT, STOP], DOWN),  # the stop found it on the ground, disarmed (landed beside someone): it stays there
         ([LIFT], DOWN),  # the mission itself landed (no stop): its own steps take off again
         ([LIFT, GONE], DOWN),  # a position with no stop: nothing to go back to
-        ([STOP], DOWN),  # never took off: nothing to go back to
+        ([LIFT, STOP, GONE, STOP], DOWN),  # the last stop is what counts, and it said nothing of where it was
         ([{**LIFT, "status": "error"}, STOP], DOWN),  # a take-off that failed is no height to go back to
     ],
 )
@@ -63,8 +71,9 @@ def test_an_abort_by_anyone_does_what_the_mission_says() -> None:
     assert [stop_tool("abort", on) for on in ("rtl", "land", "hold")] == ["flight.rtl", "flight.land", "flight.hold"]
     assert stop_tool("rtl", "hold") == "flight.rtl"  # an explicit stop is what it says, whatever on_abort is
     made: list[str] = []
-    carry_out("land", "rtl", DOWN, lambda name, args: made.append(name), lambda *a, **k: None)
-    assert made == []  # a landing asked of an aircraft on the ground, disarmed: nothing to send
+    for command in ("land", "rtl", "abort"):
+        carry_out(command, "rtl", DOWN, lambda name, args: made.append(name), lambda *a, **k: None)
+    assert made == []  # asked of an aircraft on the ground, disarmed: nothing to send (PX4 would deny it)
 
 
 @pytest.mark.parametrize(("on_abort", "noted"), [("rtl", True), ("land", True), ("hold", False)])
@@ -74,4 +83,12 @@ def test_a_stop_that_takes_the_aircraft_away_says_where_it_was(on_abort: Any, no
     said: list[dict[str, Any]] = []
     carry_out("abort", on_abort, flying, lambda n, a: made.append(n), lambda *a, **k: said.append(k))
     assert made == [f"flight.{on_abort}"]
-    assert [k["stopped_at"] for k in said if "stopped_at" in k] == ([AWAY] if noted else [])
+    assert [k["stopped_at"] for k in said if "stopped_at" in k] == ([{**AWAY, "landed": False}] if noted else [])
+
+
+@pytest.mark.parametrize(("armed", "noted"), [(True, [True]), (False, [])])
+def test_a_stop_on_the_ground_says_where_only_when_the_aircraft_is_armed_there(armed: bool, noted: list[bool]) -> None:
+    landed = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 0.0, "landed_state": "on_ground"}
+    said: list[dict[str, Any]] = []
+    carry_out("abort", "rtl", {**landed, "armed": armed}, lambda n, a: None, lambda *a, **k: said.append(k))
+    assert [k["stopped_at"]["landed"] for k in said if "stopped_at" in k] == noted
