@@ -118,7 +118,7 @@ class Rejection(SwarmContract):
 
     at: Finite = Field(description="receiver's clock, Unix seconds")
     receiver: str
-    reason: Literal["forged", "replayed", "stale", "malformed", "unknown_sender", "misaddressed"]
+    reason: Literal["forged", "replayed", "stale", "malformed", "unknown_sender", "misaddressed", "unauthorised"]
     detail: str = ""
     sender: str = Field(default="", description="the sender the message claimed (unverified)")
     kind: str = ""

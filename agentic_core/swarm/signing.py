@@ -183,29 +183,29 @@ class Guard:
         except (ValueError, TypeError, ValidationError) as exc:
             claimed = data.get("sender", "") if isinstance(data, dict) else ""
             detail = " ".join(str(exc).split())[:200]
-            raise self._refuse("malformed", detail, sender=str(claimed)[:64]) from None
+            raise self.refuse("malformed", detail, sender=str(claimed)[:64]) from None
         return self.check(message)
 
     def check(self, message: SwarmMessage) -> SwarmMessage:
         """``message`` if it is genuine, fresh, new and for this member; else :class:`Refused`, audited."""
         expected = self.key.sign(message.signed_text())
         if not hmac.compare_digest(expected, message.signature):
-            raise self._refuse("forged", "the signature does not match", message)
+            raise self.refuse("forged", "the signature does not match", message)
         if self.members is not None and message.sender not in self.members:
-            raise self._refuse("unknown_sender", "not a member of the swarm", message)
+            raise self.refuse("unknown_sender", "not a member of the swarm", message)
         if message.recipient is not None and message.recipient != self.receiver:
-            raise self._refuse("misaddressed", f"addressed to {message.recipient!r}", message)
+            raise self.refuse("misaddressed", f"addressed to {message.recipient!r}", message)
         now = self._clock()
         age = now - message.timestamp
         if abs(age) > self._max_age_s:
-            raise self._refuse("stale", f"{age:+.1f} s old, {self._max_age_s:g} s allowed", message)
+            raise self.refuse("stale", f"{age:+.1f} s old, {self._max_age_s:g} s allowed", message)
         with self._lock:
             self._forget(now)
             if message.timestamp <= self._floor:
-                raise self._refuse("stale", "no newer than a nonce already forgotten", message)
+                raise self.refuse("stale", "no newer than a nonce already forgotten", message)
             key = (message.sender, message.nonce)
             if key in self._seen:
-                raise self._refuse("replayed", "nonce already used", message)
+                raise self.refuse("replayed", "nonce already used", message)
             self._seen.add(key)
             heapq.heappush(self._expiry, (message.timestamp, *key))
             if len(self._seen) > self._max_nonces:
@@ -221,7 +221,8 @@ class Guard:
             _, sender, nonce = heapq.heappop(self._expiry)
             self._seen.discard((sender, nonce))
 
-    def _refuse(self, reason: Any, detail: str, message: SwarmMessage | None = None, *, sender: str = "") -> Refused:
+    def refuse(self, reason: Any, detail: str, message: SwarmMessage | None = None, *, sender: str = "") -> Refused:
+        """Audit a refusal of ``message`` (or of garbage claimed to come from ``sender``) and return its error."""
         rejection = Rejection(
             at=self._clock(),
             receiver=self.receiver,
