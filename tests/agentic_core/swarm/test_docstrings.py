@@ -17,6 +17,7 @@ MODULES = [
     "agentic_core.swarm.cost",
     "agentic_core.swarm.contract_net",
     "agentic_core.swarm.optimal",
+    "agentic_core.swarm.deconflict",
 ]
 
 
