@@ -18,6 +18,7 @@ MODULES = [
     "agentic_core.swarm.contract_net",
     "agentic_core.swarm.optimal",
     "agentic_core.swarm.deconflict",
+    "agentic_core.swarm.fusion",
 ]
 
 
