@@ -4,8 +4,12 @@ not the network's), the optimality gap of that allocation against ``scipy.optimi
 the same costs, the same allocation over A2A on 127.0.0.1 for a smaller fleet (``--a2a N``), and the reservation
 of one leg per UAV in the deconflicted airspace.
 
-Simulated seconds per wall second for N vehicles in lockstep come with ``agentic-uav swarm run`` (not built yet).
-Usage: ``python benchmarks/swarm.py [--uavs 25] [--tasks 50] [--runs 5] [--a2a 4] [--quick]``. Exit status 0.
+Last, simulated seconds per wall second for 1, 4, 10 and 25 F450s stepped in lockstep on one clock (each taken off
+to 20 m, then all advanced 0.1 s at a time): the physics alone (``flight.sim.Simulator``), without the MAVLink
+vehicle, perception or the agents that ``agentic-uav swarm run`` (not built yet) will add. Goal for the full run:
+10 vehicles at 10x real time or more.
+Usage: ``python benchmarks/swarm.py [--uavs 25] [--tasks 50] [--runs 5] [--a2a 4] [--sim-s 10] [--quick]``.
+Exit status 0.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from agentic_core.swarm.contract_net import Channel, LocalChannel, Manager, Part
 from agentic_core.swarm.deconflict import Airspace
 from agentic_core.swarm.optimal import optimality_gap
 from agentic_core.swarm.signing import Guard, Sealer, SwarmKey
+from flight.sim.simulator import Simulator
 
 KEY = SwarmKey("bench", b"b" * 32)
 TARGET_S = 1.0
@@ -103,13 +108,28 @@ def deconflict(uavs: list[UavState], tasks: list[SwarmTask]) -> float:
     return time.perf_counter() - started
 
 
+def lockstep(n: int, sim_s: float) -> float:
+    """Simulated seconds per wall second of ``n`` simulators stepped together, 0.1 s at a time."""
+    sims = [Simulator(seed=i) for i in range(n)]
+    for sim in sims:
+        sim.arm()
+        sim.takeoff(20.0)
+    chunk = round(0.1 / sims[0].dt)
+    started = time.perf_counter()
+    for _ in range(round(sim_s / 0.1)):
+        for sim in sims:
+            sim.step(chunk)
+    return sim_s / (time.perf_counter() - started)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--uavs", type=int, default=25)
     parser.add_argument("--tasks", type=int, default=50)
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--a2a", type=int, default=4, metavar="N", help="UAVs in the A2A run (0: none)")
-    parser.add_argument("--quick", action="store_true", help="one run, a small A2A fleet")
+    parser.add_argument("--sim-s", type=float, default=10.0, help="simulated seconds of the lockstep runs")
+    parser.add_argument("--quick", action="store_true", help="one run, a small A2A fleet, short lockstep runs")
     args = parser.parse_args()
     runs = 1 if args.quick else args.runs
     times, gaps = [], []
@@ -134,7 +154,10 @@ def main() -> int:
         print(f"{f'over A2A on 127.0.0.1, {n} UAVs x {2 * n} tasks':<40} {over_a2a(uavs, tasks) * 1000:9.1f} ms")
     uavs, tasks = fleet(args.uavs, args.tasks, 0)
     print(f"{f'deconflicted legs, {args.uavs} UAVs (one each)':<40} {deconflict(uavs, tasks) * 1000:9.1f} ms")
-    print("lockstep simulation (1, 4, 10, 25 vehicles): not measured, `agentic-uav swarm run` is not built yet")
+    sim_s = 1.0 if args.quick else args.sim_s
+    for n in (1, 4) if args.quick else (1, 4, 10, 25):
+        rate = lockstep(n, sim_s)
+        print(f"{f'lockstep physics, {n} vehicles':<40} {rate:9.1f} x real time  (goal for 10: >= 10x)")
     return 0
 
 

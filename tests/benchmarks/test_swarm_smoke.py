@@ -16,5 +16,12 @@ def test_quick_run_prints_the_table() -> None:
         cwd=SCRIPT.parent.parent,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
-    for row in ("allocation time (median)", "optimality gap", "over A2A on 127.0.0.1, 2 UAVs", "deconflicted legs"):
+    rows = (
+        "allocation time (median)",
+        "optimality gap",
+        "over A2A on 127.0.0.1, 2 UAVs",
+        "deconflicted legs",
+        "lockstep physics, 4",
+    )
+    for row in rows:
         assert row in proc.stdout, proc.stdout
