@@ -23,12 +23,17 @@ from __future__ import annotations
 
 from typing import Any
 
-import httpx
-from a2a.client import A2ACardResolver, ClientConfig, ClientFactory
-from a2a.client.client import Client
-from a2a.client.errors import A2AClientError
-from a2a.helpers.proto_helpers import get_data_parts, get_message_text, new_message, new_text_part
-from a2a.types.a2a_pb2 import AgentCard, Message, Role, SendMessageRequest
+from agentic_core.swarm.a2a_extra import missing
+
+try:
+    import httpx
+    from a2a.client import A2ACardResolver, ClientConfig, ClientFactory
+    from a2a.client.client import Client
+    from a2a.client.errors import A2AClientError
+    from a2a.helpers.proto_helpers import get_data_parts, get_message_text, new_message, new_text_part
+    from a2a.types.a2a_pb2 import AgentCard, Message, Role, SendMessageRequest
+except ImportError as exc:
+    raise missing(exc) from exc
 
 from agentic_core.contracts.errors import RunFailure
 from agentic_core.contracts.swarm import SwarmMessage, UavState

@@ -25,15 +25,20 @@ import socket
 import threading
 from typing import Protocol
 
-import uvicorn
-from a2a.helpers.proto_helpers import new_data_part, new_message, new_text_part
-from a2a.server.agent_execution import AgentExecutor, RequestContext
-from a2a.server.events import EventQueue
-from a2a.server.request_handlers import DefaultRequestHandler
-from a2a.server.routes import create_agent_card_routes, create_jsonrpc_routes
-from a2a.server.tasks import InMemoryTaskStore
-from a2a.types.a2a_pb2 import AgentCard, Message, Part, Role
-from starlette.applications import Starlette
+from agentic_core.swarm.a2a_extra import missing
+
+try:
+    import uvicorn
+    from a2a.helpers.proto_helpers import new_data_part, new_message, new_text_part
+    from a2a.server.agent_execution import AgentExecutor, RequestContext
+    from a2a.server.events import EventQueue
+    from a2a.server.request_handlers import DefaultRequestHandler
+    from a2a.server.routes import create_agent_card_routes, create_jsonrpc_routes
+    from a2a.server.tasks import InMemoryTaskStore
+    from a2a.types.a2a_pb2 import AgentCard, Message, Part, Role
+    from starlette.applications import Starlette
+except ImportError as exc:
+    raise missing(exc) from exc
 
 from agentic_core.contracts.errors import RunFailure
 from agentic_core.contracts.swarm import SwarmMessage, UavState

@@ -14,9 +14,15 @@ from __future__ import annotations
 
 from typing import Any
 
-from a2a.types.a2a_pb2 import AgentCapabilities, AgentCard, AgentExtension, AgentInterface, AgentSkill
-from google.protobuf.json_format import MessageToDict, ParseDict
-from google.protobuf.struct_pb2 import Struct
+from agentic_core.swarm.a2a_extra import missing
+
+try:
+    from a2a.types.a2a_pb2 import AgentCapabilities, AgentCard, AgentExtension, AgentInterface, AgentSkill
+    from google.protobuf.json_format import MessageToDict, ParseDict
+    from google.protobuf.struct_pb2 import Struct
+except ImportError as exc:
+    raise missing(exc) from exc
+
 from pydantic import ValidationError
 
 from agentic_core.contracts.errors import InputError

@@ -113,6 +113,13 @@ class Participant:
             return self._reply(message, "inform", {"task_id": task.id, "result": "cancelled"})
         return self._reply(message, "refuse", {"task_id": task.id, "reason": f"unexpected {message.kind}"})
 
+    def report(self, task_id: str, *, done: bool, detail: str = "") -> SwarmMessage:
+        """A signed ``inform`` (done) or ``failure`` of one of its tasks, for the manager."""
+        if done:
+            self.tasks.pop(task_id, None)
+        body = {"task_id": task_id, "detail": detail}
+        return self.sealer.seal("inform" if done else "failure", body, recipient=self.manager)
+
     def _bid(self, message: SwarmMessage, task: SwarmTask) -> SwarmMessage:
         deadline = float(message.body.get("deadline", 0.0))
         if self._clock() > deadline:
@@ -136,10 +143,11 @@ class Allocation:
     unassigned: list[str] = field(default_factory=list)
     rounds: list[dict[str, Any]] = field(default_factory=list)
     silent: set[str] = field(default_factory=set)
+    done: set[str] = field(default_factory=set)
 
     def tasks_of(self, uav: str) -> list[str]:
-        """The tasks awarded to ``uav``."""
-        return [task for task, winner in self.awarded.items() if winner == uav]
+        """The tasks awarded to ``uav`` and not yet done."""
+        return [task for task, winner in self.awarded.items() if winner == uav and task not in self.done]
 
     @property
     def total_cost(self) -> float:
@@ -244,8 +252,14 @@ class Manager:
         return moved
 
     async def report(self, message: SwarmMessage) -> list[str]:
-        """A member's ``failure`` of a task (already verified): the member is treated as failed. The tasks moved."""
-        if message.kind == "failure" and message.sender in self.members:
+        """A member's ``inform`` or ``failure`` of a task it holds (already verified): done, or the member is treated
+        as failed and its tasks move. The tasks moved. A report of a task the sender does not hold changes nothing."""
+        task_id = message.body.get("task_id")
+        if not isinstance(task_id, str) or self.allocation.awarded.get(task_id) != message.sender:
+            return []
+        if message.kind == "inform":
+            self.allocation.done.add(task_id)
+        elif message.kind == "failure":
             return await self.fail(message.sender)
         return []
 

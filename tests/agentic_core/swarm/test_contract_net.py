@@ -174,7 +174,7 @@ def test_a_bid_claiming_another_bidder_is_ignored(fleet: Fleet) -> None:
 
 def test_a_reported_failure_re_allocates_the_members_tasks(fleet: Fleet) -> None:
     asyncio.run(fleet.manager.allocate(_tasks()))
-    failure = Sealer(fleet.key, "a").seal("failure", {"task_id": "S-1", "reason": "motor"}, recipient="ground")
+    failure = fleet.participants["a"].report("S-1", done=False, detail="motor")
     moved = asyncio.run(fleet.manager.report(Guard(fleet.key, "ground").check(failure)))
     assert moved == ["S-1"] and fleet.manager.allocation.awarded["S-1"] in {"b", "c", "d"}
     assert "a" not in fleet.manager.allocation.awarded.values()
@@ -182,6 +182,18 @@ def test_a_reported_failure_re_allocates_the_members_tasks(fleet: Fleet) -> None
 
 def _constant(state: UavState) -> Callable[[], UavState]:
     return lambda: state
+
+
+def test_a_done_task_stays_done_and_only_its_holder_can_report_it(fleet: Fleet) -> None:
+    asyncio.run(fleet.manager.allocate(_tasks()))
+    guard = Guard(fleet.key, "ground")
+    not_holder = fleet.participants["b"].report("S-1", done=True)
+    assert asyncio.run(fleet.manager.report(guard.check(not_holder))) == []
+    assert fleet.manager.allocation.done == set()
+    asyncio.run(fleet.manager.report(guard.check(fleet.participants["a"].report("S-1", done=True))))
+    assert fleet.manager.allocation.done == {"S-1"} and fleet.participants["a"].tasks == {}
+    assert asyncio.run(fleet.manager.fail("a")) == []  # nothing left of a's to move
+    assert fleet.manager.allocation.awarded["S-1"] == "a"
 
 
 @pytest.fixture

@@ -14,6 +14,7 @@ MODULES = [
     "agentic_core.swarm.card",
     "agentic_core.swarm.a2a_server",
     "agentic_core.swarm.a2a_client",
+    "agentic_core.swarm.a2a_extra",
     "agentic_core.swarm.cost",
     "agentic_core.swarm.contract_net",
     "agentic_core.swarm.optimal",
