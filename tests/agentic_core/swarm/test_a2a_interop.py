@@ -19,7 +19,7 @@ from agentic_core.contracts.errors import InputError
 from agentic_core.contracts.swarm import Point, SwarmMessage
 from agentic_core.swarm.a2a_client import A2APeer, PeerError
 from agentic_core.swarm.a2a_server import A2AServer, swarm_part, swarm_text
-from agentic_core.swarm.card import CONTRACT_NET_EXTENSION, SIGNED_EXTENSION, STATE_EXTENSION
+from agentic_core.swarm.card import CONTRACT_NET_EXTENSION, SIGNED_EXTENSION, STATE_EXTENSION, SWARM_MEDIA_TYPE
 from agentic_core.swarm.signing import Guard, MemoryAudit, Sealer, SwarmKey
 from tests.agentic_core.swarm.conftest import EchoUav, uav
 
@@ -155,3 +155,27 @@ def test_a_peer_that_is_not_there_is_a_peer_error_not_a_traceback() -> None:
 def test_the_card_json_is_plain_json_any_client_can_read(served: A2AServer) -> None:
     raw = httpx.get(served.url + "/.well-known/agent-card.json", timeout=5.0).text
     assert json.loads(raw)["name"] == "uav-1"
+
+
+def test_a_replayed_or_garbled_message_over_a2a_is_refused_and_audited(
+    served: A2AServer, agent: EchoUav, key: SwarmKey
+) -> None:
+    award = Sealer(key, "ground").seal("award", {"task": "T-1"}, recipient="uav-1")
+    garbled = new_message([new_text_part('{"kind": "award", "sender": "ground"', media_type=SWARM_MEDIA_TYPE)])
+
+    async def send() -> tuple[SwarmMessage | None, str | None, Message]:
+        async with A2APeer(served.url) as peer:
+            first = await peer.send(award)
+            try:
+                await peer.send(award)
+            except PeerError as exc:
+                refused = exc.refused
+            else:
+                refused = None
+        return first, refused, await _sdk_send(served.url, garbled)
+
+    first, refused, garbled_reply = asyncio.run(send())
+    assert first is not None and first.kind == "inform" and refused == "replayed"
+    assert get_data_parts(garbled_reply.parts) == [{"refused": "malformed"}]
+    assert [m.nonce for m in agent.heard] == [award.nonce]
+    assert [r.reason for r in served.guard.audit.rejections] == ["replayed", "malformed"]  # type: ignore[attr-defined]
