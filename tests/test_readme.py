@@ -63,6 +63,13 @@ def test_the_custom_tool_example_is_the_shipped_file_and_registers() -> None:
     assert callable(status) and status(segment="F-07")["breached"] is True
 
 
+def test_the_swarm_example_prints_what_the_readme_says() -> None:
+    lines = _run_block("manager.allocate(tasks)")
+    (shown,) = [b for b in re.findall(r"```text\n(.*?)```", README.read_text(), re.S) if "sector-N" in b]
+    assert lines == shown.splitlines()
+    assert lines[0] == "{'sector-N': 'uav-2', 'kit-P12': 'uav-3'}"
+
+
 RUN_BY = {
     "more_legs": "test_quickstart_runs_as_documented",
     "water.depth": "test_tools_example_runs_as_documented",
@@ -70,6 +77,7 @@ RUN_BY = {
     "home_once_up": "test_control_port_example_runs_as_documented",
     "SimulatedDetector": "test_perception_example_runs_as_documented",
     "fence.status": "test_the_custom_tool_example_is_the_shipped_file_and_registers",
+    "manager.allocate(tasks)": "test_the_swarm_example_prints_what_the_readme_says",
 }
 """Each README Python block, by a marker it holds, and the test here that runs it."""
 
