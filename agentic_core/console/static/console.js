@@ -177,6 +177,8 @@ function addQuestion(q) {
   no.addEventListener("click", () => post(`/api/questions/${q.id}`, { approve: false, reason: reason.value || null }));
   card.append(reason, yes, el("span", "", " "), no);
   document.getElementById("approvals").append(card);
+  const s = state.lastSample;  // a decision to make: show where it is being made
+  if (state.live && s) map.setView([s.lat_deg, s.lon_deg], 18.5);
 }
 function dropQuestion(id) { const c = document.getElementById("q-" + id); if (c) c.remove(); }
 
