@@ -55,7 +55,7 @@ class LiveFeed:
         self._questions: dict[str, dict[str, Any]] = {}
         self._period = 1.0 / telemetry_hz
         self._clock = clock
-        self._last_sent = -1e9
+        self._next_send = -1e9
         self._last_trail_t = -1e9
         self.static: dict[str, Any] = {}
 
@@ -90,8 +90,9 @@ class LiveFeed:
                 self._last_trail_t = t
                 self._trail.append([round(t, 2), sample["lat_deg"], sample["lon_deg"], round(sample["alt_m"], 2)])
             now = self._clock()
-            if now - self._last_sent >= self._period:
-                self._last_sent = now
+            if now >= self._next_send:  # due times a period apart: a sample a little early is not skipped
+                late = now - self._next_send
+                self._next_send = self._next_send + self._period if late < self._period else now + self._period
                 self._send_locked("telemetry", sample)
 
     def world(self, world: dict[str, Any]) -> None:

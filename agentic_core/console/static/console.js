@@ -7,7 +7,7 @@ const token = hash.get("token") || sessionStorage.getItem("console-token") || ""
 if (hash.get("token")) sessionStorage.setItem("console-token", token);
 
 const state = { live: false, mission: null, events: [], worlds: [], telemetry: [], lastSample: null,
-  minBattery: null, rate: null, casualty: null };
+  minBattery: null, rate: null, casualty: null, latencies: [] };
 window.consoleState = state;  // for tests and for a person at the devtools
 
 function el(tag, cls, text) {
@@ -208,7 +208,13 @@ function live() {
       state.lastSample = data.telemetry;
       showVehicle(data.telemetry); showTelemetry(data.telemetry);
       setStatus(`${data.run_id}: live`);
-    } else if (type === "event") addEvent(data);
+    } else if (type === "event") {
+      if (typeof data.t === "number") {  // publication to this page, on this machine's clock (benchmarks/console.py)
+        state.latencies.push(Date.now() - data.t * 1000);
+        if (state.latencies.length > 5000) state.latencies.shift();
+      }
+      addEvent(data);
+    }
     else if (type === "telemetry") {
       const now = performance.now() / 1000;
       if (lastRate && data.time_s > lastRate[1]) state.rate = (data.time_s - lastRate[1]) / (now - lastRate[0]);
@@ -251,6 +257,7 @@ function replayAt(run, t) {
   const upto = run.telemetry.filter((s) => s.time_s <= t + 1e-6);
   const s = upto[upto.length - 1] || run.telemetry[0];
   layers.trail.setLatLngs(upto.map((p) => [p.lat_deg, p.lon_deg]));
+  state.lastSample = s;
   showVehicle(s); showTelemetry(s);
   document.getElementById("timeline").replaceChildren();
   state.events = []; state.casualty = null;
