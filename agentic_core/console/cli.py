@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from ..contracts.errors import AgenticUAVError, report_error
+from ..contracts.extras import require
 from .access import TOKEN_ENV, check_bind
 from .server import ConsoleOperator, ConsoleServer, watch
 
@@ -65,9 +66,11 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
 
 def console_check(args: argparse.Namespace) -> None:
     """Before a run is built: :class:`InputError` when ``--console`` would listen beyond this machine without a
-    token."""
+    token, or its extra is not installed."""
     if getattr(args, "console", False):
         check_bind(args.console_host, os.environ.get(TOKEN_ENV) or None)
+        for module in ("starlette", "uvicorn", "sse_starlette"):
+            require(module, "console")
 
 
 def operator_for(args: argparse.Namespace) -> ConsoleOperator | None:

@@ -7,6 +7,7 @@ Model and questions on a :class:`~agentic_core.console.feed.LiveFeed`.
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from pathlib import Path
@@ -40,18 +41,28 @@ class ConsoleServer:
         config = uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off",
                                 timeout_graceful_shutdown=2, access_log=False)  # fmt: skip
         self._server = uvicorn.Server(config)
-        self._thread = threading.Thread(target=self._server.run, name="console-server", daemon=True)
+        self._thread: threading.Thread | None = None
         self.port = port
 
     def start(self, timeout_s: float = 10.0) -> ConsoleServer:
-        """Start serving; :class:`InputError` when the address cannot be bound."""
+        """Bind here (:class:`InputError` when the address cannot be had), then serve on the thread."""
+        family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
+        sock = socket.socket(family, socket.SOCK_STREAM)
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind((self.host, self.port))
+        except OSError as exc:
+            sock.close()
+            raise InputError(f"console: cannot listen on {self.host}:{self.port}: {exc.strerror or exc}") from None
+        self.port = int(sock.getsockname()[1])
+        self._thread = threading.Thread(target=self._server.run, kwargs={"sockets": [sock]}, name="console-server",
+                                        daemon=True)  # fmt: skip
         self._thread.start()
         deadline = time.monotonic() + timeout_s
         while not self._server.started:
             if not self._thread.is_alive() or time.monotonic() > deadline:
-                raise InputError(f"console: cannot listen on {self.host}:{self.port} (in use, or not this machine's)")
+                raise InputError(f"console: the server on {self.host}:{self.port} did not start")
             time.sleep(0.01)
-        self.port = int(self._server.servers[0].sockets[0].getsockname()[1])
         return self
 
     @property
@@ -62,7 +73,7 @@ class ConsoleServer:
 
     def wait(self) -> None:
         """Serve until interrupted (``agentic-uav console``)."""
-        while self._thread.is_alive():
+        while self._thread is not None and self._thread.is_alive():
             self._thread.join(0.5)
 
     def stop(self) -> None:
@@ -70,7 +81,7 @@ class ConsoleServer:
         if self.live is not None:
             self.live.feed.close()
         self._server.should_exit = True
-        if self._thread.is_alive():
+        if self._thread is not None and self._thread.is_alive():
             self._thread.join(timeout=5.0)
 
     def __enter__(self) -> ConsoleServer:

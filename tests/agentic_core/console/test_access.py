@@ -4,6 +4,8 @@ nothing."""
 
 from __future__ import annotations
 
+import socket
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -171,3 +173,24 @@ def test_a_run_id_that_is_not_one_is_not_found(steered: tuple[TestClient, Record
     client, _ = steered
     response = client.get(f"/api/runs/{run_id}", headers={"authorization": f"Bearer {TOKEN}"})
     assert response.status_code == 404
+
+
+def test_a_port_in_use_is_a_clear_error(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code = console_main(["--port", str(port), "--runs-dir", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"cannot listen on 127.0.0.1:{port}" in err and "Traceback" not in err
+
+
+def test_run_console_without_the_extra_says_what_to_install(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    monkeypatch.setitem(sys.modules, "sse_starlette", None)  # as if the extra were not installed
+    runs = tmp_path / "runs"
+    code = run_main([str(REPO / "missions" / "hajj_emergency.yaml"), "--console", "--runs-dir", str(runs), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "pip install 'agentic-uavs[console]'" in err and "Traceback" not in err
+    assert not runs.exists()
