@@ -42,6 +42,7 @@ const ZONE_COLOURS = { walkway: "#b9a78a", camp: "#c9b48f", plaza: "#cdbf9f" };
 let vehicle = null;
 
 function drawScene(scene) {
+  state.scene = scene;
   layers.scene.clearLayers();
   if (!scene) return;
   for (const z of scene.zones) {
@@ -88,19 +89,39 @@ function showVehicle(s) {
   else { vehicle.setLatLng(at); vehicle.setIcon(vehicleIcon(s.yaw_deg)); }
 }
 
+// The 2-sigma ellipse of a position's covariance (m², north/east), as a polygon of latitudes and longitudes.
+function ellipse(lat, lon, cov) {
+  const a = Math.max(cov[0][0], 1e-4), b = cov[0][1], c = Math.max(cov[1][1] - (b * b) / a, 1e-4);
+  const l11 = Math.sqrt(a), l21 = b / l11, l22 = Math.sqrt(c);  // Cholesky: cov = L Lᵀ
+  const mLat = 111320, mLon = 111320 * Math.cos((lat * Math.PI) / 180);
+  const points = [];
+  for (let i = 0; i < 24; i++) {
+    const t = (2 * Math.PI * i) / 24, x = 2 * Math.cos(t), y = 2 * Math.sin(t);
+    points.push([lat + (l11 * x) / mLat, lon + (l21 * x + l22 * y) / mLon]);
+  }
+  return points;
+}
+
 function drawWorld(world) {
   layers.world.clearLayers();
   if (!world) return;
   const isolated = new Set(world.relations.filter((r) => r.pred === "isolated_from").map((r) => r.subj));
+  const at = {};
+  for (const o of world.objects) if (typeof o.lat === "number") at[o.id] = [o.lat, o.lon];
+  for (const m of (state.scene && state.scene.landmarks) || []) at[m.id] = m.at;
+  for (const r of world.relations) {  // near: a line to what it is near (a landmark, another object)
+    if (r.pred === "near" && at[r.subj] && at[r.obj]) L.polyline([at[r.subj], at[r.obj]], { color: "#7b8794",
+      weight: 1, dashArray: "2 4" }).bindTooltip(`${r.subj} near ${r.obj}`).addTo(layers.world);
+  }
   for (const o of world.objects) {
     if (typeof o.lat !== "number") continue;
-    const sigma = o.cov ? Math.sqrt(Math.max(o.cov[0][0], o.cov[1][1])) : 1;
     const casualty = state.casualty === o.id;
     const colour = casualty ? "#b3261e" : o.class === "person" ? (isolated.has(o.id) ? "#d08700" : "#37474f") : "#455a64";
-    L.circle([o.lat, o.lon], { radius: Math.max(2 * sigma, 0.5), color: colour, weight: casualty ? 3 : 1,
-      fillOpacity: 0.25 }).addTo(layers.world)
-      .bindTooltip(`${o.id} ${o.class} conf ${num(o.conf, 2)}${isolated.has(o.id) ? ", isolated" : ""}` +
-        `${casualty ? ", CASUALTY" : ""}`, { permanent: casualty, direction: "top" });
+    const shape = o.cov ? L.polygon(ellipse(o.lat, o.lon, o.cov)) : L.circle([o.lat, o.lon], { radius: 1 });
+    shape.setStyle({ color: colour, weight: casualty ? 3 : 1, fillOpacity: 0.25 });
+    shape.addTo(layers.world).bindTooltip(`${o.id} ${o.class} conf ${num(o.conf, 2)}` +
+      `${isolated.has(o.id) ? ", isolated" : ""}${casualty ? ", CASUALTY" : ""}`, { permanent: casualty, direction: "top" });
+    L.circleMarker([o.lat, o.lon], { radius: 2, color: colour, weight: 1, fillOpacity: 1 }).addTo(layers.world);
   }
 }
 
@@ -114,14 +135,21 @@ function showTelemetry(s) {
   const cells = [["alt m", num(s.alt_m, 1)], ["speed m/s", num(speed, 1)],
     ["battery %", `${num(s.battery_pct, 0)}${state.minBattery != null ? " / " + state.minBattery : ""}`, low],
     ["mode", s.mode], ["armed", s.armed ? "yes" : "no"], ["landed", s.landed_state],
-    ["GPS", s.gps_fix_type != null ? `fix ${s.gps_fix_type}, ${s.gps_satellites ?? "?"} sats` : "–"],
-    ["sim t / speed", `${num(s.time_s, 1)} s${state.rate ? " ×" + num(state.rate, 1) : ""}`]];
+    ["GPS fix, sats", s.gps_fix_type != null ? `${s.gps_fix_type}, ${s.gps_satellites ?? "?"}` : "–"],
+    ["sim t", `${num(s.time_s, 1)} s`], ["sim speed", state.live && state.rate ? "×" + num(state.rate, 1) : "–"], linkCell()];
   for (const [name, value, warn] of cells) {
     const cell = el("div", warn ? "warn" : "");
     cell.append(el("span", "", name), el("b", "", value));
     box.append(cell);
   }
 }
+
+function linkCell() {  // live: how long since the vehicle's last sample reached this page
+  if (!state.live) return ["link", "replay"];
+  const silent = state.heardAt ? (performance.now() - state.heardAt) / 1000 : null;
+  return ["link", silent === null ? "–" : silent < 2 ? "ok" : `silent ${num(silent, 0)} s`, silent !== null && silent >= 2];
+}
+setInterval(() => { if (state.live && !state.over) showTelemetry(state.lastSample); }, 1000);
 
 // ---- the agent's timeline ----
 const SHOWN = new Set(["run", "tool", "decision", "trigger", "mission", "refusal", "plan", "reflection",
@@ -178,7 +206,7 @@ function addQuestion(q) {
   card.append(reason, yes, el("span", "", " "), no);
   document.getElementById("approvals").append(card);
   const s = state.lastSample;  // a decision to make: show where it is being made
-  if (state.live && s) map.setView([s.lat_deg, s.lon_deg], 18.5);
+  if (state.live && s) map.setView([s.lat_deg, s.lon_deg], 18.5, { animate: false });
 }
 function dropQuestion(id) { const c = document.getElementById("q-" + id); if (c) c.remove(); }
 
@@ -206,6 +234,7 @@ function live() {
       if (data.world) { state.worlds = [data.world]; drawWorld(data.world); }
       data.questions.forEach(addQuestion);
       state.lastSample = data.telemetry;
+      if (data.telemetry) state.heardAt = performance.now();
       showVehicle(data.telemetry); showTelemetry(data.telemetry);
       setStatus(`${data.run_id}: live`);
     } else if (type === "event") {
@@ -220,6 +249,7 @@ function live() {
       if (lastRate && data.time_s > lastRate[1]) state.rate = (data.time_s - lastRate[1]) / (now - lastRate[0]);
       lastRate = [now, data.time_s];
       state.lastSample = data;
+      state.heardAt = performance.now();
       state.received = (state.received || 0) + 1;
       layers.trail.addLatLng([data.lat_deg, data.lon_deg]);
       showVehicle(data); showTelemetry(data);
@@ -230,7 +260,9 @@ function live() {
     } else if (type === "question") addQuestion(data);
     else if (type === "answered") dropQuestion(data.id);
   };
-  source.addEventListener("end", () => { source.close(); setStatus(`${state.runId}: the run is over`); });
+  source.addEventListener("end", () => {
+    source.close(); state.over = true; setStatus(`${state.runId}: the run is over`);
+  });
 }
 
 // ---- replay ----
