@@ -16,6 +16,7 @@ function el(tag, cls, text) {
   if (text !== undefined && text !== null) node.textContent = String(text);
   return node;
 }
+function tip(text) { return el("span", "", text); }  // a tooltip as text: names from files are never HTML
 function num(x, digits) { return typeof x === "number" ? x.toFixed(digits) : "–"; }
 
 async function api(path) {
@@ -47,15 +48,15 @@ function drawScene(scene) {
   if (!scene) return;
   for (const z of scene.zones) {
     L.polygon(z.polygon, { color: "#8d7b5a", weight: 1, fillColor: ZONE_COLOURS[z.kind] || "#c8bda5",
-      fillOpacity: 0.45 }).bindTooltip(`${z.name || z.id} (${z.kind}, ${z.density} /m²)`).addTo(layers.scene);
+      fillOpacity: 0.45 }).bindTooltip(tip(`${z.name || z.id} (${z.kind}, ${z.density} /m²)`)).addTo(layers.scene);
   }
   for (const m of scene.landmarks) {
     if (m.polygon) L.polygon(m.polygon, { color: "#5b6b3a", weight: 1, fillOpacity: 0.3 }).addTo(layers.scene);
     L.circleMarker(m.at, { radius: 4, color: "#3b4a2a", weight: 1, fillColor: "#8da05b", fillOpacity: 0.9 })
-      .bindTooltip(`${m.name || m.id} (${m.kind})`).addTo(layers.scene);
+      .bindTooltip(tip(`${m.name || m.id} (${m.kind})`)).addTo(layers.scene);
   }
   L.circleMarker(scene.home, { radius: 6, color: "#000", fillColor: "#fff", fillOpacity: 1 })
-    .bindTooltip("home").addTo(layers.scene);
+    .bindTooltip(tip("home")).addTo(layers.scene);
 }
 
 function drawMission(mission, home) {
@@ -64,14 +65,14 @@ function drawMission(mission, home) {
   state.minBattery = mission.min_battery_pct;
   const fence = mission.geofence;
   if (fence && fence.center) L.circle(fence.center, { radius: fence.radius_m, color: "#b3261e", weight: 2,
-    dashArray: "6 6", fill: false }).bindTooltip(`geofence, ceiling ${mission.ceiling_m ?? "–"} m`).addTo(layers.mission);
+    dashArray: "6 6", fill: false }).bindTooltip(tip(`geofence, ceiling ${mission.ceiling_m ?? "–"} m`)).addTo(layers.mission);
   if (fence && fence.polygon) L.polygon(fence.polygon, { color: "#b3261e", weight: 2, dashArray: "6 6",
-    fill: false }).bindTooltip(`geofence, ceiling ${mission.ceiling_m ?? "–"} m`).addTo(layers.mission);
+    fill: false }).bindTooltip(tip(`geofence, ceiling ${mission.ceiling_m ?? "–"} m`)).addTo(layers.mission);
   const legs = mission.legs.filter((l) => !l.trigger);
   const path = (home ? [home] : []).concat(legs.map((l) => l.at));
   if (path.length > 1) L.polyline(path, { color: "#6a1b9a", weight: 2, dashArray: "3 5" }).addTo(layers.mission);
   for (const l of legs) L.circleMarker(l.at, { radius: 5, color: "#6a1b9a", fillOpacity: 0.6 })
-    .bindTooltip(`${l.step} (${l.action})`).addTo(layers.mission);
+    .bindTooltip(tip(`${l.step} (${l.action})`)).addTo(layers.mission);
   const bounds = L.latLngBounds(path.length ? path : [[21.4133, 39.8933]]);
   map.fitBounds(bounds.pad(0.25));
 }
@@ -111,7 +112,7 @@ function drawWorld(world) {
   for (const m of (state.scene && state.scene.landmarks) || []) at[m.id] = m.at;
   for (const r of world.relations) {  // near: a line to what it is near (a landmark, another object)
     if (r.pred === "near" && at[r.subj] && at[r.obj]) L.polyline([at[r.subj], at[r.obj]], { color: "#7b8794",
-      weight: 1, dashArray: "2 4" }).bindTooltip(`${r.subj} near ${r.obj}`).addTo(layers.world);
+      weight: 1, dashArray: "2 4" }).bindTooltip(tip(`${r.subj} near ${r.obj}`)).addTo(layers.world);
   }
   for (const o of world.objects) {
     if (typeof o.lat !== "number") continue;
@@ -119,8 +120,8 @@ function drawWorld(world) {
     const colour = casualty ? "#b3261e" : o.class === "person" ? (isolated.has(o.id) ? "#d08700" : "#37474f") : "#455a64";
     const shape = o.cov ? L.polygon(ellipse(o.lat, o.lon, o.cov)) : L.circle([o.lat, o.lon], { radius: 1 });
     shape.setStyle({ color: colour, weight: casualty ? 3 : 1, fillOpacity: 0.25 });
-    shape.addTo(layers.world).bindTooltip(`${o.id} ${o.class} conf ${num(o.conf, 2)}` +
-      `${isolated.has(o.id) ? ", isolated" : ""}${casualty ? ", CASUALTY" : ""}`, { permanent: casualty, direction: "top" });
+    shape.addTo(layers.world).bindTooltip(tip(`${o.id} ${o.class} conf ${num(o.conf, 2)}` +
+      `${isolated.has(o.id) ? ", isolated" : ""}${casualty ? ", CASUALTY" : ""}`), { permanent: casualty, direction: "top" });
     L.circleMarker([o.lat, o.lon], { radius: 2, color: colour, weight: 1, fillOpacity: 1 }).addTo(layers.world);
   }
 }

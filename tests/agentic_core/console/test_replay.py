@@ -15,6 +15,7 @@ from agentic_core.console.runs import TELEMETRY_POINTS, list_runs, replay
 from agentic_core.contracts.errors import InputError
 
 HOME = (21.4133, 39.8933)
+HOSTILE = '<img src="http://203.0.113.7/x.png" onerror="window.pwned = 1"><script>window.pwned = 2</script>'
 
 
 def write_run(runs: Path, run_id: str, *, ended: bool, samples: int = 40) -> Path:
@@ -24,6 +25,7 @@ def write_run(runs: Path, run_id: str, *, ended: bool, samples: int = 40) -> Pat
                                      "summary": "start"}]  # fmt: skip
     events += [{"kind": "tool", "seq": 1 + i, "sim_t": float(i * 10), "name": "flight.fly_to", "status": "ok",
                 "summary": f"leg {i}"} for i in range(1, 4)]  # fmt: skip
+    events.append({"kind": "log", "seq": 5, "sim_t": 35.0, "summary": HOSTILE})  # text a model or a file wrote
     if ended:
         events.append({"kind": "run", "seq": 9, "sim_t": 39.0, "event": "end", "outcome": "completed",
                        "summary": "end"})  # fmt: skip
@@ -42,13 +44,13 @@ def test_runs_are_listed_newest_first_with_their_outcome(tmp_path: Path) -> None
     listed = list_runs(tmp_path)
     assert [(r["id"], r["outcome"]) for r in listed] == [("20260102-000000-b", "running"),
                                                           ("20260101-000000-a", "completed")]  # fmt: skip
-    assert listed[1]["sim_s"] == 39.0 and listed[1]["events"] == 5
+    assert listed[1]["sim_s"] == 39.0 and listed[1]["events"] == 6
 
 
 def test_a_replay_has_the_events_and_a_thinned_flight(tmp_path: Path) -> None:
     write_run(tmp_path, "r1", ended=True, samples=TELEMETRY_POINTS * 3)
     opened = replay(tmp_path, "r1")
-    assert len(opened["events"]) == 5 and "mission" not in opened  # no run.json: no map, the flight still shows
+    assert len(opened["events"]) == 6 and "mission" not in opened  # no run.json: no map, the flight still shows
     assert TELEMETRY_POINTS <= len(opened["telemetry"]) <= TELEMETRY_POINTS + 1
     assert opened["telemetry"][-1]["time_s"] == TELEMETRY_POINTS * 3 - 1  # the end of the flight is kept
     with pytest.raises(InputError, match="no run"):
@@ -56,7 +58,9 @@ def test_a_replay_has_the_events_and_a_thinned_flight(tmp_path: Path) -> None:
 
 
 @pytest.mark.timeout(60)
-def test_the_time_slider_moves_through_a_finished_run(browser: Any, tmp_path: Path) -> None:
+def test_the_time_slider_moves_through_a_finished_run_and_shows_hostile_text_as_text(
+    browser: Any, tmp_path: Path
+) -> None:
     write_run(tmp_path, "20260101-000000-a", ended=True)
     with ConsoleServer(tmp_path, port=0) as server:
         page = browser.new_page()
@@ -64,7 +68,10 @@ def test_the_time_slider_moves_through_a_finished_run(browser: Any, tmp_path: Pa
         page.on("request", lambda request: requested.append(request.url))
         page.goto(server.url)
         page.locator("#slider").wait_for(state="visible", timeout=20_000)
-        page.wait_for_function("() => window.consoleState.events.length === 5", timeout=20_000)
+        page.wait_for_function("() => window.consoleState.events.length === 6", timeout=20_000)
+        assert page.locator("#timeline").inner_text().count("<img src=") == 1  # shown as text, never as HTML
+        found = page.evaluate("() => [window.pwned, document.querySelectorAll('#timeline img, script').length]")
+        assert found == [None, 2]  # nothing ran, and no element was made: the page's own two scripts only
         at_end = page.evaluate("() => window.consoleState.lastSample.time_s")
         page.evaluate("() => { const s = document.getElementById('slider'); s.value = 15; s.dispatchEvent("
                       "new Event('input')); }")  # fmt: skip
