@@ -74,7 +74,7 @@ function drawMission(mission, home) {
   for (const l of legs) L.circleMarker(l.at, { radius: 5, color: "#6a1b9a", fillOpacity: 0.6 })
     .bindTooltip(tip(`${l.step} (${l.action})`)).addTo(layers.mission);
   const bounds = L.latLngBounds(path.length ? path : [[21.4133, 39.8933]]);
-  map.fitBounds(bounds.pad(0.25));
+  map.fitBounds(bounds.pad(0.25), { animate: false });
 }
 
 function vehicleIcon(yaw) {
@@ -120,9 +120,10 @@ function drawWorld(world) {
     const colour = casualty ? "#b3261e" : o.class === "person" ? (isolated.has(o.id) ? "#d08700" : "#37474f") : "#455a64";
     const shape = o.cov ? L.polygon(ellipse(o.lat, o.lon, o.cov)) : L.circle([o.lat, o.lon], { radius: 1 });
     shape.setStyle({ color: colour, weight: casualty ? 3 : 1, fillOpacity: 0.25 });
-    shape.addTo(layers.world).bindTooltip(tip(`${o.id} ${o.class} conf ${num(o.conf, 2)}` +
-      `${isolated.has(o.id) ? ", isolated" : ""}${casualty ? ", CASUALTY" : ""}`), { permanent: casualty, direction: "top" });
-    L.circleMarker([o.lat, o.lon], { radius: 2, color: colour, weight: 1, fillOpacity: 1 }).addTo(layers.world);
+    shape.addTo(layers.world);
+    L.circleMarker([o.lat, o.lon], { radius: 2, color: colour, weight: 1, fillOpacity: 1 }).addTo(layers.world)
+      .bindTooltip(tip(`${o.id} ${o.class} conf ${num(o.conf, 2)}${isolated.has(o.id) ? ", isolated" : ""}` +
+        `${casualty ? ", CASUALTY" : ""}`), { permanent: casualty, direction: "left", offset: [-8, 0] });
   }
 }
 
