@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -46,12 +48,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)
     print(f"console: {server.url}  (Ctrl-C to stop)", file=sys.stderr, flush=True)
+    stopped = threading.Event()
+    previous = {sig: signal.signal(sig, lambda *_: stopped.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        server.wait()
-    except KeyboardInterrupt:
-        pass
+        while not stopped.wait(0.5) and server.serving:
+            pass
     finally:
         server.stop()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return 0
 
 

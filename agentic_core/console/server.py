@@ -71,10 +71,10 @@ class ConsoleServer:
         host = f"[{self.host}]" if ":" in self.host else self.host
         return f"http://{host}:{self.port}/#token={self.token}"
 
-    def wait(self) -> None:
-        """Serve until interrupted (``agentic-uav console``)."""
-        while self._thread is not None and self._thread.is_alive():
-            self._thread.join(0.5)
+    @property
+    def serving(self) -> bool:
+        """True while the server's thread runs."""
+        return self._thread is not None and self._thread.is_alive()
 
     def stop(self) -> None:
         """End every page's stream and stop serving."""
