@@ -267,24 +267,29 @@ function live() {
   });
 }
 
-// ---- replay ----
-async function openRun(id) {
+// ---- replay (a run still flying in another process is re-read every 2 s, the slider kept at its end) ----
+let following = null;
+
+async function openRun(id, keepView) {
   const run = await api(`/api/runs/${encodeURIComponent(id)}`);
+  const slider = document.getElementById("slider");
+  const atEnd = !keepView || Number(slider.value) >= Number(slider.max);
   state.live = false; state.runId = id; state.casualty = null; state.events = [];
   state.telemetry = run.telemetry; state.worlds = run.worlds;
   document.getElementById("controls").hidden = true;
   document.getElementById("approvals").replaceChildren();
-  drawScene(run.scene);
-  drawMission(run.mission, run.scene && run.scene.home);
-  const slider = document.getElementById("slider");
+  if (!keepView) { drawScene(run.scene); drawMission(run.mission, run.scene && run.scene.home); }
   const times = run.telemetry.map((s) => s.time_s);
   slider.min = times.length ? times[0] : 0;
   slider.max = times.length ? times[times.length - 1] : 0;
-  slider.value = slider.max;
+  if (atEnd) slider.value = slider.max;
   document.getElementById("replay").hidden = false;
   slider.oninput = () => replayAt(run, Number(slider.value));
   replayAt(run, Number(slider.value));
-  setStatus(`${id}: replay`);
+  const ended = run.events.some((e) => e.kind === "run" && e.event === "end");
+  setStatus(`${id}: ${ended ? "replay" : "running elsewhere: following its files"}`);
+  clearTimeout(following);
+  if (!ended) following = setTimeout(() => { if (state.runId === id && !state.live) openRun(id, true); }, 2000);
 }
 
 function replayAt(run, t) {
@@ -306,9 +311,9 @@ async function start() {
   const select = document.getElementById("runs");
   if (listing.live) select.append(new Option("live run", "__live__"));
   for (const r of listing.runs) select.append(new Option(`${r.id} · ${r.outcome}`, r.id));
-  select.addEventListener("change", () => (select.value === "__live__" ? location.reload() : openRun(select.value)));
+  select.addEventListener("change", () => (select.value === "__live__" ? location.reload() : openRun(select.value, false)));
   if (listing.live) live();
-  else if (listing.runs.length) openRun(listing.runs[0].id);
+  else if (listing.runs.length) openRun(listing.runs[0].id, false);
   else setStatus("no runs yet");
 }
 start();

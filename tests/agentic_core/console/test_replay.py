@@ -82,3 +82,22 @@ def test_the_time_slider_moves_through_a_finished_run_and_shows_hostile_text_as_
         page.close()
     own = f"http://127.0.0.1:{server.port}/"
     assert requested and all(url.startswith(own) for url in requested)
+
+
+@pytest.mark.timeout(60)
+def test_a_run_flying_in_another_process_is_followed_from_its_files(browser: Any, tmp_path: Path) -> None:
+    folder = write_run(tmp_path, "20260101-000000-a", ended=False, samples=10)
+    with ConsoleServer(tmp_path, port=0) as server:
+        page = browser.new_page()
+        page.goto(server.url)
+        page.wait_for_function("() => window.consoleState.lastSample && window.consoleState.lastSample.time_s === 9")
+        assert "running elsewhere" in page.locator("#status").inner_text()
+        with (folder / "telemetry.jsonl").open("a", encoding="utf-8") as more:  # the other process flies on
+            more.write("\n" + json.dumps({"time_s": 30.0, "lat_deg": HOME[0], "lon_deg": HOME[1], "alt_m": 0.0}))
+        with (folder / "trace.jsonl").open("a", encoding="utf-8") as more:
+            more.write(
+                "\n" + json.dumps({"kind": "run", "seq": 11, "sim_t": 30.0, "event": "end", "outcome": "completed"})
+            )
+        page.wait_for_function("() => window.consoleState.lastSample.time_s === 30", timeout=20_000)
+        page.wait_for_function("() => document.getElementById('status').textContent.endsWith('replay')", timeout=20_000)
+        page.close()
