@@ -18,7 +18,6 @@ from flight.sim.scene_file import load_scene
 
 from ..contracts.errors import AgenticUAVError, InputError
 from ..mission.validate import load_mission
-from ..run.settings import default_scene
 from .views import mission_view, scene_view, world_view
 
 RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,200}$")
@@ -71,6 +70,8 @@ def replay(runs_dir: Path, run_id: str) -> dict[str, Any]:
 def _map(folder: Path) -> dict[str, Any]:
     """The scene and mission of a run from ``run.json``; nothing when they no longer load (the replay still
     shows the flight and its events)."""
+    from ..run.settings import default_scene  # here: the run's settings import its report's plotting (seconds)
+
     try:
         settings = json.loads((folder / "run.json").read_text(encoding="utf-8"))["settings"]
         mission = Path(settings["mission"])
