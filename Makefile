@@ -15,6 +15,11 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 
 $(VENV)/.installed-dev: pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e '.[dev]'
+	@# the console's browser tests drive Debian's chromium (as root, as CI runs); elsewhere install it yourself
+	if [ ! -x /usr/bin/chromium ]; then \
+		if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq chromium; \
+		else echo "make: the console's browser tests need /usr/bin/chromium (sudo apt-get install chromium)"; fi; \
+	fi
 	touch $(VENV)/.installed $@
 
 demo: $(VENV)/.installed

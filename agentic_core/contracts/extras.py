@@ -21,9 +21,11 @@ from .errors import InputError
 
 DISTRIBUTION = "agentic-uavs"
 
-EXTRAS: dict[str, str] = {"a2a": "the swarm's A2A agents (agentic_core.swarm)"}
-"""extra → what it enables, for every extra of pyproject.toml but ``dev`` (the console, detector and memory issues
-add theirs here and in pyproject.toml)."""
+EXTRAS: dict[str, str] = {
+    "a2a": "the swarm's A2A agents (agentic_core.swarm)",
+    "console": "the operator console (agentic-uav console, agentic-uav run --console)",
+}
+"""extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 
 
 class MissingExtra(InputError):

@@ -28,12 +28,14 @@ from pydantic import ValidationError
 
 from flight.cli import parse_speed
 
+from ..console.cli import add_run_options, console_check, live_console, operator_for
 from ..contracts.errors import AgenticUAVError, report_error
 from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
 from ..examples import resolve_mission, resolve_scene
 from .responses import DEGRADED_EXIT
 
 if TYPE_CHECKING:
+    from ..agent.control import Operator
     from .runner import MissionRun
 
 PROG = "agentic-uav run"
@@ -93,6 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
         "step S1 completes), gps_loss@t=40s (mission time); kinds: " + ", ".join(FAULT_KINDS),
     )  # fmt: skip
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_run_options(parser)
     return parser
 
 
@@ -107,6 +110,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"{PROG}: error: --gcs: {exc}", file=sys.stderr)
         return 2
+    try:
+        console_check(args)
+    except AgenticUAVError as exc:
+        return report_error(PROG, exc, sys.stderr)
+    operator = operator_for(args)
     if args.resume is not None:
         if (
             args.mission is not None
@@ -129,7 +137,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             overrides["speed"] = args.speed
         if args.gcs is not None:
             overrides["gcs"] = args.gcs
-        return _fly(lambda: MissionRun.resume(args.runs_dir, args.resume, progress=progress, **overrides))
+        return _fly(
+            lambda: MissionRun.resume(args.runs_dir, args.resume, progress=progress, operator=operator, **overrides),
+            args,
+            operator,
+        )
     if args.mission is None:
         print(f"{PROG}: error: give a MISSION, or --resume RUN_ID", file=sys.stderr)
         return 2
@@ -185,7 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         first = exc.errors()[0]
         print(f"{PROG}: error: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
         return 2
-    return _fly(lambda: MissionRun(settings, progress=progress))
+    return _fly(lambda: MissionRun(settings, progress=progress, operator=operator), args, operator)
 
 
 @contextmanager
@@ -212,7 +224,7 @@ def _signals_stop(run: MissionRun) -> Iterator[None]:
             signal.signal(sig, handler)
 
 
-def _fly(make: Callable[[], MissionRun]) -> int:
+def _fly(make: Callable[[], MissionRun], args: argparse.Namespace, operator: Operator | None = None) -> int:
     """Build a run with ``make``, fly it and print its outcome; the exit status says it: 0 completed or returned
     home, 3 degraded (an alert reached only the outbox), 1 anything else that happened, 2 for bad input (one line
     naming it, no traceback). Ctrl-C or SIGTERM
@@ -220,7 +232,7 @@ def _fly(make: Callable[[], MissionRun]) -> int:
     ``--resume``); a second one ends the process at once."""
     try:
         run = make()
-        with _signals_stop(run):
+        with _signals_stop(run), live_console(run, args, operator, sys.stderr):
             result = run.execute()
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)

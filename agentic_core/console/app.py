@@ -1,0 +1,173 @@
+"""The console's web application (Starlette): the page and its files, the runs of ``--runs-dir`` to replay, and
+with a live run its stream (server-sent events) and its controls.
+
+Reads of the API need the token (``Authorization: Bearer``, or ``?token=`` for the event stream); every change
+(a control command, an answer) is a POST with the token in its header and the console's own Origin
+(:mod:`~agentic_core.console.access`). The page itself loads nothing from anywhere else: a Content-Security-Policy
+of ``'self'`` holds the browser to that.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+from typing import Any, Protocol
+
+from ..contracts.errors import InputError
+from ..contracts.extras import require
+from .access import Guard
+from .feed import LiveFeed
+from .runs import list_runs, replay
+
+STATIC = Path(str(files("agentic_core.console") / "static"))
+COMMANDS = ("pause", "resume", "hold", "rtl", "land", "abort")
+CSP = (
+    "default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; script-src 'self'; "
+    "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'"
+)
+
+
+class Steering(Protocol):
+    """What the console steers a live run through: the run's control port."""
+
+    def pause(self, *, by: str = ...) -> None: ...
+    def resume(self, *, by: str = ...) -> None: ...
+    def hold(self, *, by: str = ...) -> None: ...
+    def rtl(self, *, by: str = ...) -> None: ...
+    def land(self, *, by: str = ...) -> None: ...
+    def abort(self, reason: str | None = ..., *, by: str = ...) -> None: ...
+    def approve(self, question_id: str | None = ..., reason: str | None = ..., *, by: str = ...) -> bool: ...
+    def decline(self, question_id: str | None = ..., reason: str | None = ..., *, by: str = ...) -> bool: ...
+
+
+@dataclass
+class Live:
+    """A live run as the console sees it: its feed and its control port."""
+
+    feed: LiveFeed
+    control: Steering
+
+
+def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
+    """The ASGI application (needs the ``console`` extra)."""
+    applications = require("starlette.applications", "console")
+    responses = require("starlette.responses", "console")
+    routing = require("starlette.routing", "console")
+    staticfiles = require("starlette.staticfiles", "console")
+    sse = require("sse_starlette.sse", "console")
+    JSONResponse = responses.JSONResponse
+
+    def refused(why: str) -> Any:
+        return JSONResponse({"error": why}, status_code=403)
+
+    def reading(handler: Callable[[Any], Any]) -> Callable[[Any], Any]:
+        async def checked(request: Any) -> Any:
+            why = guard.refuse_read(request.headers, request.query_params)
+            return refused(why) if why else await handler(request)
+
+        return checked
+
+    def changing(handler: Callable[[Any, Any], Any]) -> Callable[[Any], Any]:
+        async def checked(request: Any) -> Any:
+            why = guard.refuse_change(request.headers)
+            if why:
+                return refused(why)
+            try:
+                body = json.loads(await request.body() or b"{}")
+            except (json.JSONDecodeError, UnicodeDecodeError):
+                return JSONResponse({"error": "the body is not JSON"}, status_code=400)
+            if not isinstance(body, dict):
+                return JSONResponse({"error": "the body is not a JSON object"}, status_code=400)
+            if live is None:
+                return JSONResponse({"error": "no live run to steer: this console replays runs"}, status_code=409)
+            return handler(request, body)
+
+        return checked
+
+    async def index(request: Any) -> Any:
+        return responses.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
+
+    async def runs(request: Any) -> Any:
+        return JSONResponse({"runs": list_runs(runs_dir), "live": live is not None})
+
+    async def one_run(request: Any) -> Any:
+        try:
+            return JSONResponse(replay(runs_dir, request.path_params["run_id"]))
+        except InputError as exc:
+            return JSONResponse({"error": str(exc)}, status_code=404)
+
+    async def stream(request: Any) -> Any:
+        if live is None:
+            return JSONResponse({"error": "no live run"}, status_code=404)
+        import asyncio
+
+        page, first = live.feed.connect(asyncio.get_running_loop())
+
+        async def messages() -> AsyncIterator[dict[str, str]]:
+            try:
+                yield {"data": first}
+                while True:
+                    text = await page.queue.get()
+                    if text is None:
+                        yield {"event": "end", "data": "{}"}
+                        return
+                    yield {"data": text}
+            finally:
+                live.feed.disconnect(page)
+
+        return sse.EventSourceResponse(messages(), ping=10, headers={"Cache-Control": "no-store"})
+
+    def command(request: Any, body: dict[str, Any]) -> Any:
+        name = request.path_params["command"]
+        if name not in COMMANDS or live is None:
+            return JSONResponse({"error": f"no command {name!r} (one of {', '.join(COMMANDS)})"}, status_code=404)
+        reason = body.get("reason")
+        if name == "abort":
+            live.control.abort(str(reason) if reason else None, by="console")
+        else:
+            getattr(live.control, name)(by="console")
+        return JSONResponse({"ok": True, "command": name})
+
+    def answer(request: Any, body: dict[str, Any]) -> Any:
+        assert live is not None
+        approve = body.get("approve")
+        if not isinstance(approve, bool):
+            return JSONResponse({"error": "say approve: true or false"}, status_code=400)
+        reason = body.get("reason")
+        reason = str(reason)[:500] if reason else None
+        qid = request.path_params["question_id"]
+        done = (live.control.approve if approve else live.control.decline)(qid, reason, by="console")
+        if not done:
+            return JSONResponse({"error": f"no question {qid!r} is waiting"}, status_code=404)
+        return JSONResponse({"ok": True})
+
+    async def security_headers(scope: Any, receive: Any, send: Any) -> None:
+        async def send_with(message: Any) -> None:
+            if message["type"] == "http.response.start":
+                headers = list(message.get("headers", []))
+                headers += [(b"content-security-policy", CSP.encode()), (b"x-content-type-options", b"nosniff"),
+                            (b"referrer-policy", b"no-referrer")]  # fmt: skip
+                message = {**message, "headers": headers}
+            await send(message)
+
+        await app(scope, receive, send_with)
+
+    route, mount = routing.Route, routing.Mount
+    app = applications.Starlette(
+        routes=[
+            route("/", index),
+            route("/api/runs", reading(runs)),
+            route("/api/runs/{run_id}", reading(one_run)),
+            route("/api/live/stream", reading(stream)),
+            route("/api/control/{command}", changing(command), methods=["POST"]),
+            route("/api/questions/{question_id}", changing(answer), methods=["POST"]),
+            mount("/static", staticfiles.StaticFiles(directory=STATIC)),
+        ]
+    )
+    return security_headers
+
+
+__all__ = ["COMMANDS", "Live", "Steering", "build_app"]

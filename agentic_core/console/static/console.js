@@ -1,0 +1,319 @@
+// The operator console: a live run over server-sent events, or a finished run with a time slider.
+// Plain JavaScript, no build step; every request goes to this console's own origin.
+"use strict";
+
+const hash = new URLSearchParams(location.hash.slice(1));
+const token = hash.get("token") || sessionStorage.getItem("console-token") || "";
+if (hash.get("token")) sessionStorage.setItem("console-token", token);
+
+const state = { live: false, mission: null, events: [], worlds: [], telemetry: [], lastSample: null,
+  minBattery: null, rate: null, casualty: null, latencies: [] };
+window.consoleState = state;  // for tests and for a person at the devtools
+
+function el(tag, cls, text) {
+  const node = document.createElement(tag);
+  if (cls) node.className = cls;
+  if (text !== undefined && text !== null) node.textContent = String(text);
+  return node;
+}
+function tip(text) { return el("span", "", text); }  // a tooltip as text: names from files are never HTML
+function num(x, digits) { return typeof x === "number" ? x.toFixed(digits) : "–"; }
+
+async function api(path) {
+  const r = await fetch(path, { headers: { Authorization: "Bearer " + token } });
+  if (!r.ok) throw new Error(path + ": " + r.status);
+  return r.json();
+}
+async function post(path, body) {
+  const r = await fetch(path, { method: "POST", headers: { Authorization: "Bearer " + token,
+    "Content-Type": "application/json" }, body: JSON.stringify(body || {}) });
+  const answer = await r.json().catch(() => ({}));
+  if (!r.ok) setStatus("refused: " + (answer.error || r.status));
+  return answer;
+}
+function setStatus(text) { document.getElementById("status").textContent = text; }
+
+// ---- the map: an offline basemap from the scene, the mission, the vehicle ----
+const map = L.map("map", { zoomControl: true, attributionControl: true, zoomSnap: 0.25, maxZoom: 22 });
+map.attributionControl.setPrefix("Leaflet (offline; basemap drawn from the scene)");
+map.setView([21.4133, 39.8933], 17);
+const layers = { scene: L.layerGroup().addTo(map), mission: L.layerGroup().addTo(map),
+  world: L.layerGroup().addTo(map), trail: L.polyline([], { color: "#1565c0", weight: 2 }).addTo(map) };
+const ZONE_COLOURS = { walkway: "#b9a78a", camp: "#c9b48f", plaza: "#cdbf9f" };
+let vehicle = null;
+
+function drawScene(scene) {
+  state.scene = scene;
+  layers.scene.clearLayers();
+  if (!scene) return;
+  for (const z of scene.zones) {
+    L.polygon(z.polygon, { color: "#8d7b5a", weight: 1, fillColor: ZONE_COLOURS[z.kind] || "#c8bda5",
+      fillOpacity: 0.45 }).bindTooltip(tip(`${z.name || z.id} (${z.kind}, ${z.density} /m²)`)).addTo(layers.scene);
+  }
+  for (const m of scene.landmarks) {
+    if (m.polygon) L.polygon(m.polygon, { color: "#5b6b3a", weight: 1, fillOpacity: 0.3 }).addTo(layers.scene);
+    L.circleMarker(m.at, { radius: 4, color: "#3b4a2a", weight: 1, fillColor: "#8da05b", fillOpacity: 0.9 })
+      .bindTooltip(tip(`${m.name || m.id} (${m.kind})`)).addTo(layers.scene);
+  }
+  L.circleMarker(scene.home, { radius: 6, color: "#000", fillColor: "#fff", fillOpacity: 1 })
+    .bindTooltip(tip("home")).addTo(layers.scene);
+}
+
+function drawMission(mission, home) {
+  layers.mission.clearLayers();
+  if (!mission) return;
+  state.minBattery = mission.min_battery_pct;
+  const fence = mission.geofence;
+  if (fence && fence.center) L.circle(fence.center, { radius: fence.radius_m, color: "#b3261e", weight: 2,
+    dashArray: "6 6", fill: false }).bindTooltip(tip(`geofence, ceiling ${mission.ceiling_m ?? "–"} m`)).addTo(layers.mission);
+  if (fence && fence.polygon) L.polygon(fence.polygon, { color: "#b3261e", weight: 2, dashArray: "6 6",
+    fill: false }).bindTooltip(tip(`geofence, ceiling ${mission.ceiling_m ?? "–"} m`)).addTo(layers.mission);
+  const legs = mission.legs.filter((l) => !l.trigger);
+  const path = (home ? [home] : []).concat(legs.map((l) => l.at));
+  if (path.length > 1) L.polyline(path, { color: "#6a1b9a", weight: 2, dashArray: "3 5" }).addTo(layers.mission);
+  for (const l of legs) L.circleMarker(l.at, { radius: 5, color: "#6a1b9a", fillOpacity: 0.6 })
+    .bindTooltip(tip(`${l.step} (${l.action})`)).addTo(layers.mission);
+  const bounds = L.latLngBounds(path.length ? path : [[21.4133, 39.8933]]);
+  map.fitBounds(bounds.pad(0.25), { animate: false });
+}
+
+function vehicleIcon(yaw) {
+  return L.divIcon({ className: "vehicle", iconSize: [26, 26], iconAnchor: [13, 13],
+    html: `<svg width="26" height="26" viewBox="-13 -13 26 26"><g transform="rotate(${Number(yaw) || 0})">` +
+      `<path d="M0,-12 L8,9 L0,4 L-8,9 Z" fill="#0d47a1" stroke="#fff" stroke-width="1.5"/></g></svg>` });
+}
+
+function showVehicle(s) {
+  if (!s) return;
+  const at = [s.lat_deg, s.lon_deg];
+  if (!vehicle) vehicle = L.marker(at, { icon: vehicleIcon(s.yaw_deg), zIndexOffset: 1000 }).addTo(map);
+  else { vehicle.setLatLng(at); vehicle.setIcon(vehicleIcon(s.yaw_deg)); }
+}
+
+// The 2-sigma ellipse of a position's covariance (m², north/east), as a polygon of latitudes and longitudes.
+function ellipse(lat, lon, cov) {
+  const a = Math.max(cov[0][0], 1e-4), b = cov[0][1], c = Math.max(cov[1][1] - (b * b) / a, 1e-4);
+  const l11 = Math.sqrt(a), l21 = b / l11, l22 = Math.sqrt(c);  // Cholesky: cov = L Lᵀ
+  const mLat = 111320, mLon = 111320 * Math.cos((lat * Math.PI) / 180);
+  const points = [];
+  for (let i = 0; i < 24; i++) {
+    const t = (2 * Math.PI * i) / 24, x = 2 * Math.cos(t), y = 2 * Math.sin(t);
+    points.push([lat + (l11 * x) / mLat, lon + (l21 * x + l22 * y) / mLon]);
+  }
+  return points;
+}
+
+function drawWorld(world) {
+  layers.world.clearLayers();
+  if (!world) return;
+  const isolated = new Set(world.relations.filter((r) => r.pred === "isolated_from").map((r) => r.subj));
+  const at = {};
+  for (const o of world.objects) if (typeof o.lat === "number") at[o.id] = [o.lat, o.lon];
+  for (const m of (state.scene && state.scene.landmarks) || []) at[m.id] = m.at;
+  for (const r of world.relations) {  // near: a line to what it is near (a landmark, another object)
+    if (r.pred === "near" && at[r.subj] && at[r.obj]) L.polyline([at[r.subj], at[r.obj]], { color: "#7b8794",
+      weight: 1, dashArray: "2 4" }).bindTooltip(tip(`${r.subj} near ${r.obj}`)).addTo(layers.world);
+  }
+  for (const o of world.objects) {
+    if (typeof o.lat !== "number") continue;
+    const casualty = state.casualty === o.id;
+    const colour = casualty ? "#b3261e" : o.class === "person" ? (isolated.has(o.id) ? "#d08700" : "#37474f") : "#455a64";
+    const shape = o.cov ? L.polygon(ellipse(o.lat, o.lon, o.cov)) : L.circle([o.lat, o.lon], { radius: 1 });
+    shape.setStyle({ color: colour, weight: casualty ? 3 : 1, fillOpacity: 0.25 });
+    shape.addTo(layers.world);
+    L.circleMarker([o.lat, o.lon], { radius: 2, color: colour, weight: 1, fillOpacity: 1 }).addTo(layers.world)
+      .bindTooltip(tip(`${o.id} ${o.class} conf ${num(o.conf, 2)}${isolated.has(o.id) ? ", isolated" : ""}` +
+        `${casualty ? ", CASUALTY" : ""}`), { permanent: casualty, direction: "left", offset: [-8, 0] });
+  }
+}
+
+// ---- telemetry strip ----
+function showTelemetry(s) {
+  const box = document.getElementById("telemetry");
+  box.replaceChildren();
+  if (!s) return;
+  const speed = Math.hypot(s.vn_mps || 0, s.ve_mps || 0);
+  const low = state.minBattery != null && s.battery_pct != null && s.battery_pct < state.minBattery;
+  const cells = [["alt m", num(s.alt_m, 1)], ["speed m/s", num(speed, 1)],
+    ["battery %", `${num(s.battery_pct, 0)}${state.minBattery != null ? " / " + state.minBattery : ""}`, low],
+    ["mode", s.mode], ["armed", s.armed ? "yes" : "no"], ["landed", s.landed_state],
+    ["GPS fix, sats", s.gps_fix_type != null ? `${s.gps_fix_type}, ${s.gps_satellites ?? "?"}` : "–"],
+    ["sim t", `${num(s.time_s, 1)} s`], ["sim speed", state.live && state.rate ? "×" + num(state.rate, 1) : "–"], linkCell()];
+  for (const [name, value, warn] of cells) {
+    const cell = el("div", warn ? "warn" : "");
+    cell.append(el("span", "", name), el("b", "", value));
+    box.append(cell);
+  }
+}
+
+function linkCell() {  // live: how long since the vehicle's last sample reached this page
+  if (!state.live) return ["link", "replay"];
+  const silent = state.heardAt ? (performance.now() - state.heardAt) / 1000 : null;
+  return ["link", silent === null ? "–" : silent < 2 ? "ok" : `silent ${num(silent, 0)} s`, silent !== null && silent >= 2];
+}
+setInterval(() => { if (state.live && !state.over) showTelemetry(state.lastSample); }, 1000);
+
+// ---- the agent's timeline ----
+const SHOWN = new Set(["run", "tool", "decision", "trigger", "mission", "refusal", "plan", "reflection",
+  "approval", "control", "failsafe", "fault", "alert", "log"]);
+
+function eventNode(e) {
+  const node = el("div", "ev " + e.kind);
+  node.dataset.seq = e.seq;
+  node.append(el("span", "t", `${num(e.sim_t, 1)} `), el("span", "k", e.kind), el("span", "", e.summary || ""));
+  const a = e.assessment;
+  if (e.kind === "decision" && a) {
+    const why = el("div", "why");
+    why.append(el("span", "sev-" + a.severity, a.severity), el("span", "", ` · confidence ${num(a.confidence, 2)} · `),
+      el("span", "", a.rationale || ""));
+    node.append(why);
+  }
+  if (e.kind === "refusal" && e.error) node.append(el("div", "why", e.error));
+  if (e.kind === "tool" && e.status && e.status !== "ok") node.append(el("div", "why", `${e.status}: ${e.error || ""}`));
+  if (e.kind === "control") node.append(el("div", "why", `by ${e.by}${e.reason ? ": " + e.reason : ""}`));
+  node.addEventListener("click", () => drawWorld(worldAt(e.sim_t)));
+  return node;
+}
+
+function addEvent(e) {
+  state.events.push(e);
+  if (e.kind === "decision" && e.assessment && e.assessment.severity === "critical" && e.assessment.subject_id)
+    state.casualty = e.assessment.subject_id;
+  if (!SHOWN.has(e.kind)) return;
+  const list = document.getElementById("timeline");
+  list.prepend(eventNode(e));
+  while (list.childElementCount > 800) list.lastChild.remove();
+  if (e.kind === "run" && e.event === "end") setStatus(`${state.runId}: ${e.outcome}`);
+}
+
+function worldAt(t) {
+  let best = null;
+  for (const w of state.worlds) if (w.t != null && (t == null || w.t <= t + 0.01)) best = w;
+  return best || state.worlds[state.worlds.length - 1] || null;
+}
+
+// ---- approvals and control ----
+function addQuestion(q) {
+  if (document.getElementById("q-" + q.id)) return;
+  const card = el("div", "card");
+  card.id = "q-" + q.id;
+  const r = q.request || {};
+  card.append(el("div", "", r.question || `approve ${r.step}?`));
+  if (r.args) card.append(el("div", "why", Object.entries(r.args).map(([k, v]) => `${k}=${v}`).join(", ")));
+  const reason = el("input");
+  reason.placeholder = "reason (for a decline)";
+  const yes = el("button", "approve", "Approve"), no = el("button", "decline", "Decline");
+  yes.addEventListener("click", () => post(`/api/questions/${q.id}`, { approve: true, reason: reason.value || null }));
+  no.addEventListener("click", () => post(`/api/questions/${q.id}`, { approve: false, reason: reason.value || null }));
+  card.append(reason, yes, el("span", "", " "), no);
+  document.getElementById("approvals").append(card);
+  const s = state.lastSample;  // a decision to make: show where it is being made
+  if (state.live && s) map.setView([s.lat_deg, s.lon_deg], 18.5, { animate: false });
+}
+function dropQuestion(id) { const c = document.getElementById("q-" + id); if (c) c.remove(); }
+
+for (const b of document.querySelectorAll("#controls button")) {
+  b.addEventListener("click", () => post(`/api/control/${b.dataset.command}`, {}));
+}
+
+// ---- live ----
+function live() {
+  state.live = true;
+  document.getElementById("controls").hidden = false;
+  const source = new EventSource(`/api/live/stream?token=${encodeURIComponent(token)}`);
+  let lastRate = null;
+  source.onmessage = (m) => {
+    const { type, data } = JSON.parse(m.data);
+    if (type === "snapshot") {
+      state.runId = data.run_id;
+      drawScene(data.scene);
+      drawMission(data.mission, data.scene && data.scene.home);
+      document.getElementById("timeline").replaceChildren();
+      document.getElementById("approvals").replaceChildren();
+      state.events = [];
+      data.events.forEach(addEvent);
+      layers.trail.setLatLngs(data.trail.map((p) => [p[1], p[2]]));
+      if (data.world) { state.worlds = [data.world]; drawWorld(data.world); }
+      data.questions.forEach(addQuestion);
+      state.lastSample = data.telemetry;
+      if (data.telemetry) state.heardAt = performance.now();
+      showVehicle(data.telemetry); showTelemetry(data.telemetry);
+      setStatus(`${data.run_id}: live`);
+    } else if (type === "event") {
+      if (typeof data.t === "number") {  // publication to this page, on this machine's clock (benchmarks/console.py)
+        state.latencies.push(Date.now() - data.t * 1000);
+        if (state.latencies.length > 5000) state.latencies.shift();
+      }
+      addEvent(data);
+    }
+    else if (type === "telemetry") {
+      const now = performance.now() / 1000;
+      if (lastRate && data.time_s > lastRate[1]) state.rate = (data.time_s - lastRate[1]) / (now - lastRate[0]);
+      lastRate = [now, data.time_s];
+      state.lastSample = data;
+      state.heardAt = performance.now();
+      state.received = (state.received || 0) + 1;
+      layers.trail.addLatLng([data.lat_deg, data.lon_deg]);
+      showVehicle(data); showTelemetry(data);
+    } else if (type === "world") {
+      state.worlds.push(data);
+      if (state.worlds.length > 600) state.worlds.shift();
+      drawWorld(data);
+    } else if (type === "question") addQuestion(data);
+    else if (type === "answered") dropQuestion(data.id);
+  };
+  source.addEventListener("end", () => {
+    source.close(); state.over = true; setStatus(`${state.runId}: the run is over`);
+  });
+}
+
+// ---- replay (a run still flying in another process is re-read every 2 s, the slider kept at its end) ----
+let following = null;
+
+async function openRun(id, keepView) {
+  const run = await api(`/api/runs/${encodeURIComponent(id)}`);
+  const slider = document.getElementById("slider");
+  const atEnd = !keepView || Number(slider.value) >= Number(slider.max);
+  state.live = false; state.runId = id; state.casualty = null; state.events = [];
+  state.telemetry = run.telemetry; state.worlds = run.worlds;
+  document.getElementById("controls").hidden = true;
+  document.getElementById("approvals").replaceChildren();
+  if (!keepView) { drawScene(run.scene); drawMission(run.mission, run.scene && run.scene.home); }
+  const times = run.telemetry.map((s) => s.time_s);
+  slider.min = times.length ? times[0] : 0;
+  slider.max = times.length ? times[times.length - 1] : 0;
+  if (atEnd) slider.value = slider.max;
+  document.getElementById("replay").hidden = false;
+  slider.oninput = () => replayAt(run, Number(slider.value));
+  replayAt(run, Number(slider.value));
+  const ended = run.events.some((e) => e.kind === "run" && e.event === "end");
+  setStatus(`${id}: ${ended ? "replay" : "running elsewhere: following its files"}`);
+  clearTimeout(following);
+  if (!ended) following = setTimeout(() => { if (state.runId === id && !state.live) openRun(id, true); }, 2000);
+}
+
+function replayAt(run, t) {
+  const upto = run.telemetry.filter((s) => s.time_s <= t + 1e-6);
+  const s = upto[upto.length - 1] || run.telemetry[0];
+  layers.trail.setLatLngs(upto.map((p) => [p.lat_deg, p.lon_deg]));
+  state.lastSample = s;
+  showVehicle(s); showTelemetry(s);
+  document.getElementById("timeline").replaceChildren();
+  state.events = []; state.casualty = null;
+  for (const e of run.events) if (e.sim_t == null || e.sim_t <= t + 1e-6) addEvent(e);
+  drawWorld(worldAt(t));
+  document.getElementById("clock").textContent = `${num(t, 1)} s`;
+}
+
+async function start() {
+  let listing = { runs: [], live: false };
+  try { listing = await api("/api/runs"); } catch (err) { setStatus("no access: open the address with its #token"); return; }
+  const select = document.getElementById("runs");
+  if (listing.live) select.append(new Option("live run", "__live__"));
+  for (const r of listing.runs) select.append(new Option(`${r.id} · ${r.outcome}`, r.id));
+  select.addEventListener("change", () => (select.value === "__live__" ? location.reload() : openRun(select.value, false)));
+  if (listing.live) live();
+  else if (listing.runs.length) openRun(listing.runs[0].id, false);
+  else setStatus("no runs yet");
+}
+start();

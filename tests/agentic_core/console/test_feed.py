@@ -1,0 +1,101 @@
+"""The live feed: a page that opens late catches up from one snapshot taken with its subscription (nothing lost
+between), telemetry goes out at most at its rate, a page that stops reading is dropped rather than slowing the run,
+and an answered question leaves every page."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import threading
+from pathlib import Path
+from typing import Any
+
+from starlette.testclient import TestClient
+
+from agentic_core.agent.control import ControlPort
+from agentic_core.console.access import Guard
+from agentic_core.console.app import Live, build_app
+from agentic_core.console.feed import QUEUE_LIMIT, LiveFeed
+from tests.waiting import wait_for
+
+TOKEN = "a-test-token-0123456789"
+BASE = "http://127.0.0.1:8765"
+
+
+def sample(t: float) -> dict[str, Any]:
+    return {"time_s": t, "lat_deg": 21.4, "lon_deg": 39.9, "alt_m": 10.0}
+
+
+def drain(queue: asyncio.Queue[str | None]) -> list[dict[str, Any]]:
+    out = []
+    while not queue.empty():
+        text = queue.get_nowait()
+        out.append(json.loads(text) if text is not None else {"type": None})
+    return out
+
+
+def test_telemetry_goes_out_at_most_at_its_rate_and_the_trail_by_the_vehicle_clock() -> None:
+    now = [0.0]
+    feed = LiveFeed(telemetry_hz=10.0, clock=lambda: now[0])
+    loop = asyncio.new_event_loop()
+    try:
+        page, first = feed.connect(loop)
+        assert json.loads(first)["type"] == "snapshot"
+        for i in range(100):  # 100 samples, 0.01 s of wall time and 0.05 s of the vehicle's clock apart
+            now[0] = i * 0.01
+            feed.telemetry(sample(i * 0.05))
+        loop.run_until_complete(asyncio.sleep(0))
+        sent = [m for m in drain(page.queue) if m["type"] == "telemetry"]
+    finally:
+        loop.close()
+    assert len(sent) == 10  # one second of wall time at 10 Hz
+    assert len(feed.snapshot()["trail"]) == 10  # 5 s of the vehicle's clock, a point every 0.5 s
+    assert feed.snapshot()["telemetry"]["time_s"] == 99 * 0.05  # the latest is always kept
+
+
+def test_a_page_that_stops_reading_is_dropped_and_the_run_goes_on() -> None:
+    feed = LiveFeed()
+    loop = asyncio.new_event_loop()
+    try:
+        page, _ = feed.connect(loop)
+        for seq in range(QUEUE_LIMIT + 50):
+            feed.event({"kind": "log", "seq": seq})
+            if seq % 100 == 0:
+                loop.run_until_complete(asyncio.sleep(0))  # deliver what was handed over so far
+        loop.run_until_complete(asyncio.sleep(0))
+        assert page.dropped and feed.pages == 0
+        assert drain(page.queue)[-1] == {"type": None}  # its stream is told to end
+    finally:
+        loop.close()
+
+
+def test_an_answered_question_leaves_the_snapshot_and_a_timed_out_one_too() -> None:
+    feed = LiveFeed()
+    feed.question("q1", {"step": "land_near"})
+    assert [q["id"] for q in feed.snapshot()["questions"]] == ["q1"]
+    feed.event({"kind": "control", "command": "approve", "question": "q1", "by": "console"})
+    assert feed.snapshot()["questions"] == []
+    feed.question("q2", {"step": "release_kit"})
+    feed.event({"kind": "approval", "answer": False, "via": "operator"})  # no answer in time: declined
+    assert feed.snapshot()["questions"] == []
+
+
+def test_a_page_answers_a_waiting_question_and_the_run_hears_it(tmp_path: Path) -> None:
+    commands: list[tuple[str, dict[str, Any]]] = []
+    port = ControlPort(on_command=lambda name, detail: commands.append((name, detail)))
+    feed = LiveFeed()
+    port.on_question(lambda q: feed.question(q.id, q.request))
+    client = TestClient(build_app(tmp_path, Guard(TOKEN), Live(feed, port)), base_url=BASE)
+    answers: list[Any] = []
+    asking = threading.Thread(target=lambda: answers.append(port.ask({"step": "land_near"}, timeout_s=30.0)))
+    asking.start()
+    (question,) = wait_for(lambda: feed.snapshot()["questions"], timeout_s=10.0, what="the question")
+    headers = {"authorization": f"Bearer {TOKEN}", "origin": BASE}
+    response = client.post(f"/api/questions/{question['id']}", json={"approve": False, "reason": "crowd"},
+                           headers=headers)  # fmt: skip
+    assert response.status_code == 200
+    asking.join(timeout=10.0)
+    assert answers[0].approved is False and answers[0].said == "crowd"
+    assert commands == [("decline", {"by": "console", "question": "q1", "step": "land_near", "reason": "crowd"})]
+    again = client.post(f"/api/questions/{question['id']}", json={"approve": True}, headers=headers)
+    assert again.status_code == 404  # answered once: a second click changes nothing
