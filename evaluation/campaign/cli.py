@@ -160,12 +160,14 @@ def _stats(out_dir: Path, n_systems: int) -> str:
     """The paper's statistics on the campaign's records, into ``out_dir``; a line saying what was written."""
     if n_systems < 2:
         return "skipped (the statistics compare two or more systems)"
+    from evaluation.stats.dataset import load_dataset
     from evaluation.stats.errors import InputError
-    from evaluation.stats.pipeline import analyze
+    from evaluation.stats.pipeline import analyze_dataset
     from evaluation.stats.plots import write_plots
 
     try:
-        report = analyze(out_dir / "results.jsonl")
+        dataset = load_dataset(out_dir / "results.jsonl")
+        report = analyze_dataset(dataset)
     except InputError as exc:
         return f"skipped ({exc})"
     except Exception as exc:  # the campaign is complete and recorded; a failed report must not hide that
@@ -178,7 +180,7 @@ def _stats(out_dir: Path, n_systems: int) -> str:
         return f"not written ({exc.strerror or exc})"
     written = f"{out_dir / 'stats.md'}, {out_dir / 'stats.json'}, {out_dir / 'stats.tex'}"
     try:
-        plots = write_plots(report, out_dir)
+        plots = write_plots(report, out_dir, dataset)
     except Exception as exc:  # a plotting failure leaves the report itself standing
         return f"{written}; plots failed ({type(exc).__name__}: {exc})"
     return f"{written}; plots: {', '.join(p.name for p in plots)}"

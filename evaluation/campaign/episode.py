@@ -129,9 +129,19 @@ class _Run:
     assessments: int = 0
     llm_calls: int = 0
     tokens: int = 0
+    time_s: float = 0.0
+    model_s: float = 0.0
     intervention_s: float | None = None
 
     def assess(self, world: WorldModel) -> Decision:
+        """One assessment; its time and its model's time add to the episode's (a reused answer costs what its
+        lookup costs, its model call having been counted when it was made)."""
+        decision = self._assess(world)
+        self.time_s += decision.processing_time_s
+        self.model_s += decision.model_time_s
+        return decision
+
+    def _assess(self, world: WorldModel) -> Decision:
         start = time.perf_counter()
         if self.reasoner is None:
             return Decision(reasoner=self.system.name, assessment=None, processing_time_s=0.0, error=self.build_error)
@@ -281,7 +291,7 @@ def _record(run: _Run, common: dict[str, object]) -> DecisionRecord:
         {
             **common,
             "system": run.system.name,
-            "processing_time_s": decision.processing_time_s,
+            "processing_time_s": run.time_s / max(run.assessments, 1),
             "detection_confidence": a.confidence if a is not None and person else None,
             "person_detected": person,
             "n_actions": len(a.recommended_actions) if a is not None else 0,
@@ -293,7 +303,7 @@ def _record(run: _Run, common: dict[str, object]) -> DecisionRecord:
             "subject_id": a.subject_id if a is not None else None,
             "assessment": a,
             "reasoner": decision.reasoner,
-            "model_time_s": decision.model_time_s,
+            "model_time_s": run.model_s / max(run.assessments, 1),
             "llm_calls": decision.llm_calls,
             "prompt_tokens": decision.prompt_tokens,
             "completion_tokens": decision.completion_tokens,
@@ -302,6 +312,8 @@ def _record(run: _Run, common: dict[str, object]) -> DecisionRecord:
             "assessments": run.assessments,
             "episode_llm_calls": run.llm_calls,
             "episode_tokens": run.tokens,
+            "episode_time_s": run.time_s,
+            "episode_model_time_s": run.model_s,
             "sim_time_s": run.last_time_s,
             "time_to_intervention_s": run.intervention_s,
         }

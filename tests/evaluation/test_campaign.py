@@ -95,7 +95,9 @@ def test_the_stats_pipeline_reads_the_csv_and_the_jsonl_with_no_options(
         report = json.loads(capsys.readouterr().out)
         assert report["data_schema"] == "decision-records" and report["group_sizes"] == {"yolo": 4, "rules": 4}
         assert [c["column"] for c in report["continuous"]] == ["processing_time_s", "detection_confidence"]
-        assert [c["column"] for c in report["categorical"]] == ["person_detected", "action_recommended", "contextual"]
+        assert [c["column"] for c in report["categorical"]] == [
+            "person_detected", "action_recommended", "contextual", "correct_severity", "missed_casualty", "false_alarm"
+        ]  # fmt: skip
 
 
 def test_a_record_is_the_same_whether_its_system_ran_alone_or_beside_others(
