@@ -21,9 +21,8 @@ from .errors import InputError
 
 DISTRIBUTION = "agentic-uavs"
 
-EXTRAS: dict[str, str] = {}
-"""extra → what it enables, for every extra of pyproject.toml but ``dev`` (none yet: every feature shipped today
-runs on the base dependencies; the console, detector and memory issues add theirs here and in pyproject.toml)."""
+EXTRAS: dict[str, str] = {"distributed": "a Dask executor for campaigns (--executor dask-local:K or dask://HOST:PORT)"}
+"""extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 
 
 class MissingExtra(InputError):

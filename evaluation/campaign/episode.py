@@ -60,7 +60,7 @@ from flight.sim.scene import SceneState
 from flight.sim.scene_model import Scene
 
 from .records import DecisionRecord
-from .systems import SystemSpec, build_reasoner
+from .systems import ClientFactory, SystemSpec, build_reasoner
 
 DEFAULT_GOAL = "Patrol the Hajj crowd from the air and get help to anyone who needs it."
 
@@ -161,9 +161,15 @@ class _Run:
 
 
 def run_episode(
-    scene: Scene, systems: Sequence[SystemSpec], settings: EpisodeSettings | None = None, campaign_seed: int = 0
+    scene: Scene,
+    systems: Sequence[SystemSpec],
+    settings: EpisodeSettings | None = None,
+    campaign_seed: int = 0,
+    *,
+    clients: ClientFactory | None = None,
 ) -> list[DecisionRecord]:
-    """Observe ``scene`` as the module docs say and return one record per system, in ``systems`` order."""
+    """Observe ``scene`` as the module docs say and return one record per system, in ``systems`` order;
+    ``clients`` builds the model clients (see :func:`~evaluation.campaign.systems.build_reasoner`)."""
     cfg = settings or EpisodeSettings()
     rules = RuleSettings(still_s=cfg.still_s)
     seed = perception_seed(campaign_seed, scene.id)
@@ -176,7 +182,7 @@ def run_episode(
     perception = Perception(
         home=(home.lat_deg, home.lon_deg, home.alt_msl_m), landmarks=scene.landmarks if cfg.landmarks else ()
     )
-    runs = [_start(system, rules, cfg.goal) for system in systems]
+    runs = [_start(system, rules, cfg.goal, clients) for system in systems]
     casualties = list(scene.ground_truth.casualties)
     first_in_view: dict[str, float] = {}
     perception_time = 0.0
@@ -226,9 +232,9 @@ def run_episode(
     return [_record(run, common) for run in runs]
 
 
-def _start(system: SystemSpec, rules: RuleSettings, goal: str) -> _Run:
+def _start(system: SystemSpec, rules: RuleSettings, goal: str, clients: ClientFactory | None) -> _Run:
     try:
-        reasoner, close = build_reasoner(system, rules=rules, goal=goal)
+        reasoner, close = build_reasoner(system, rules=rules, goal=goal, clients=clients)
     except Exception as exc:  # e.g. the API key left the environment: error records for this system
         return _Run(system, None, lambda: None, build_error=f"{type(exc).__name__}: {exc}")
     return _Run(system, reasoner, close)

@@ -53,6 +53,7 @@ class DecisionRecord(BaseModel):
 
     scene_id: str
     system: str = Field(description="the campaign's name for the system: yolo, rules, hybrid, llm:<model>, ...")
+    job_id: str = Field(default="", description="the record's content address (evaluation.campaign.jobs.job_id)")
     # --- the paper's columns -------------------------------------------------------------------------------------
     processing_time_s: float = Field(
         ge=0.0,
