@@ -9,9 +9,10 @@ Every model call of a job goes through a :class:`CampaignChat` that wraps the sy
   failed connection is not an answer and is not kept.
 * **Concurrency per endpoint.** At most ``max_concurrent`` calls in flight to one base URL from one worker
   process. A ``rate_limited`` answer (HTTP 429 after the client's own retries) halves that limit and pauses the
-  endpoint (what Retry-After said, else a doubling backoff); each run of ``limit`` answers in a row raises it by one
-  again, up to ``max_concurrent``. After ``give_up_after`` rate-limited answers in a row the endpoint is not asked
-  until its pause ends: calls in between fail at once as ``rate_limited``, an error record, never a hang.
+  endpoint (what Retry-After said, at least a backoff that doubles with each rate limit in a row); each run of
+  ``limit`` answers in a row raises it by one again, up to ``max_concurrent``. After ``give_up_after``
+  rate-limited answers in a row the endpoint is not asked until its pause ends: calls in between fail at once as
+  ``rate_limited``, an error record, never a hang.
 * **Usage.** Calls and tokens per model, for the campaign's budget (:mod:`evaluation.campaign.budget`).
 
 >>> limiter = EndpointLimiter(4, clock=iter([0.0, 0.0, 0.0, 10.0]).__next__)
@@ -136,7 +137,7 @@ class EndpointLimiter:
                 self.limit = max(1, self.limit // 2)
                 self.strikes += 1
                 self._answers = 0
-                pause = retry_after_s if retry_after_s is not None else self._backoff
+                pause = max(retry_after_s or 0.0, self._backoff)  # "Retry-After: 0" from a server still refusing
                 self._backoff = min(self.backoff_max_s, max(self._backoff * 2.0, 1e-3))
                 self.resume_at = max(self.resume_at, self.clock() + pause)
             else:
@@ -207,7 +208,7 @@ class CampaignChat:
         finally:
             limited = result is not None and result.status == "rate_limited"
             limiter.release(rate_limited=limited, retry_after_s=result.retry_after_s if result else None)
-        self.session.kept(self.system.name, key, n, result)
+        self.session.kept(self.system.name, self._model, key, n, result)
         return result
 
     def close(self) -> None:
@@ -231,10 +232,11 @@ class ModelSession:
         """The client of an ``llm`` or ``hybrid`` system for this job."""
         return CampaignChat(self, system)
 
-    def kept(self, system: str, key: str, n: int, result: LLMResult) -> None:
+    def kept(self, system: str, model: str, key: str, n: int, result: LLMResult) -> None:
+        """Count a call's usage under the model asked for (the name ``--price`` uses) and keep its answer."""
         with self._lock:
-            self._calls[result.model] += 1
-            self._usage[result.model] = self._usage.get(result.model, Usage()) + result.usage
+            self._calls[model] += 1
+            self._usage[model] = self._usage.get(model, Usage()) + result.usage
             if result.status not in NOT_ANSWERS:
                 data = result.model_dump(mode="json")
                 self.responses.append(ResponseEntry(scene_id=self.scene_id, system=system, key=key, n=n, result=data))
@@ -249,6 +251,8 @@ class ModelSession:
                 model=model,
                 provider=provider,
             )
+        with self._lock:  # kept in the new campaign's cache too, so a replay can be replayed
+            self.responses.append(ResponseEntry(scene_id=self.scene_id, system=system, key=key, n=n, result=data))
         result = LLMResult.model_validate(data)
         if result.parsed is not None and isinstance(output, type) and issubclass(output, BaseModel):
             result = result.model_copy(update={"parsed": output.model_validate(result.parsed)})

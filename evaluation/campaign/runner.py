@@ -199,7 +199,8 @@ def _keep(out_dir: Path, output: JobOutput, progress: Progress) -> int:
     for record in output.records:
         append_record(out_dir / RESULTS_JSONL, record)
     append_responses(out_dir / MODEL_CACHE, output.responses)
-    progress.advance(len(output.records), output.records[0].scene_id if output.records else "")
+    label = output.records[0].scene_id if output.records else ""
+    progress.advance(len(output.records), label, [r.system for r in output.records])
     return len(output.records)
 
 
