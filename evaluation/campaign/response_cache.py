@@ -1,7 +1,8 @@
 """``model_cache.jsonl``: a campaign's model answers, appended as jobs finish, read back for a replay.
 
-One :class:`~evaluation.campaign.model_calls.ResponseEntry` per line. A torn last line (a campaign killed while
-writing it) is skipped; any other bad line is an error naming it.
+One :class:`~evaluation.campaign.model_calls.ResponseEntry` per line. The file is checked before it is read (a
+regular file within ``AGENTIC_UAV_MAX_INPUT_MB``). A torn last line (a campaign killed while writing it) is skipped;
+any other bad line is an error naming it.
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from pydantic import ValidationError
+
+from agentic_core.contracts.input_files import InputFileError, check_input_file
 
 from .model_calls import ResponseEntry
 
@@ -30,6 +33,10 @@ def load_responses(path: Path) -> dict[str, list[ResponseEntry]]:
     when the file cannot be read (a campaign without one called no model: there is nothing to replay)."""
     if not path.exists():
         raise ValueError(f"{path.name} not found: the campaign called no model, or is not a campaign directory")
+    try:
+        check_input_file(path, "model cache")
+    except InputFileError as exc:
+        raise ValueError(f"{path}: {exc.reason}") from None
     raw = path.read_text(encoding="utf-8")
     lines = raw.split("\n")
     out: dict[str, list[ResponseEntry]] = {}

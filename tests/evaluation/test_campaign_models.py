@@ -8,6 +8,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
+import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -204,3 +205,19 @@ def test_tokens_count_toward_the_budget_and_a_campaign_without_model_calls_spend
                         settings=EpisodeSettings(frames=2))  # fmt: skip
     result = run_campaign(plan, tmp_path, quiet=True, budget=Budget(calls=1))  # no model calls: never spent
     assert len(result.records) == 1
+
+
+def test_a_damaged_cache_is_a_usage_error_naming_its_line(
+    scene_files: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str], clean_env: None
+) -> None:
+    source = tmp_path / "damaged"
+    source.mkdir()
+    (source / MODEL_CACHE).write_text('{"scene_id": "model-1"}\n{"also": "broken"}\n', encoding="utf-8")
+    code = main(argv(scene_files, "http://127.0.0.1:9", tmp_path / "out", "--replay", str(source)))
+    err = capsys.readouterr().err
+    assert code == 2 and f"{source / MODEL_CACHE}, line 1: not a cached model response" in err
+    assert "Traceback" not in err and not (tmp_path / "out" / "results.jsonl").exists()
+    (source / MODEL_CACHE).unlink()
+    os.mkfifo(source / MODEL_CACHE)  # a FIFO would block a reader: refused before it is opened
+    assert main(argv(scene_files, "http://127.0.0.1:9", tmp_path / "fifo", "--replay", str(source))) == 2
+    assert "not a regular file" in capsys.readouterr().err
