@@ -46,7 +46,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return code
 
 
-EVAL_COMMANDS = ("stats", "paper", "campaign")
+EVAL_COMMANDS = ("stats", "paper", "campaign", "paper-campaign")
 DELEGATED = {
     "tools": "tools.cli",
     "mcp": "tools.mcp.cli",
@@ -71,6 +71,10 @@ def _run_eval(command: str, argv: Sequence[str]) -> int:
         from evaluation.campaign.cli import main as campaign_main
 
         return campaign_main(argv)
+    if command == "paper-campaign":
+        from evaluation.campaign.paper_campaign import main as paper_campaign_main
+
+        return paper_campaign_main(argv)
     from evaluation.paper.cli import main as paper_main
 
     return paper_main(argv)
@@ -239,6 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
         ("stats", "the paper's statistics pipeline on a results file (see: agentic-uav eval stats --help)"),
         ("paper", "recompute the paper's statistics from its published figures (agentic-uav eval paper --help)"),
         ("campaign", "run scenes through systems: records, metrics, statistics (agentic-uav eval campaign --help)"),
+        ("paper-campaign", "the paper's 44-scene comparison, its results beside the paper's (--help)"),
     ):
         eval_sub.add_parser(name, help=text, add_help=False)  # listed here; parsed by _run_eval
     sub.add_parser("tools", help="list and describe the registered tools (agentic-uav tools --help)", add_help=False)

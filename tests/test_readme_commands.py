@@ -56,6 +56,15 @@ NOT_RUN_HERE = {
     "agentic-uav sim --speed max": "serves until stopped; tests/flight/ drive the vehicle",
     "agentic-uav eval campaign --scenes 44 --seed 0 --systems yolo,rules,hybrid --llm ollama:gemma3:4b --workers 2 "
     "--out runs/c44": "needs an Ollama server and hours; tests/evaluation/ run small campaigns",
+    "agentic-uav eval campaign --scenes 44 --executor dask-local:2 --out runs/c44": "44 scenes take minutes; "
+    "tests/evaluation/test_campaign_dask.py runs a dask-local campaign",
+    "agentic-uav eval campaign --scenes 44 --executor dask://10.0.0.5:8786 --out runs/c44": "the reader's own "
+    "scheduler; tests/evaluation/test_campaign_dask.py starts one on 127.0.0.1",
+    "agentic-uav eval campaign --scenes 44 --systems rules,llm --llm openai:gpt-4o-mini --budget-usd 5 "
+    "--price gpt-4o-mini=0.15/0.6 --out runs/gpt": "needs an OpenAI key; tests/evaluation/test_campaign_models.py "
+    "spends budgets against a stand-in model",
+    "agentic-uav eval campaign --scenes 44 --systems rules,llm --llm openai:gpt-4o-mini --replay runs/gpt "
+    "--out runs/gpt-rescored": "needs the campaign before it; tests/evaluation/test_campaign_models.py replays one",
     "agentic-uav eval stats results.csv": "results.csv is yours; tests/evaluation/ run the pipeline",
     "agentic-uav eval stats results.csv --group system --value processing_time_s --out report/": "results.csv is "
     "yours; tests/evaluation/ run the pipeline",

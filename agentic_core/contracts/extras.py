@@ -24,6 +24,7 @@ DISTRIBUTION = "agentic-uavs"
 EXTRAS: dict[str, str] = {
     "a2a": "the swarm's A2A agents (agentic_core.swarm)",
     "console": "the operator console (agentic-uav console, agentic-uav run --console)",
+    "distributed": "a Dask executor for campaigns (--executor dask-local:K or dask://HOST:PORT)",
 }
 """extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 

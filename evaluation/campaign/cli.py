@@ -2,13 +2,19 @@
 
 Example (ten generated scenes, the baseline and the rule reasoner, two worker processes)::
 
-    agentic-uav eval campaign --scenes 10 --seed 0 --systems yolo,rules --workers 2 --out runs/campaign-10
+    agentic-uav eval campaign --scenes 10 --seed 0 --systems yolo,rules --executor local:2 --out runs/campaign-10
+
+``--executor dask-local:K`` runs the jobs on a Dask cluster started on 127.0.0.1, ``--executor dask://HOST:PORT``
+on an existing one (the extra ``distributed``). A model campaign keeps its model's answers in
+``model_cache.jsonl``; ``--replay DIR`` re-scores DIR's campaign from them with no model, and ``--budget-calls``,
+``--budget-tokens`` and ``--budget-usd`` (with ``--price``) stop it cleanly when spent.
 
 Run the same command again after an interruption to resume; the directory then also holds ``stats.md``,
 ``stats.json``, ``stats.tex`` and the plots (``stats_*.png``) of :mod:`evaluation.stats` on ``results.jsonl``.
 
 Exit status: 0 when the campaign is complete, 2 on bad input (an unknown system, a bad LLM spec, an unreadable
-scene file, ``--workers 0``, a directory holding a different campaign), 1 when a job fails, 130 when interrupted.
+scene file, ``--workers 0``, a bad ``--executor``, a directory holding a different campaign), 1 when a job fails,
+3 when the budget stopped it (what finished is kept; run again with a larger budget), 130 when interrupted.
 """
 
 from __future__ import annotations
@@ -20,6 +26,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
 from agentic_core.contracts.errors import AgenticUAVError, InputError, report_error
+
+from .model_options import add_model_arguments
 
 if TYPE_CHECKING:
     from flight.sim.scene_model import Scene
@@ -47,7 +55,13 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
         "(default yolo,rules)",
     )
     parser.add_argument("--llm", metavar="SPEC", help="the model of a bare 'llm' or 'hybrid' (PROVIDER:MODEL[@URL])")
-    parser.add_argument("--workers", type=int, default=1, metavar="K", help="worker processes (default 1)")
+    parser.add_argument(
+        "--executor",
+        metavar="SPEC",
+        help="where jobs run: local:K (K processes here), dask-local:K (a Dask cluster on 127.0.0.1), "
+        "dask://HOST:PORT (an existing Dask scheduler); default local:1",
+    )
+    parser.add_argument("--workers", type=int, metavar="K", help="the same as --executor local:K")
     parser.add_argument("--frames", type=int, default=360, metavar="N", help="camera frames at 30 Hz (default 360)")
     parser.add_argument(
         "--assess-every", type=int, default=30, metavar="N", help="frames between assessments; 0: final only (30)"
@@ -55,6 +69,7 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
     parser.add_argument("--altitude", type=float, default=30.0, metavar="M", help="hover height, metres (default 30)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="the campaign directory")
     parser.add_argument("--no-stats", action="store_true", help="skip the statistics report")
+    add_model_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
     return parser
 
@@ -82,11 +97,19 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pydantic import ValidationError
 
     from .episode import EpisodeSettings
-    from .runner import CampaignError, CampaignPlan, run_campaign
+    from .executors import ExecutorSpecError, parse_executor
+    from .model_options import model_options
+    from .runner import BudgetSpent, CampaignError, CampaignPlan, run_campaign
     from .systems import SystemSpecError, parse_systems
 
-    if args.workers < 1:
+    if args.workers is not None and args.workers < 1:
         raise _UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.workers is not None and args.executor is not None:
+        raise _UsageError("--workers K is --executor local:K: give one of them")
+    try:
+        executor = parse_executor(args.executor or f"local:{args.workers or 1}")
+    except ExecutorSpecError as exc:
+        raise _UsageError(str(exc)) from None
     if args.seed < 0:
         raise _UsageError(f"--seed must be 0 or more, got {args.seed}")
     if args.frames < 1:
@@ -101,6 +124,7 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             parse_systems(f"llm:{args.llm}")  # a bad --llm is an error even when no system uses it
     except SystemSpecError as exc:
         raise _UsageError(str(exc)) from None
+    models, budget = model_options(args, systems)
     scenes, source = _scenes(args)
     settings = EpisodeSettings(frames=args.frames, assess_every=args.assess_every, altitude_m=args.altitude)
     try:
@@ -108,7 +132,13 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     except ValidationError as exc:
         raise _UsageError(str(exc.errors()[0]["msg"]).removeprefix("Value error, ")) from None
     try:
-        result = run_campaign(plan, args.out, workers=args.workers, quiet=args.quiet, stream=err)
+        result = run_campaign(
+            plan, args.out, executor=executor, quiet=args.quiet, stream=err, models=models, budget=budget,
+            replay=args.replay,
+        )  # fmt: skip
+    except BudgetSpent as exc:
+        print(f"{PROG}: stopped: {exc}", file=err)
+        return 3
     except CampaignError as exc:
         print(f"{PROG}: error: {exc}", file=err)
         return 2 if exc.usage else 1
@@ -160,12 +190,14 @@ def _stats(out_dir: Path, n_systems: int) -> str:
     """The paper's statistics on the campaign's records, into ``out_dir``; a line saying what was written."""
     if n_systems < 2:
         return "skipped (the statistics compare two or more systems)"
+    from evaluation.stats.dataset import load_dataset
     from evaluation.stats.errors import InputError
-    from evaluation.stats.pipeline import analyze
+    from evaluation.stats.pipeline import analyze_dataset
     from evaluation.stats.plots import write_plots
 
     try:
-        report = analyze(out_dir / "results.jsonl")
+        dataset = load_dataset(out_dir / "results.jsonl")
+        report = analyze_dataset(dataset)
     except InputError as exc:
         return f"skipped ({exc})"
     except Exception as exc:  # the campaign is complete and recorded; a failed report must not hide that
@@ -178,7 +210,7 @@ def _stats(out_dir: Path, n_systems: int) -> str:
         return f"not written ({exc.strerror or exc})"
     written = f"{out_dir / 'stats.md'}, {out_dir / 'stats.json'}, {out_dir / 'stats.tex'}"
     try:
-        plots = write_plots(report, out_dir)
+        plots = write_plots(report, out_dir, dataset)
     except Exception as exc:  # a plotting failure leaves the report itself standing
         return f"{written}; plots failed ({type(exc).__name__}: {exc})"
     return f"{written}; plots: {', '.join(p.name for p in plots)}"

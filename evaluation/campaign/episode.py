@@ -60,7 +60,7 @@ from flight.sim.scene import SceneState
 from flight.sim.scene_model import Scene
 
 from .records import DecisionRecord
-from .systems import SystemSpec, build_reasoner
+from .systems import ClientFactory, SystemSpec, build_reasoner
 
 DEFAULT_GOAL = "Patrol the Hajj crowd from the air and get help to anyone who needs it."
 
@@ -129,9 +129,19 @@ class _Run:
     assessments: int = 0
     llm_calls: int = 0
     tokens: int = 0
+    time_s: float = 0.0
+    model_s: float = 0.0
     intervention_s: float | None = None
 
     def assess(self, world: WorldModel) -> Decision:
+        """One assessment; its time and its model's time add to the episode's (a reused answer costs what its
+        lookup costs, its model call having been counted when it was made)."""
+        decision = self._assess(world)
+        self.time_s += decision.processing_time_s
+        self.model_s += decision.model_time_s
+        return decision
+
+    def _assess(self, world: WorldModel) -> Decision:
         start = time.perf_counter()
         if self.reasoner is None:
             return Decision(reasoner=self.system.name, assessment=None, processing_time_s=0.0, error=self.build_error)
@@ -151,9 +161,15 @@ class _Run:
 
 
 def run_episode(
-    scene: Scene, systems: Sequence[SystemSpec], settings: EpisodeSettings | None = None, campaign_seed: int = 0
+    scene: Scene,
+    systems: Sequence[SystemSpec],
+    settings: EpisodeSettings | None = None,
+    campaign_seed: int = 0,
+    *,
+    clients: ClientFactory | None = None,
 ) -> list[DecisionRecord]:
-    """Observe ``scene`` as the module docs say and return one record per system, in ``systems`` order."""
+    """Observe ``scene`` as the module docs say and return one record per system, in ``systems`` order;
+    ``clients`` builds the model clients (see :func:`~evaluation.campaign.systems.build_reasoner`)."""
     cfg = settings or EpisodeSettings()
     rules = RuleSettings(still_s=cfg.still_s)
     seed = perception_seed(campaign_seed, scene.id)
@@ -166,7 +182,7 @@ def run_episode(
     perception = Perception(
         home=(home.lat_deg, home.lon_deg, home.alt_msl_m), landmarks=scene.landmarks if cfg.landmarks else ()
     )
-    runs = [_start(system, rules, cfg.goal) for system in systems]
+    runs = [_start(system, rules, cfg.goal, clients) for system in systems]
     casualties = list(scene.ground_truth.casualties)
     first_in_view: dict[str, float] = {}
     perception_time = 0.0
@@ -216,9 +232,9 @@ def run_episode(
     return [_record(run, common) for run in runs]
 
 
-def _start(system: SystemSpec, rules: RuleSettings, goal: str) -> _Run:
+def _start(system: SystemSpec, rules: RuleSettings, goal: str, clients: ClientFactory | None) -> _Run:
     try:
-        reasoner, close = build_reasoner(system, rules=rules, goal=goal)
+        reasoner, close = build_reasoner(system, rules=rules, goal=goal, clients=clients)
     except Exception as exc:  # e.g. the API key left the environment: error records for this system
         return _Run(system, None, lambda: None, build_error=f"{type(exc).__name__}: {exc}")
     return _Run(system, reasoner, close)
@@ -281,7 +297,7 @@ def _record(run: _Run, common: dict[str, object]) -> DecisionRecord:
         {
             **common,
             "system": run.system.name,
-            "processing_time_s": decision.processing_time_s,
+            "processing_time_s": run.time_s / max(run.assessments, 1),
             "detection_confidence": a.confidence if a is not None and person else None,
             "person_detected": person,
             "n_actions": len(a.recommended_actions) if a is not None else 0,
@@ -293,7 +309,7 @@ def _record(run: _Run, common: dict[str, object]) -> DecisionRecord:
             "subject_id": a.subject_id if a is not None else None,
             "assessment": a,
             "reasoner": decision.reasoner,
-            "model_time_s": decision.model_time_s,
+            "model_time_s": run.model_s / max(run.assessments, 1),
             "llm_calls": decision.llm_calls,
             "prompt_tokens": decision.prompt_tokens,
             "completion_tokens": decision.completion_tokens,
@@ -302,6 +318,8 @@ def _record(run: _Run, common: dict[str, object]) -> DecisionRecord:
             "assessments": run.assessments,
             "episode_llm_calls": run.llm_calls,
             "episode_tokens": run.tokens,
+            "episode_time_s": run.time_s,
+            "episode_model_time_s": run.model_s,
             "sim_time_s": run.last_time_s,
             "time_to_intervention_s": run.intervention_s,
         }

@@ -4,8 +4,9 @@
 systems (LLM specs without keys), the episode settings, the package versions (agentic-uavs, numpy, scipy, jsbsim,
 pydantic, Python) and a digest of the code the records depend on (the simulated scene and detector, perception,
 the reasoners, the prompts, and the episode, record and system modules of this package). A campaign directory is
-resumed only under an equal manifest; :func:`manifest_differences` names what differs. ``created_at``, ``workers``
-and the scene files' paths are informative and never compared.
+resumed only under an equal manifest; :func:`manifest_differences` names what differs. ``created_at``, ``workers``,
+``executor``, ``job_order_seed`` (derived from the seed) and the scene files' paths are informative and never
+compared.
 
 >>> from evaluation.campaign.episode import EpisodeSettings
 >>> from evaluation.campaign.systems import SystemSpec
@@ -49,7 +50,7 @@ CODE_MODULES = (
     "evaluation.campaign.systems",
 )
 """The code a record depends on: a package means every ``.py``, ``.md`` and ``.json`` file under it."""
-NOT_COMPARED = frozenset({"created_at", "workers"})
+NOT_COMPARED = frozenset({"created_at", "workers", "executor", "job_order_seed"})
 
 
 class SceneSource(BaseModel):
@@ -86,6 +87,8 @@ class CampaignManifest(BaseModel):
     code_sha256: str
     created_at: str = ""
     workers: int = 1
+    executor: str = Field(default="", description="where the jobs ran (--executor), informative")
+    job_order_seed: int | None = Field(default=None, description="the seed the job order was shuffled with")
 
     def comparable(self) -> dict[str, Any]:
         """The manifest as JSON data without the informative fields."""

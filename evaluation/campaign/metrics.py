@@ -6,8 +6,9 @@ did not happen: no person detected, no action, not contextual, not the right sev
 
 The paper's (§ Experimental Validation, Table 2):
 
-* **processing time** — mean ± sample SD of ``processing_time_s``, the wall time of the record's (final)
-  assessment, model calls included;
+* **processing time** — mean ± sample SD of ``processing_time_s``, the system's wall time per assessment over
+  the episode, model calls included (a hybrid's reused answer does not hide the call it came from), and the
+  model's share of that time;
 * **detection confidence** — mean ``detection_confidence`` over the records that report a person (the
   detector's confidence for ``yolo``/``rules``, a model's self-reported one for LLMs);
 * **persons detected** — records whose assessment reports at least one person: count and share;
@@ -52,7 +53,9 @@ from .records import DecisionRecord
 ALARM = frozenset({"high", "critical"})
 
 DEFINITIONS: dict[str, str] = {
-    "processing_time": "wall time of the final assessment (model calls included): mean ± sample SD",
+    "processing_time": "the system's wall time per assessment over the episode (model calls included): "
+    "mean ± sample SD",
+    "model_time_share": "of the systems' time over every episode, the share its model took",
     "detection_confidence": "mean detection_confidence over the records that report at least one person",
     "persons_detected": "records whose assessment reports at least one person (count, share of all records)",
     "action_recommendation_rate": "records with at least one recommended action / all records",
@@ -84,6 +87,7 @@ class SystemMetrics(BaseModel):
     processing_time_mean_s: float | None
     processing_time_sd_s: float | None
     processing_time_median_s: float | None
+    model_time_share: float | None = None
     detection_confidence_mean: float | None
     persons_detected: int
     persons_detected_rate: float | None
@@ -157,6 +161,9 @@ def system_metrics(name: str, records: Sequence[DecisionRecord]) -> SystemMetric
         processing_time_mean_s=statistics.fmean(times) if times else None,
         processing_time_sd_s=statistics.stdev(times) if len(times) > 1 else None,
         processing_time_median_s=statistics.median(times) if times else None,
+        model_time_share=_fraction(
+            sum(r.episode_model_time_s for r in records), sum(r.episode_time_s for r in records)
+        ),
         detection_confidence_mean=statistics.fmean(confidences) if confidences else None,
         persons_detected=persons,
         persons_detected_rate=_share(persons, n),
@@ -187,6 +194,10 @@ def _share(part: int, whole: int) -> float | None:
     return part / whole if whole else None
 
 
+def _fraction(part: float, whole: float) -> float | None:
+    return min(part / whole, 1.0) if whole > 0 else None
+
+
 # --------------------------------------------------------------------------- rendering
 
 
@@ -197,6 +208,7 @@ def render_markdown(metrics: CampaignMetrics) -> str:
     rows: list[tuple[str, list[str]]] = [
         ("Records (n)", [f"{s.n}" + (f" ({s.errors} failed)" if s.errors else "") for s in systems]),
         ("Processing time (mean ± SD)", [_time(s) for s in systems]),
+        ("Model's share of the time", [_pct(s.model_time_share) for s in systems]),
         ("Detection confidence", [_num(s.detection_confidence_mean) for s in systems]),
         ("Persons detected", [f"{s.persons_detected} ({_pct(s.persons_detected_rate)})" for s in systems]),
         ("Action Recommendation Rate", [_pct(s.action_recommendation_rate) for s in systems]),

@@ -1,4 +1,4 @@
-"""The campaign's progress line on stderr: records done of the total, the rate, the time left.
+"""The campaign's progress line on stderr: records done of the total, the rate (and each system's), the time left.
 
 On a terminal the line is redrawn in place after every record; to a file or pipe a line is written at most every
 ``every_s`` seconds (and at the end), so logs stay short. ``quiet`` writes nothing.
@@ -6,16 +6,17 @@ On a terminal the line is redrawn in place after every record; to a file or pipe
 >>> import io
 >>> out = io.StringIO()
 >>> progress = Progress(total=4, already=2, stream=out, clock=iter([0.0, 2.0, 2.0]).__next__, every_s=0.0)
->>> progress.advance(2, "gen-2")
+>>> progress.advance(2, "gen-2", systems=["yolo", "rules"])
 >>> print(out.getvalue().strip())
-campaign: 4/4 records (100%), 1.00 records/s, ETA 0:00:00, last gen-2
+campaign: 4/4 records (100%), 1.00 records/s, ETA 0:00:00, last gen-2; per system: yolo 0.50/s, rules 0.50/s
 """
 
 from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Callable
+from collections import Counter
+from collections.abc import Callable, Sequence
 from typing import TextIO
 
 
@@ -43,6 +44,7 @@ class Progress:
         self._last_line = -float("inf")
         self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
         self._drawn = False
+        self._systems: Counter[str] = Counter()
 
     def note(self, text: str) -> None:
         """A message of its own line (resuming, workers, ...)."""
@@ -50,9 +52,11 @@ class Progress:
             self._clear()
             print(f"campaign: {text}", file=self.stream, flush=True)
 
-    def advance(self, records: int, label: str = "") -> None:
-        """``records`` more records are finished (the last of them about ``label``)."""
+    def advance(self, records: int, label: str = "", systems: Sequence[str] = ()) -> None:
+        """``records`` more records are finished (the last of them about ``label``; ``systems`` names each
+        record's system, for the per-system rates)."""
         self.done += records
+        self._systems.update(systems)
         if self.quiet:
             return
         now = self.clock()
@@ -79,7 +83,9 @@ class Progress:
         eta = _clock_text(left / rate) if rate > 0 else "?"
         share = 100.0 * self.done / self.total if self.total else 100.0
         last = f", last {label}" if label else ""
-        return f"campaign: {self.done}/{self.total} records ({share:.0f}%), {rate:.2f} records/s, ETA {eta}{last}"
+        per = ", ".join(f"{name} {count / elapsed:.2f}/s" for name, count in self._systems.items())
+        per = f"; per system: {per}" if per else ""
+        return f"campaign: {self.done}/{self.total} records ({share:.0f}%), {rate:.2f} records/s, ETA {eta}{last}{per}"
 
     def _clear(self) -> None:
         if self._drawn:

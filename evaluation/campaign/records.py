@@ -38,7 +38,9 @@ from agentic_core.contracts.errors import InputError
 from agentic_core.reasoning.assessment import Assessment, Severity
 from agentic_core.run.state_files import atomic_write
 
-TIMING_FIELDS = frozenset({"processing_time_s", "model_time_s", "perception_time_s"})
+TIMING_FIELDS = frozenset(
+    {"processing_time_s", "model_time_s", "perception_time_s", "episode_time_s", "episode_model_time_s"}
+)
 """Wall-clock measurements: the only fields two runs of the same campaign may differ in (for rule systems)."""
 
 ACTIONS_SEPARATOR = "; "
@@ -51,8 +53,13 @@ class DecisionRecord(BaseModel):
 
     scene_id: str
     system: str = Field(description="the campaign's name for the system: yolo, rules, hybrid, llm:<model>, ...")
+    job_id: str = Field(default="", description="the record's content address (evaluation.campaign.jobs.job_id)")
     # --- the paper's columns -------------------------------------------------------------------------------------
-    processing_time_s: float = Field(ge=0.0, description="wall time of the final assessment, model calls included")
+    processing_time_s: float = Field(
+        ge=0.0,
+        description="wall time per assessment over the episode, model calls included (a reused answer's call "
+        "counted when it was made)",
+    )
     detection_confidence: float | None = Field(
         default=None, ge=0.0, le=1.0, description="the assessment's confidence when it reports a person; else none"
     )
@@ -73,6 +80,8 @@ class DecisionRecord(BaseModel):
         ge=0.0,
         description="of processing_time_s, the model's own time (as its server says, else the wait)",
     )
+    episode_time_s: float = Field(default=0.0, ge=0.0, description="the system's time over every assessment")
+    episode_model_time_s: float = Field(default=0.0, ge=0.0, description="of episode_time_s, the model's")
     llm_calls: int = Field(default=0, ge=0, description="model calls of the final assessment")
     prompt_tokens: int = Field(default=0, ge=0)
     completion_tokens: int = Field(default=0, ge=0)

@@ -2,18 +2,21 @@
 
 The unit of work is a scene: one job observes it once and lets every system still missing for it assess the same
 World Model (:func:`~evaluation.campaign.episode.run_episode`), so scenes × systems are interleaved and, after
-each job, every system has as many records as the others. Jobs run in the calling process (``workers=1``) or in a
-:class:`~concurrent.futures.ProcessPoolExecutor`; workers get plain data (scene, system specs, settings) and build
-their reasoners themselves.
+each job, every system has as many records as the others. Jobs (:mod:`evaluation.campaign.jobs`: content-addressed,
+in an order shuffled by the manifest's ``job_order_seed``) run on the executor ``--executor`` names
+(:mod:`evaluation.campaign.executors`: this process, local processes, or Dask); workers get plain data (scene,
+system specs, settings) and build their reasoners themselves.
 
 Files in the campaign directory:
 
 * ``manifest.json`` — what the campaign is (:mod:`evaluation.campaign.manifest`); written first;
 * ``results.jsonl`` — each finished record appended (flushed and fsynced) as soon as its job ends; on a restart
-  the (scene, system) pairs already there are skipped, a torn last line is cut, and a different manifest is
+  the records whose job id is already there are skipped, a torn last line is cut, and a different manifest is
   refused; when the campaign completes the file is rewritten in the balanced order (scene by scene, systems in
   the order given), so an interrupted and resumed campaign ends with the same file as an uninterrupted one,
   timings aside;
+* ``model_cache.jsonl`` — every model answer, keyed by its request (:mod:`evaluation.campaign.model_calls`), so
+  ``--replay`` can re-score the campaign with no model; only when a system calls a model;
 * ``results.csv`` (flat columns), ``metrics.md`` and ``metrics.json`` — written when the campaign completes.
 
 >>> import tempfile
@@ -33,40 +36,34 @@ Files in the campaign directory:
 from __future__ import annotations
 
 import contextlib
-import functools
-import multiprocessing
 import os
-from collections.abc import Callable, Iterator
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TextIO
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from agentic_core.contracts.errors import AgenticUAVError
 from flight.sim.scene_model import Scene
 
-from .episode import EpisodeSettings, run_episode
+from .budget import Budget, Spend
+from .dispatch import dispatch
+from .episode import EpisodeSettings, derive_seed
+from .errors import BudgetSpent, CampaignError
+from .executors import ExecutorSpec, parse_executor
+from .jobs import JobOutput, SceneJob, job_id, run_job, shuffled
 from .manifest import CampaignManifest, SceneSource, build_manifest, load_manifest, manifest_differences
 from .metrics import CampaignMetrics, compute_metrics, write_metrics
+from .model_calls import ModelSettings, ResponseEntry
 from .progress import Progress
 from .records import DecisionRecord, RecordFileError, append_record, read_records, write_csv, write_jsonl
+from .response_cache import append_responses, load_responses
 from .systems import SystemSpec
 
 MANIFEST = "manifest.json"
 RESULTS_JSONL = "results.jsonl"
 RESULTS_CSV = "results.csv"
-
-
-class CampaignError(AgenticUAVError):
-    """A campaign that cannot start or go on; ``usage`` errors (exit 2) are the caller's to fix."""
-
-    def __init__(self, message: str, *, usage: bool = True) -> None:
-        super().__init__(message)
-        self.usage = usage
-        self.exit_status = 2 if usage else 1
+MODEL_CACHE = "model_cache.jsonl"
 
 
 class CampaignPlan(BaseModel):
@@ -92,22 +89,6 @@ class CampaignPlan(BaseModel):
         return self.scene_source or SceneSource(kind="files", count=len(self.scenes))
 
 
-class SceneJob(BaseModel):
-    """One unit of work for a worker: a scene and the systems still to assess it (plain, picklable data)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    scene: Scene
-    systems: list[SystemSpec]
-    settings: EpisodeSettings
-    seed: int
-
-
-def run_job(job: SceneJob) -> list[DecisionRecord]:
-    """A worker's task: :func:`~evaluation.campaign.episode.run_episode` on the job's scene and systems."""
-    return run_episode(job.scene, job.systems, job.settings, job.seed)
-
-
 @dataclass
 class CampaignResult:
     """A finished campaign: its records in balanced order, what ran now, and the files written."""
@@ -126,97 +107,108 @@ def run_campaign(
     out_dir: Path,
     *,
     workers: int = 1,
+    executor: ExecutorSpec | str | None = None,
     quiet: bool = False,
     stream: TextIO | None = None,
+    models: ModelSettings | None = None,
+    budget: Budget | None = None,
+    replay: Path | None = None,
 ) -> CampaignResult:
-    """Run (or resume) ``plan`` in ``out_dir`` with ``workers`` processes; see the module docs.
+    """Run (or resume) ``plan`` in ``out_dir`` on ``executor`` (default ``local:workers``); see the module docs.
+
+    ``models`` sets how model calls are made, ``budget`` when to stop, and ``replay`` names a campaign directory
+    whose ``model_cache.jsonl`` answers every model call instead of a model.
 
     Raises :class:`CampaignError`: a directory holding a different campaign, another run in progress on it, a
-    results file that cannot be read (usage errors), or a job that failed (a bug: ``usage=False``).
+    results file that cannot be read (usage errors), or a job that failed (a bug: ``usage=False``);
+    :class:`BudgetSpent` (exit 3) when the budget stopped it, what finished kept.
     """
     if workers < 1:
         raise CampaignError(f"--workers must be at least 1, got {workers}")
+    spec = parse_executor(executor) if isinstance(executor, str) else executor or parse_executor(f"local:{workers}")
+    order_seed = derive_seed(plan.seed, "job-order")
     manifest = build_manifest(
         seed=plan.seed,
         scenes=plan.scenes,
         systems=plan.systems,
         settings=plan.settings,
         scene_source=plan.source(),
-        workers=workers,
-    )
+        workers=spec.workers or 0,
+    ).model_copy(update={"executor": spec.text, "job_order_seed": order_seed})
+    cached = _replayed(replay) if replay is not None else None
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise CampaignError(f"{out_dir}: cannot create the campaign directory ({exc.strerror or exc})") from None
     with _locked(out_dir):
         done = _prepare(out_dir, manifest)
-        keys = {(s.id, system.name) for s in plan.scenes for system in plan.systems}
-        finished = {r.key for r in done if r.key in keys}
-        total = len(keys)
+        digests = {entry.id: entry.sha256 for entry in manifest.scenes}
+        ids = {
+            scene.id: {s.name: job_id(digests[scene.id], s, plan.seed, plan.settings) for s in plan.systems}
+            for scene in plan.scenes
+        }
+        expected = {i for per_scene in ids.values() for i in per_scene.values()}
+        finished = {r.job_id for r in done} & expected
+        total = len(expected)
         progress = Progress(total, len(finished), stream=stream, quiet=quiet)
         if finished:
             progress.note(f"resuming in {out_dir}: {len(finished)} of {total} records already done")
         jobs = [
             SceneJob(
                 scene=scene,
-                systems=[s for s in plan.systems if (scene.id, s.name) not in finished],
+                systems=[s for s in plan.systems if ids[scene.id][s.name] not in finished],
                 settings=plan.settings,
                 seed=plan.seed,
+                ids=ids[scene.id],
+                models=models or ModelSettings(),
+                replay=None if cached is None else cached.get(scene.id, []),
             )
             for scene in plan.scenes
         ]
-        jobs = [job for job in jobs if job.systems]
+        jobs = shuffled([job for job in jobs if job.systems], order_seed)
+        if len(jobs) > 1 and spec.text != "local:1":
+            progress.note(f"{len(jobs)} scenes on {spec.text}")
+        limits = budget or Budget()
+        spend = Spend()
+        stopped: list[str] = []
+
+        def more() -> bool:
+            reason = spend.exceeded(limits) if limits.limited else None
+            if reason and not stopped:
+                stopped.append(reason)
+            return reason is None
+
         ran = 0
         try:
-            for records in _execute(jobs, workers, progress):
-                for record in records:
-                    append_record(out_dir / RESULTS_JSONL, record)
-                ran += len(records)
-                progress.advance(len(records), records[0].scene_id if records else "")
+            with contextlib.closing(dispatch(jobs, spec, more=more)) as outputs:
+                for output in outputs:
+                    ran += _keep(out_dir, output, progress)
+                    spend.add(output.usage, limits)
         finally:
             progress.finish()
-        return _finish(out_dir, plan, manifest, ran, len(finished))
+        if stopped or (limits.limited and ran < sum(len(j.systems) for j in jobs)):
+            raise BudgetSpent(
+                f"budget spent ({stopped[0] if stopped else spend.text()}): {ran} records run now, "
+                f"{len(finished) + ran} of {total} kept in {out_dir}; run again with a larger budget to go on"
+            )
+        return _finish(out_dir, plan, manifest, ran, len(finished), expected)
 
 
-def _execute(jobs: list[SceneJob], workers: int, progress: Progress) -> Iterator[list[DecisionRecord]]:
-    if not jobs:
-        return
-    if workers == 1 or len(jobs) == 1:
-        for job in jobs:
-            yield _checked(job, functools.partial(run_job, job))
-        return
-    count = min(workers, len(jobs))
-    progress.note(f"{len(jobs)} scenes on {count} worker processes")
-    executor = ProcessPoolExecutor(max_workers=count, mp_context=_context())
-    futures: dict[Future[list[DecisionRecord]], SceneJob] = {}
+def _keep(out_dir: Path, output: JobOutput, progress: Progress) -> int:
+    """Append a job's records and model responses to the campaign's files; the number of records."""
+    for record in output.records:
+        append_record(out_dir / RESULTS_JSONL, record)
+    append_responses(out_dir / MODEL_CACHE, output.responses)
+    label = output.records[0].scene_id if output.records else ""
+    progress.advance(len(output.records), label, [r.system for r in output.records])
+    return len(output.records)
+
+
+def _replayed(directory: Path) -> dict[str, list[ResponseEntry]]:
     try:
-        futures = {executor.submit(run_job, job): job for job in jobs}
-        for future in as_completed(futures):
-            yield _checked(futures[future], future.result)
-    except BaseException:
-        executor.shutdown(wait=False, cancel_futures=True)
-        raise
-    executor.shutdown(wait=True)
-
-
-def _checked(job: SceneJob, result: Callable[[], list[DecisionRecord]]) -> list[DecisionRecord]:
-    try:
-        records = result()
-    except BrokenProcessPool as exc:
-        raise CampaignError(f"a worker process died ({exc}); resume with the same command", usage=False) from exc
-    except Exception as exc:
-        raise CampaignError(f"scene {job.scene.id}: {type(exc).__name__}: {exc}", usage=False) from exc
-    return records
-
-
-def _context() -> multiprocessing.context.BaseContext:
-    """``forkserver`` where there is one (POSIX): workers start clean, never a copy of a threaded parent, and fork
-    from a server that has imported the episode code once."""
-    if "forkserver" not in multiprocessing.get_all_start_methods():
-        return multiprocessing.get_context("spawn")
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload([__name__])
-    return context
+        return load_responses(directory / MODEL_CACHE)
+    except (OSError, ValueError) as exc:
+        raise CampaignError(f"--replay {directory}: {exc}") from None
 
 
 @contextlib.contextmanager
@@ -265,12 +257,13 @@ def _prepare(out_dir: Path, manifest: CampaignManifest) -> list[DecisionRecord]:
 
 
 def _finish(
-    out_dir: Path, plan: CampaignPlan, manifest: CampaignManifest, ran: int, resumed_from: int
+    out_dir: Path, plan: CampaignPlan, manifest: CampaignManifest, ran: int, resumed_from: int, expected: set[str]
 ) -> CampaignResult:
-    """Rewrite the results in balanced order, write the CSV and the metrics."""
+    """Rewrite the results in balanced order (only records of this campaign's jobs), write the CSV and metrics."""
     found: dict[tuple[str, str], DecisionRecord] = {}
     for record in read_records(out_dir / RESULTS_JSONL):
-        found.setdefault(record.key, record)
+        if record.job_id in expected:
+            found.setdefault(record.key, record)
     ordered = [found[(s.id, system.name)] for s in plan.scenes for system in plan.systems]
     write_jsonl(out_dir / RESULTS_JSONL, ordered)
     write_csv(out_dir / RESULTS_CSV, ordered)
@@ -293,6 +286,8 @@ def _write_text(path: Path, text: str) -> None:
 
 
 __all__ = [
+    "MODEL_CACHE",
+    "BudgetSpent",
     "CampaignError",
     "CampaignPlan",
     "CampaignResult",

@@ -25,17 +25,27 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping, Sequence
-from typing import Literal
+from typing import Literal, Protocol
 
 from pydantic import BaseModel, ConfigDict
 
 from agentic_core.contracts.errors import InputError
 from agentic_core.reasoning.llm import LLMSpecError, create_client, parse_llm_spec
 from agentic_core.reasoning.llm.config import SPEC_ENV
+from agentic_core.reasoning.model_reasoners import StructuredChat
 from agentic_core.reasoning.reasoners import Reasoner, make_reasoner
 from agentic_core.reasoning.rules import RuleSettings
 
 SystemKind = Literal["yolo", "rules", "llm", "hybrid"]
+
+
+class ClosableChat(StructuredChat, Protocol):
+    """A model client a campaign can build a reasoner on and close after the episode."""
+
+    def close(self) -> None: ...
+
+
+ClientFactory = Callable[["SystemSpec"], ClosableChat]
 KINDS: tuple[SystemKind, ...] = ("yolo", "rules", "llm", "hybrid")
 NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_.:+@/-]{0,79}$")
 USAGE = "[NAME=]KIND[:LLM_SPEC] with KIND one of yolo, rules, hybrid, llm (e.g. yolo,rules,llm:ollama:gemma3:4b)"
@@ -113,15 +123,19 @@ def _parse_entry(entry: str, default_llm: str | None, env: Mapping[str, str]) ->
     return SystemSpec(name=name or default_name, kind=kind, llm=config.spec())
 
 
-def build_reasoner(system: SystemSpec, *, rules: RuleSettings, goal: str) -> tuple[Reasoner, Callable[[], None]]:
+def build_reasoner(
+    system: SystemSpec, *, rules: RuleSettings, goal: str, clients: ClientFactory | None = None
+) -> tuple[Reasoner, Callable[[], None]]:
     """A fresh reasoner for one episode, and what to call when the episode is over (it closes a model client).
+    ``clients`` makes the model client of an ``llm`` or ``hybrid`` system (a campaign's cache and limits), else
+    :func:`~agentic_core.reasoning.llm.create_client` from its spec.
 
     Raises whatever building it raises (a spec whose key has gone from the environment): the episode turns that
     into error records.
     """
     if system.kind in ("yolo", "rules"):
         return make_reasoner(system.kind, rules=rules), _nothing
-    client = create_client(system.llm)
+    client: ClosableChat = clients(system) if clients is not None else create_client(system.llm)
     try:
         reasoner = make_reasoner(system.kind, client=client, goal=goal, rules=rules)
     except Exception:
@@ -134,4 +148,4 @@ def _nothing() -> None:
     return None
 
 
-__all__ = ["KINDS", "SystemSpec", "SystemSpecError", "build_reasoner", "parse_systems"]
+__all__ = ["KINDS", "ClientFactory", "ClosableChat", "SystemSpec", "SystemSpecError", "build_reasoner", "parse_systems"]

@@ -52,7 +52,8 @@ def _split(values: Sequence[str] | None) -> list[str] | None:
 
 
 def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:
-    from evaluation.stats.pipeline import analyze
+    from evaluation.stats.dataset import load_dataset
+    from evaluation.stats.pipeline import analyze_dataset
     from evaluation.stats.plots import write_plots
 
     out = stdout or sys.stdout
@@ -61,14 +62,10 @@ def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO |
         print(f"{PROG}: error: --alpha must be between 0 and 1, got {args.alpha}", file=err)
         return 2
     try:
-        report = analyze(
-            args.results,
-            group=args.group,
-            values=_split(args.value),
-            categorical=_split(args.categorical) or [],
-            alpha=args.alpha,
-            baseline=args.baseline,
+        dataset = load_dataset(
+            args.results, group=args.group, values=_split(args.value), categorical=_split(args.categorical) or []
         )
+        report = analyze_dataset(dataset, alpha=args.alpha, baseline=args.baseline)
     except InputError as exc:
         print(f"{PROG}: error: {exc}", file=err)
         return 2
@@ -80,7 +77,7 @@ def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO |
             (args.out / "stats.md").write_text(report.to_markdown(), encoding="utf-8")
             (args.out / "stats.tex").write_text(report.to_latex(), encoding="utf-8")
             (args.out / "stats.json").write_text(report.to_json() + "\n", encoding="utf-8")
-            write_plots(report, args.out)
+            write_plots(report, args.out, dataset)
         except OSError as exc:
             print(f"{PROG}: error: {args.out}: cannot write the report ({exc.strerror or exc})", file=err)
             return 2

@@ -11,7 +11,10 @@ Detection rules (stated in the report):
   names the line.
 * DecisionRecord files (columns ``system`` and ``processing_time_s``): the outcomes are the paper's —
   processing time, detection confidence, persons detected, action recommendation (``n_actions >= 1``) and
-  contextual analysis.
+  contextual analysis; then, from the scenes' ground truth (when the columns ``severity``, ``expected_severity``
+  and ``casualties`` are there), correct severity, missed casualties (of the records of scenes with a casualty:
+  not assessed high or critical) and false alarms (of the records of scenes without one: assessed high or
+  critical), as the campaign's metrics define them.
 """
 
 from __future__ import annotations
@@ -47,7 +50,13 @@ DECISION_RECORD_OUTCOMES: dict[str, tuple[str, str | None]] = {
     "person_detected": ("Persons Detected", None),
     "action_recommended": ("Action Recommendation", None),
     "contextual": ("Contextual Analysis", None),
+    "correct_severity": ("Correct Severity", None),
+    "missed_casualty": ("Missed Casualties", None),
+    "false_alarm": ("False Alarms", None),
 }
+GROUND_TRUTH_OUTCOMES = frozenset({"correct_severity", "missed_casualty", "false_alarm"})
+GROUND_TRUTH_COLUMNS = ("severity", "expected_severity", "casualties")
+ALARM_LEVELS = frozenset({"high", "critical"})
 DECISION_RECORD_CONTINUOUS = frozenset({"processing_time_s", "detection_confidence"})
 DECISION_RECORD_SKIPPED = {
     "scene_id": "identifier",
@@ -185,7 +194,7 @@ def build_dataset(
     header = raw.header
     ours = {"system", "processing_time_s"} <= set(header)
     for name in [*(values or ()), *categorical, *([group] if group else [])]:
-        known = name in header or (ours and name == "action_recommended" and "n_actions" in header)
+        known = name in header or (ours and _derivable(name, header))
         if not known:
             raise InputError(f"no column {name!r}; the columns are: {', '.join(header)}", source=raw.source)
     group_name = group or _detect_group(raw, ours)
@@ -210,9 +219,7 @@ def build_dataset(
         names = list(dict.fromkeys(values))
         explicit = True
     elif ours:
-        names = [
-            n for n in DECISION_RECORD_OUTCOMES if n in header or (n == "action_recommended" and "n_actions" in header)
-        ]
+        names = [n for n in DECISION_RECORD_OUTCOMES if n in header or _derivable(n, header)]
         explicit = True
         skipped.extend(
             SkippedColumn(column=c, reason=DECISION_RECORD_SKIPPED.get(c, "not one of the paper's outcomes"))
@@ -228,6 +235,9 @@ def build_dataset(
             raise InputError(f"column {name!r} is the group column; it cannot also be an outcome", source=raw.source)
         if ours and name == "action_recommended" and "action_recommended" not in header:
             columns.append(_derive_action_recommended(raw))
+            continue
+        if ours and name in GROUND_TRUTH_OUTCOMES and name not in header:
+            columns.append(_derive_ground_truth(raw, name))
             continue
         if not explicit and _is_identifier(name):
             skipped.append(SkippedColumn(column=name, reason="identifier"))
@@ -533,6 +543,47 @@ def _derive_action_recommended(raw: RawTable) -> CategoricalColumn:
         raise InputError("n_actions must be a count", source=raw.source, column="n_actions")
     label = DECISION_RECORD_OUTCOMES["action_recommended"][0]
     return CategoricalColumn(name="action_recommended", label=label, codes=codes, levels=BINARY_LEVELS, kind="binary")
+
+
+def _derivable(name: str, header: Sequence[str]) -> bool:
+    if name == "action_recommended":
+        return "n_actions" in header
+    return name in GROUND_TRUTH_OUTCOMES and all(c in header for c in GROUND_TRUTH_COLUMNS)
+
+
+def _derive_ground_truth(raw: RawTable, name: str) -> CategoricalColumn:
+    """Correct severity, a missed casualty or a false alarm per record (see the module docs); missing where the
+    record does not count (a missed casualty in a scene without one), or where the ground truth is missing."""
+    severity = [_cell_text(c) for c in _cells(raw, "severity")]
+    expected = [_cell_text(c) for c in _cells(raw, "expected_severity")]
+    casualties = _parse_column(raw, "casualties", force_categorical=False, explicit=True)
+    if isinstance(casualties, ContinuousColumn):
+        counts = casualties.values
+    elif isinstance(casualties, _Parsed) and casualties.kind == "binary":
+        counts = _binary_as_numbers(casualties.codes)
+    else:
+        raise InputError("casualties must be a count", source=raw.source, column="casualties")
+    codes = np.full(raw.n_rows, -1, dtype=np.int64)
+    for row in range(raw.n_rows):
+        alarm = severity[row] in ALARM_LEVELS
+        if name == "correct_severity":
+            if expected[row] is not None:
+                codes[row] = int(severity[row] == expected[row])
+        elif not math.isnan(counts[row]):
+            hit = counts[row] > 0
+            if name == "missed_casualty" and hit:
+                codes[row] = int(not alarm)
+            elif name == "false_alarm" and not hit:
+                codes[row] = int(alarm)
+    label = DECISION_RECORD_OUTCOMES[name][0]
+    return CategoricalColumn(name=name, label=label, codes=codes, levels=BINARY_LEVELS, kind="binary")
+
+
+def _cells(raw: RawTable, name: str) -> Sequence[object]:
+    column = raw.columns[raw.column_index(name)]
+    if isinstance(column, np.ndarray):
+        return [None if math.isnan(v) else _format_number(float(v)) for v in column.tolist()]
+    return column
 
 
 def _error_notes(raw: RawTable, groups: Sequence[str], codes: IntArray) -> list[str]:

@@ -26,8 +26,9 @@ from agentic_core.contracts.input_files import InputFileError, check_input_file
 from evaluation.stats._typing import FloatArray
 from evaluation.stats.errors import InputError
 
-#: Cell texts read as a missing value (compared case-insensitively, after stripping blanks).
-MISSING_TOKENS = frozenset({"", "na", "n/a", "nan", "null", "none", "-"})
+#: Cell texts read as a missing value (compared case-insensitively, after stripping blanks). Not ``none``: it is
+#: a category of its own (a severity of ``none``), and JSON's null arrives as a missing value already.
+MISSING_TOKENS = frozenset({"", "na", "n/a", "nan", "null", "-"})
 #: Files at least this large are tried with pandas' parser first.
 FAST_CSV_BYTES = 4 * 1024 * 1024
 

@@ -17,6 +17,9 @@ SECTIONS = {
     "person_detected": "Detection Performance",
     "action_recommended": "Decision-Making Capability",
     "contextual": "Decision-Making Capability",
+    "correct_severity": "Against the Ground Truth",
+    "missed_casualty": "Against the Ground Truth",
+    "false_alarm": "Against the Ground Truth",
 }
 STAT_SYMBOL = {"F": "F", "H": "H", "chi2": "χ²"}
 

@@ -84,3 +84,26 @@ def test_rates_of_zero_and_one_plot_though_their_bounds_round_inside_them(tmp_pa
     path.write_text("\n".join(rows) + "\n", encoding="utf-8")
     written = write_plots(analyze(str(path)), tmp_path)
     assert [p.name for p in written] == ["stats_processing_time_s.png", "stats_rates.png"]
+
+
+def test_every_value_is_a_point_and_a_legend_says_what_each_mark_is(tmp_path: Path) -> None:
+    from evaluation.stats.dataset import load_dataset
+    from evaluation.stats.pipeline import analyze_dataset
+    from evaluation.stats.plots import continuous_figure, group_points
+
+    dataset = load_dataset(str(decision_records(tmp_path / "results.csv")))
+    report = analyze_dataset(dataset)
+    result = report.continuous[0]
+    points = group_points(dataset, result.column)
+    assert points is not None and sorted(len(v) for v in points.values()) == [30, 30, 30]
+    ax = continuous_figure(result, points).axes[0]
+    offsets = [np.asarray(c.get_offsets()) for c in ax.collections]
+    drawn = sorted(float(y) for o in offsets if o.shape == (30, 2) for y in o[:, 1])
+    assert drawn == sorted(v for values in points.values() for v in values)
+    legend = ax.get_legend()
+    assert legend is not None
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels == ["quartiles (box), range (whiskers)", "median", "mean, 95% CI", "each record"]
+    bare = continuous_figure(result).axes[0]  # from stats.json alone: no points, and the legend says no more
+    bare_legend = bare.get_legend()
+    assert bare_legend is not None and [t.get_text() for t in bare_legend.get_texts()] == labels[:3]
