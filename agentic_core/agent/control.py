@@ -31,6 +31,8 @@ class OperatorAnswer:
     approved: bool
     said: str | None
     why: str
+    args: dict[str, Any] | None = None
+    """With an approval, the operator's edits to the step's arguments (checked like any others when they fly)."""
 
 
 @dataclass
@@ -88,9 +90,19 @@ class ControlPort:
         """End the mission and hold where the aircraft is (a failsafe's ``hold``)."""
         self._stop_with("hold", None, by)
 
-    def approve(self, question_id: str | None = None, reason: str | None = None, *, by: str = "operator") -> bool:
-        """Approve a pending question (the oldest when no id is given); False when there is none."""
-        return self._answer(question_id, OperatorAnswer(True, reason, reason or f"approved by {by}"), by)
+    def approve(
+        self,
+        question_id: str | None = None,
+        reason: str | None = None,
+        *,
+        by: str = "operator",
+        args: dict[str, Any] | None = None,
+    ) -> bool:
+        """Approve a pending question (the oldest when no id is given), with ``args`` replacing some of the step's
+        arguments (the step refuses names it does not have; the envelope checks the values when they fly); False
+        when there is none."""
+        why = reason or f"approved by {by}" + (" with edits" if args else "")
+        return self._answer(question_id, OperatorAnswer(True, reason, why, dict(args) if args else None), by)
 
     def decline(self, question_id: str | None = None, reason: str | None = None, *, by: str = "operator") -> bool:
         """Decline a pending question (the oldest when no id is given); False when there is none."""
@@ -206,8 +218,9 @@ class ControlPort:
             self._cond.notify_all()
         if self._on_command is not None:
             verb = "approve" if answer.approved else "decline"
+            edits = {"args": answer.args} if answer.args else {}
             self._on_command(verb, {"by": by, "question": chosen.id, "step": chosen.request.get("step"),
-                                    "reason": answer.said})  # fmt: skip
+                                    "reason": answer.said, **edits})  # fmt: skip
         return True
 
 

@@ -105,14 +105,16 @@ class AgentLoop:
                 self.publish("log", level="info", summary="resumed")
         return self.control.stop_requested() is not None
 
-    def question(self, request: dict[str, Any]) -> bool:
-        """A step waits for the operator: ask on the control port (the simulation at real time meanwhile)."""
+    def question(self, request: dict[str, Any]) -> bool | dict[str, Any]:
+        """A step waits for the operator: ask on the control port (the simulation at real time meanwhile); the
+        answer, or ``{"approve": True, "args": edits}`` when the operator approved with edited arguments."""
         self.publish("approval", request=request, status="asked", summary=f"asked: {request.get('question')}")
         with self.pace.waiting("operator"):
             answer: OperatorAnswer = self.control.ask(request, self.approval_timeout_s)
-        self.publish("approval", request=request, answer=answer.approved, via="operator", said=answer.said,
+        edits = {"edited": answer.args} if answer.approved and answer.args else {}
+        self.publish("approval", request=request, answer=answer.approved, via="operator", said=answer.said, **edits,
                      summary=f"{request.get('step')}: {answer.why}")  # fmt: skip
-        return answer.approved
+        return {"approve": True, "args": answer.args} if edits else answer.approved
 
     def follow(self, node: str, change: Mapping[str, Any]) -> None:
         """Publish what one node changed: step statuses, and the mission's log of triggers, plans and refusals."""

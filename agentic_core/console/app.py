@@ -24,10 +24,15 @@ from .runs import list_runs, replay
 
 STATIC = Path(str(files("agentic_core.console") / "static"))
 COMMANDS = ("pause", "resume", "hold", "rtl", "land", "abort")
+MAX_EDITS = 20
+"""Edited arguments an approval may carry at most (a step has a handful)."""
 CSP = (
     "default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; script-src 'self'; "
     "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'"
 )
+
+
+Edits = dict[str, Any]
 
 
 class Steering(Protocol):
@@ -39,7 +44,9 @@ class Steering(Protocol):
     def rtl(self, *, by: str = ...) -> None: ...
     def land(self, *, by: str = ...) -> None: ...
     def abort(self, reason: str | None = ..., *, by: str = ...) -> None: ...
-    def approve(self, question_id: str | None = ..., reason: str | None = ..., *, by: str = ...) -> bool: ...
+    def approve(
+        self, question_id: str | None = ..., reason: str | None = ..., *, by: str = ..., args: Edits | None = ...
+    ) -> bool: ...
     def decline(self, question_id: str | None = ..., reason: str | None = ..., *, by: str = ...) -> bool: ...
 
 
@@ -139,7 +146,14 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
         reason = body.get("reason")
         reason = str(reason)[:500] if reason else None
         qid = request.path_params["question_id"]
-        done = (live.control.approve if approve else live.control.decline)(qid, reason, by="console")
+        edits = body.get("args")
+        if edits is not None and (not approve or not isinstance(edits, dict) or not edits or len(edits) > MAX_EDITS):
+            problem = f"args: an object of up to {MAX_EDITS} edited arguments, with an approval"
+            return JSONResponse({"error": problem}, status_code=400)
+        if approve:
+            done = live.control.approve(qid, reason, by="console", args=edits)
+        else:
+            done = live.control.decline(qid, reason, by="console")
         if not done:
             return JSONResponse({"error": f"no question {qid!r} is waiting"}, status_code=404)
         return JSONResponse({"ok": True})

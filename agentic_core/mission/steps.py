@@ -208,11 +208,24 @@ def _call(env: Environment, tool: str, args: dict[str, Any], timeout_s: float | 
     return getattr(result, "output", None)
 
 
-def _approve(step: Step, args: Any, env: Environment) -> None:
+def _approve(step: Step, args: dict[str, Any], env: Environment) -> dict[str, Any]:
+    """Ask the operator; the arguments to fly with: the step's, or the operator's edits of them (an answer
+    ``{"approve": true, "args": {...}}``), which may change only arguments the step has."""
     request = {"step": step.id, "action": step.action, "args": args, "question": f"approve {step.action} ({step.id})?"}
-    answer = env.approve(request) if env.approve is not None else interrupt(request)
+    answer: Any = env.approve(request) if env.approve is not None else interrupt(request)
+    edits: Any = None
+    if isinstance(answer, Mapping):
+        answer, edits = answer.get("approve"), answer.get("args")
     if answer not in (True, "approve", "approved", "yes", "y"):
         raise StepFailed(f"{DECLINED} {step.id} (answered {answer!r})")
+    if edits is None:
+        return args
+    if not isinstance(edits, Mapping) or not edits:
+        raise StepFailed(f"{step.id}: the operator's edits are not arguments (got {edits!r})")
+    unknown = sorted(set(edits) - set(args))
+    if unknown:
+        raise StepFailed(f"{step.id}: the operator's edits name {unknown}, not arguments of this step ({sorted(args)})")
+    return {**args, **edits}
 
 
 def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str, Any]:
@@ -226,7 +239,7 @@ def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str,
     except ExpressionError as exc:
         raise StepFailed(f"cannot fill in the arguments: {exc}") from None
     if step.approval:
-        _approve(step, args, env)
+        args = _approve(step, args, env)
     return args
 
 

@@ -202,10 +202,25 @@ function addQuestion(q) {
   if (r.args) card.append(el("div", "why", Object.entries(r.args).map(([k, v]) => `${k}=${v}`).join(", ")));
   const reason = el("input");
   reason.placeholder = "reason (for a decline)";
+  // edit the arguments before approving: only the step's own arguments; the envelope checks them when they fly
+  const edit = el("details", "edit"), args = el("textarea"), problem = el("div", "why");
+  edit.append(el("summary", "", "edit arguments"), args, problem);
+  args.value = JSON.stringify(r.args || {}, null, 1);
+  args.rows = 3;
   const yes = el("button", "approve", "Approve"), no = el("button", "decline", "Decline");
-  yes.addEventListener("click", () => post(`/api/questions/${q.id}`, { approve: true, reason: reason.value || null }));
+  yes.addEventListener("click", () => {
+    const body = { approve: true, reason: reason.value || null };
+    if (edit.open) {
+      let edited;
+      try { edited = JSON.parse(args.value); } catch (e) { problem.textContent = "not JSON: " + e.message; return; }
+      const changed = Object.fromEntries(Object.entries(edited || {}).filter(
+        ([k, v]) => JSON.stringify(v) !== JSON.stringify((r.args || {})[k])));
+      if (Object.keys(changed).length) body.args = changed;
+    }
+    post(`/api/questions/${q.id}`, body);
+  });
   no.addEventListener("click", () => post(`/api/questions/${q.id}`, { approve: false, reason: reason.value || null }));
-  card.append(reason, yes, el("span", "", " "), no);
+  card.append(reason, yes, el("span", "", " "), no, edit);
   document.getElementById("approvals").append(card);
   const s = state.lastSample;  // a decision to make: show where it is being made
   if (state.live && s) map.setView([s.lat_deg, s.lon_deg], 18.5, { animate: false });

@@ -11,11 +11,15 @@ from typing import Any
 import pytest
 
 from agentic_core.agent import AgentLoop, ControlPort, LoopResult, Pace, policy_approval
+from agentic_core.agent.envelope import Envelope
+from agentic_core.contracts.policy_graph import Limits
 from agentic_core.graph import InMemorySaver
 from agentic_core.mission import Environment, compile_mission, initial_state
 
-from .fakes import Events, eventually, wait_for
+from .fakes import Aircraft, Events, eventually, executor_for, wait_for
 from .missions import WATCHED, mission
+from .stand_ins import PlainExecutor
+from .test_dispatch_keys import dispatcher
 from .test_mission_interrupts import Scripted, by_trigger
 
 pytestmark = pytest.mark.timeout(60)
@@ -181,3 +185,49 @@ def test_the_headless_policy_answers_and_publishes_like_an_operator() -> None:
     approve = policy_approval(True, events.publish)
     assert approve({"step": "down"}) is True and policy_approval(False, events.publish)({"step": "x"}) is False
     assert [(e["answer"], e["via"]) for e in events.of("approval")] == [(True, "policy"), (False, "policy")]
+
+
+APPROVAL_AT = """
+plan_id: approval-at
+goal: land where the operator says
+steps:
+  - {id: up, action: takeoff, args: {altitude_m: 30}}
+  - {id: down, action: land, depends_on: [up], approval: true, on_fail: rtl, args: {lat: 21.4135, lon: 39.8933}}
+"""
+
+
+def answered_with(edits: dict[str, Any], **options: Any) -> tuple[Looping, LoopResult]:
+    looping = Looping(APPROVAL_AT, ask=True, approval_timeout_s=30, **options)
+    looping.start()
+    wait_for(lambda: len(looping.control.pending()) == 1, what="the question")
+    [question] = looping.control.pending()
+    threading.Thread(target=lambda: looping.control.approve(question.id, by="console", args=edits)).start()
+    return looping, looping.finish()
+
+
+def test_an_operator_may_approve_with_edited_arguments_and_the_step_flies_them() -> None:
+    looping, result = answered_with({"lat": 21.4136})
+    assert result.state["status"]["down"] == "ok"
+    (landed,) = [args for tool, args, _ in looping.dispatch.calls if tool == "flight.land"]
+    assert landed["lat"] == 21.4136 and landed["lon"] == 39.8933
+    answered = looping.events.of("approval")[-1]
+    assert answered["answer"] is True and answered["edited"] == {"lat": 21.4136}
+
+
+@pytest.mark.parametrize("edits", [{"target_id": "P-01"}, {"lat": 21.4136, "alt_m": 3}], ids=["new-name", "one-new"])
+def test_an_edit_naming_an_argument_the_step_does_not_have_is_refused_and_nothing_lands(
+    edits: dict[str, Any],
+) -> None:
+    looping, result = answered_with(edits)
+    assert "flight.land" not in looping.dispatch.tools()
+    assert result.state["status"]["down"] == "failed"
+
+
+def test_an_edit_that_takes_the_landing_outside_the_fence_is_refused_by_the_envelope_and_never_flown() -> None:
+    limits = Limits.model_validate({"geofence": {"center": {"lat": 21.4133, "lon": 39.8933}, "radius_m": 200}})
+    executor = PlainExecutor(executor_for(Aircraft(instant=True)))
+    envelope = Envelope(limits, home=lambda: (21.4133, 39.8933), targets=lambda _: None)
+    _, result = answered_with({"lat": 21.4233}, dispatch=dispatcher(executor, envelope=envelope))  # 1.1 km north
+    assert result.state["status"]["down"] == "failed"
+    assert "flight.land" not in [tool for tool, *_ in executor.calls]
+    assert "outside the flight envelope" in str(result.state["errors"]["down"])

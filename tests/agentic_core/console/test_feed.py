@@ -10,6 +10,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
+import pytest
 from starlette.testclient import TestClient
 
 from agentic_core.agent.control import ControlPort
@@ -99,3 +100,35 @@ def test_a_page_answers_a_waiting_question_and_the_run_hears_it(tmp_path: Path) 
     assert commands == [("decline", {"by": "console", "question": "q1", "step": "land_near", "reason": "crowd"})]
     again = client.post(f"/api/questions/{question['id']}", json={"approve": True}, headers=headers)
     assert again.status_code == 404  # answered once: a second click changes nothing
+
+
+@pytest.mark.parametrize(
+    ("body", "status"),
+    [
+        ({"approve": True, "args": {"offset_m": 8}}, 200),
+        ({"approve": False, "args": {"offset_m": 8}}, 400),  # edits come with an approval only
+        ({"approve": True, "args": [["offset_m", 8]]}, 400),  # not an object
+        ({"approve": True, "args": {}}, 400),  # nothing edited is not an edit
+        ({"approve": True, "args": {f"a{k}": k for k in range(21)}}, 400),  # more than a step has
+    ],
+    ids=["edit", "with-a-decline", "not-an-object", "empty", "too-many"],
+)
+def test_an_approval_may_carry_edited_arguments_and_nothing_else_does(
+    tmp_path: Path, body: dict[str, Any], status: int
+) -> None:
+    port = ControlPort()
+    feed = LiveFeed()
+    port.on_question(lambda q: feed.question(q.id, q.request))
+    client = TestClient(build_app(tmp_path, Guard(TOKEN), Live(feed, port)), base_url=BASE)
+    answers: list[Any] = []
+    asking = threading.Thread(target=lambda: answers.append(port.ask({"step": "land_near"}, timeout_s=5.0)))
+    asking.start()
+    (question,) = wait_for(lambda: feed.snapshot()["questions"], timeout_s=10.0, what="the question")
+    headers = {"authorization": f"Bearer {TOKEN}", "origin": BASE}
+    response = client.post(f"/api/questions/{question['id']}", json=body, headers=headers)
+    assert response.status_code == status
+    if status != 200:
+        port.decline(question["id"], by="test")  # a refused request answered nothing: the question still waits
+    asking.join(timeout=10.0)
+    assert answers[0].approved is (status == 200)
+    assert answers[0].args == (body["args"] if status == 200 else None)
