@@ -53,6 +53,7 @@ DELEGATED = {
     "sim": "flight.cli",
     "run": "agentic_core.run.cli",
     "examples": "agentic_core.examples.cli",
+    "memory": "agentic_core.memory.cli",
 }
 """Commands whose layer parses its own arguments (and ``--help``)."""
 
@@ -247,6 +248,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub.add_parser("run", help="fly a mission end to end and write its report (agentic-uav run --help)", add_help=False)
     sub.add_parser("examples", help="list the shipped missions and scenes; copy them out to edit", add_help=False)
+    sub.add_parser("memory", help="the fleet's memory: why, search, ingest, invalidate (agentic-uav memory --help)",
+                   add_help=False)  # fmt: skip
     return parser
 
 

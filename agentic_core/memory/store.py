@@ -108,9 +108,12 @@ class SqliteStore:
         if isinstance(conn, sqlite3.Connection):
             self.conn = conn
         else:
-            self.conn = sqlite3.connect(str(conn), check_same_thread=False, isolation_level=None)
-            if str(conn) != ":memory:":
-                self.conn.execute("PRAGMA journal_mode=WAL")
+            try:
+                self.conn = sqlite3.connect(str(conn), check_same_thread=False, isolation_level=None)
+                if str(conn) != ":memory:":
+                    self.conn.execute("PRAGMA journal_mode=WAL")
+            except sqlite3.Error as exc:
+                raise InputError(f"{conn}: cannot open the memory store ({exc})") from None
         with self._lock:  # executescript commits by itself: no transaction around it
             dims = self.index_config.get("dims") if self.index_config else None
             schema.create(self.conn, self.embedder.name if self.embedder else None, dims)

@@ -193,3 +193,11 @@ def test_hybrid_fusion_brings_an_exact_word_match_up() -> None:
         rankings[hybrid] = [i.key for i in found]
         assert math.isclose(found[[i.key for i in found].index("vec")].score or 0, 1.0, abs_tol=1e-6)
     assert rankings == {False: ["vec", "mid", "word"], True: ["word", "vec", "mid"]}
+
+
+def test_a_store_that_cannot_be_opened_is_named(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="cannot open the memory store"):
+        SqliteStore(tmp_path / "no" / "such" / "dir" / "m.db")
+    (tmp_path / "not.db").write_text("this is not a database " * 100)
+    with pytest.raises(InputError, match=r"not\.db: cannot open the memory store"):
+        SqliteStore(tmp_path / "not.db")
