@@ -10,7 +10,7 @@ neither list's raw scores need to be comparable; ``k = 60`` is the value of its 
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 RRF_K = 60
 _WORD = re.compile(r"\w+", re.UNICODE)
@@ -25,13 +25,30 @@ def fuse(rankings: Sequence[Sequence[int]], k: int = RRF_K) -> list[int]:
     return sorted(score, key=lambda d: -score[d])
 
 
-def match_expression(query: str) -> str | None:
-    """An FTS5 MATCH expression for a free-text query: any of its words, each quoted (no operators get through).
+COMMON = 0.2
+"""A word in more than this share of the documents is left out of a query's BM25 ranking: its inverse document
+frequency is near zero, so it barely moves the ranking, yet ranking by it means scoring most of the store."""
 
-    >>> match_expression('heat "stroke" OR near(x)')
-    '"heat" OR "stroke" OR "OR" OR "near" OR "x"'
-    >>> match_expression("¿?") is None
+
+def words(query: str) -> list[str]:
+    """The query's words, lower-cased, each once, in order."""
+    return list(dict.fromkeys(w.lower() for w in _WORD.findall(query)))
+
+
+def match_expression(terms: Sequence[str], frequency: Mapping[str, int] | None = None, total: int = 0) -> str | None:
+    """An FTS5 MATCH expression: any of ``terms``, each quoted (no operators get through), without those in more
+    than :data:`COMMON` of ``total`` documents (``frequency``: documents per term) unless all are.
+
+    >>> match_expression(words('heat "stroke" OR near(x)'))
+    '"heat" OR "stroke" OR "or" OR "near" OR "x"'
+    >>> match_expression(["the", "heat"], {"the": 90, "heat": 3}, total=100)
+    '"heat"'
+    >>> match_expression(words("¿?")) is None
     True
     """
-    words = _WORD.findall(query)
-    return " OR ".join(f'"{w}"' for w in words) if words else None
+    if not terms:
+        return None
+    counts = frequency or {}
+    rare = [t for t in terms if counts.get(t, 0) <= COMMON * total] if total else list(terms)
+    kept = rare or [min(terms, key=lambda t: counts.get(t, 0))]
+    return " OR ".join(f'"{t}"' for t in kept)

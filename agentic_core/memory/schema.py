@@ -38,6 +38,7 @@ CREATE INDEX IF NOT EXISTS store_items_ns ON store_items (ns);
 CREATE TABLE IF NOT EXISTS store_vectors (item_id INTEGER NOT NULL, path TEXT NOT NULL, vec BLOB NOT NULL);
 CREATE INDEX IF NOT EXISTS store_vectors_item ON store_vectors (item_id);
 CREATE VIRTUAL TABLE IF NOT EXISTS store_words USING fts5 (body, tokenize = 'unicode61 remove_diacritics 2');
+CREATE VIRTUAL TABLE IF NOT EXISTS store_words_vocab USING fts5vocab (store_words, 'row');
 CREATE TABLE IF NOT EXISTS store_history (
     id INTEGER PRIMARY KEY,
     ns TEXT NOT NULL,

@@ -35,10 +35,11 @@ from .embed.base import Embedder, resolve
 from .items import GetOp, Item, ListNamespacesOp, MatchCondition, Op, PutOp, Result, SearchItem, SearchOp
 from .namespaces import check_labels, check_writable, decode, encode, matches, under
 from .paths import texts_at, tokens
+from .prefilter import Prefilter
 from .vectors import VectorIndex
 
 FETCH = 256  # candidate rows read per query while filling a page
-FUSE_DEPTH = 1000  # how deep each ranking goes into the fusion; the vector ranking's tail follows it in order
+FUSE_DEPTH = 1000  # how deep each ranking goes at least (4 x the page when that is more)
 
 
 class IndexConfig(TypedDict, total=False):
@@ -118,6 +119,10 @@ class SqliteStore:
             dims = self.index_config.get("dims") if self.index_config else None
             schema.create(self.conn, self.embedder.name if self.embedder else None, dims)
         self._vectors = VectorIndex(self.conn, self._lock)
+        self._prefilter = Prefilter(self.conn, self._lock)
+        with self._lock:
+            has_ttl = self.conn.execute("SELECT 1 FROM store_items WHERE ttl_minutes IS NOT NULL LIMIT 1").fetchone()
+        self._ttl_seen = has_ttl is not None  # no item ever had a TTL: reads need not write
 
     @property
     def embedding(self) -> str:
@@ -311,7 +316,7 @@ class SqliteStore:
         ).fetchone()
         if row is None:
             return None
-        if refresh:
+        if refresh and self._ttl_seen:
             self._touch([row[0]])
         return schema.item(row)
 
@@ -345,6 +350,7 @@ class SqliteStore:
         check_writable(op.namespace)
         text = schema.to_json(op.value, f"put {decode(ns)!r} {key!r}")
         expires = None if op.ttl is None else time.time() + float(op.ttl) * 60
+        self._ttl_seen = self._ttl_seen or op.ttl is not None
         if old is None:
             item_id = self.conn.execute(
                 "INSERT INTO store_items (ns, key, value, created_at, updated_at, ttl_minutes, expires_at) "
@@ -367,6 +373,7 @@ class SqliteStore:
             blob = np.asarray(vec, dtype=np.float32).tobytes()
             self.conn.execute("INSERT INTO store_vectors (item_id, path, vec) VALUES (?, ?, ?)", (item_id, path, blob))
         self._vectors.stale()
+        self._prefilter.stale()
         self._log(ns, key, "put", text, at)
 
     def _erase(self, item_id: int) -> None:
@@ -374,6 +381,7 @@ class SqliteStore:
         self.conn.execute("DELETE FROM store_words WHERE rowid = ?", (item_id,))
         self.conn.execute("DELETE FROM store_vectors WHERE item_id = ?", (item_id,))
         self._vectors.stale()
+        self._prefilter.stale()
 
     def _list(self, op: ListNamespacesOp) -> list[tuple[str, ...]]:
         live, t = self._live()
@@ -389,44 +397,48 @@ class SqliteStore:
         if op.limit < 0 or op.offset < 0:
             raise InputError(f"search: limit and offset cannot be negative (limit={op.limit}, offset={op.offset})")
         scores: dict[int, float] = {}
-        ranked = self._ranked(op.query, prefix, scores) if op.query else None
+        need = op.offset + op.limit
+        ranked = self._ranked(op.query, prefix, scores, max(FUSE_DEPTH, 4 * need)) if op.query else []
+        rest: list[int] | None = None  # None: every row, oldest first
+        allowed = self._prefilter.allowed(wanted, prefix)
+        if allowed is not None:
+            rest = allowed.tolist()
+            inside = set(rest)
+            ranked = [i for i in ranked if i in inside]
         live, t = self._live()
         where = f"{live}" + ("" if include_invalidated else " AND invalid_reason IS NULL")
         if prefix:
             where += " AND (ns = ? OR substr(ns, 1, ?) = ?)"
         args: tuple[Any, ...] = (t, encode(prefix), len(encode(prefix)) + 1, encode(prefix) + ".") if prefix else (t,)
-        need = op.offset + op.limit
-        kept: list[SearchItem] = []
-        for row in self._candidates(ranked, where, args):
+        kept: list[tuple[int, SearchItem]] = []
+        for row in self._candidates(ranked, rest, where, args):
             if need == 0 or len(kept) >= need:
                 break
             found = schema.item(row, scores.get(row[0]), search=True)
             if under(found.namespace, prefix) and filters.accepts(wanted, found.value):
-                kept.append(found)  # type: ignore[arg-type]
+                kept.append((int(row[0]), found))  # type: ignore[arg-type]
         page = kept[op.offset : need]
-        if op.refresh_ttl:
-            ids = [self._id(i) for i in page]
-            self._touch([i for i in ids if i is not None])
-        return page
+        if op.refresh_ttl and self._ttl_seen:
+            self._touch([item_id for item_id, _ in page])
+        return [found for _, found in page]
 
-    def _id(self, found: Item) -> int | None:
-        row = self.conn.execute(
-            "SELECT id FROM store_items WHERE ns = ? AND key = ?", (encode(found.namespace), found.key)
-        ).fetchone()
-        return None if row is None else int(row[0])
-
-    def _candidates(self, ranked: list[int] | None, where: str, args: tuple[Any, ...]) -> Iterator[tuple[Any, ...]]:
-        """Rows in rank order (ranked ids first, then the rest by age), a chunk of :data:`FETCH` at a time."""
-        seen: set[int] = set()
-        for start in range(0, len(ranked or []), FETCH):
-            chunk = (ranked or [])[start : start + FETCH]
-            marks = ",".join("?" * len(chunk))
-            rows = self.conn.execute(
-                f"SELECT {schema.COLUMNS} FROM store_items WHERE id IN ({marks}) AND {where}", (*chunk, *args)
-            ).fetchall()
-            by_id = {r[0]: r for r in rows}
-            seen.update(chunk)
-            yield from (by_id[i] for i in chunk if i in by_id)
+    def _candidates(
+        self, ranked: list[int], rest: list[int] | None, where: str, args: tuple[Any, ...]
+    ) -> Iterator[tuple[Any, ...]]:
+        """Rows in rank order: the ranked ids, then the rest by age (``rest``, or every row when None), a chunk of
+        :data:`FETCH` at a time."""
+        seen = set(ranked)
+        for ids in (ranked, None if rest is None else [i for i in rest if i not in seen]):
+            for start in range(0, len(ids or []), FETCH):
+                chunk = (ids or [])[start : start + FETCH]
+                marks = ",".join("?" * len(chunk))
+                rows = self.conn.execute(
+                    f"SELECT {schema.COLUMNS} FROM store_items WHERE id IN ({marks}) AND {where}", (*chunk, *args)
+                ).fetchall()
+                by_id = {r[0]: r for r in rows}
+                yield from (by_id[i] for i in chunk if i in by_id)
+        if rest is not None:
+            return
         last = 0
         while True:
             rows = self.conn.execute(
@@ -438,30 +450,34 @@ class SqliteStore:
             last = rows[-1][0]
             yield from (r for r in rows if r[0] not in seen)
 
-    def _ranked(self, query: str, prefix: tuple[str, ...], scores: dict[int, float]) -> list[int]:
-        """Ids relevant to ``query``: vector ranking (scores = cosine) fused with BM25 words, or either alone."""
-        from .ranking import fuse, match_expression
+    def _ranked(self, query: str, prefix: tuple[str, ...], scores: dict[int, float], top: int) -> list[int]:
+        """The ``top`` ids most relevant to ``query``: vector ranking (scores = cosine) fused with BM25 words, or
+        either alone. Past them, candidates come oldest first: the ranking is exact for the first ``top``, which
+        is at least four times the page asked for. Words are ranked over the whole store (the namespace is
+        checked when rows are read), so that FTS5 can rank them without a join."""
+        from .ranking import fuse, match_expression, words
 
         by_vector: list[int] = []
         if self.embedder is not None:
             q = self.embedder.embed([query])[0]
-            by_vector = self._vectors.rank(q, prefix, scores)
+            by_vector = self._vectors.rank(q, prefix, scores, top)
         by_words: list[int] = []
         if self.embedder is None or self.hybrid:
-            expression = match_expression(query)
+            terms = words(query)
+            marks = ",".join("?" * len(terms))
+            frequency = dict(
+                self.conn.execute(f"SELECT term, doc FROM store_words_vocab WHERE term IN ({marks})", terms).fetchall()
+            ) if terms else {}  # fmt: skip
+            total = self.conn.execute("SELECT count(*) FROM store_items").fetchone()[0] if frequency else 0
+            expression = match_expression(terms, frequency, total)
             if expression is not None:
-                inside = "" if not prefix else " AND (i.ns = ? OR substr(i.ns, 1, ?) = ?)"
-                ns = encode(prefix)
                 rows = self.conn.execute(
-                    "SELECT w.rowid, bm25(store_words) FROM store_words w JOIN store_items i ON i.id = w.rowid "
-                    f"WHERE store_words MATCH ?{inside} ORDER BY bm25(store_words) LIMIT {FUSE_DEPTH}",
-                    (expression, *((ns, len(ns) + 1, ns + ".") if prefix else ())),
+                    "SELECT rowid, rank FROM store_words WHERE store_words MATCH ? ORDER BY rank LIMIT ?",
+                    (expression, top),
                 ).fetchall()
                 by_words = [int(r[0]) for r in rows]
                 if self.embedder is None:
                     scores.update({int(r[0]): -float(r[1]) for r in rows})
         if not by_vector or not by_words:
             return by_vector or by_words
-        fused = fuse([by_vector[:FUSE_DEPTH], by_words])
-        placed = set(fused)
-        return fused + [i for i in by_vector[FUSE_DEPTH:] if i not in placed]
+        return fuse([by_vector, by_words])

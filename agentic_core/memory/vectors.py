@@ -40,8 +40,9 @@ class VectorIndex:
         width = len(rows[0][2]) // 4 if rows else 0
         self._matrix = np.frombuffer(b"".join(r[2] for r in rows), dtype=np.float32).reshape(len(rows), width)
 
-    def rank(self, query: Any, prefix: tuple[str, ...], scores: dict[int, float]) -> list[int]:
-        """Item ids under ``prefix``, best first; fills ``scores`` with each one's cosine similarity."""
+    def rank(self, query: Any, prefix: tuple[str, ...], scores: dict[int, float], top: int) -> list[int]:
+        """The ``top`` best item ids under ``prefix`` (about: an item with several vectors counts once), best first;
+        fills ``scores`` with each one's cosine similarity."""
         with self.lock:
             if self._matrix is None:
                 self._load()
@@ -57,7 +58,11 @@ class VectorIndex:
         mask = np.isin(codes, inside) if len(inside) < len(self._namespaces) else slice(None)
         sims = matrix[mask] @ q
         row_ids = ids[mask]
-        order = np.argsort(-sims, kind="stable")
+        if sims.shape[0] > top:
+            best = np.argpartition(-sims, top)[:top]
+            order = best[np.argsort(-sims[best], kind="stable")]
+        else:
+            order = np.argsort(-sims, kind="stable")
         ordered = row_ids[order]
         _, first = np.unique(ordered, return_index=True)  # an item's best row is its first in rank order
         first.sort()

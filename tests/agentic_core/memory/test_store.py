@@ -201,3 +201,45 @@ def test_a_store_that_cannot_be_opened_is_named(tmp_path: Path) -> None:
     (tmp_path / "not.db").write_text("this is not a database " * 100)
     with pytest.raises(InputError, match=r"not\.db: cannot open the memory store"):
         SqliteStore(tmp_path / "not.db")
+
+
+def test_the_numeric_prefilter_never_drops_what_the_exact_check_accepts() -> None:
+    """Values stored as text, missing, booleans, nested: the pre-filtered search equals a plain Python filter."""
+    store = SqliteStore()
+    values: list[dict[str, Any]] = [
+        {"t": 5}, {"t": "7"}, {"t": "high"}, {"t": True}, {"t": None}, {}, {"t": 2.5}, {"t": {"x": 9}},
+        {"w": {"lat": 21.4133, "lon": 39.8933}}, {"w": {"lat": "21.4134", "lon": "39.8933"}},
+        {"w": {"lat": 21.5, "lon": 39.8933}}, {"w": {"lat": 21.4133}}, {"w": [21.4133, 39.8933]},
+        {"n": {"deep": {"v": 10}}}, {"n": {"deep": {"v": 1}}},
+    ]  # fmt: skip
+    for i, v in enumerate(values):
+        store.put(("p",), f"k{i}", v)
+    from agentic_core.memory.filters import accepts
+
+    for f in [{"t": {"$gt": 3}}, {"t": {"$lte": 5}}, {"t": {"$gte": 2, "$lt": 6}}, {"w": near(21.4133, 39.8933, 50)},
+              {"n": {"deep": {"v": {"$gt": 5}}}}, {"t": {"$gt": 3}, "w": near(21.4133, 39.8933, 50)}]:  # fmt: skip
+        expected = {f"k{i}" for i, v in enumerate(values) if accepts(f, v)}
+        assert {i.key for i in store.search(("p",), filter=f, limit=100)} == expected, f
+    assert {i.key for i in store.search(("p",), filter={"t": {"$gt": 3}}, limit=100)} == {"k0", "k1"}
+
+
+def test_the_prefilter_sees_writes_deletes_and_namespaces() -> None:
+    store = SqliteStore()
+    store.put(("a",), "x", {"t": 1})
+    assert [i.key for i in store.search(("a",), filter={"t": {"$gte": 1}})] == ["x"]
+    store.put(("a",), "y", {"t": 2})
+    store.put(("b",), "z", {"t": 3})
+    assert [i.key for i in store.search(("a",), filter={"t": {"$gte": 1}})] == ["x", "y"]
+    store.put(("a",), "x", {"t": 0})
+    store.delete(("a",), "y")
+    assert store.search(("a",), filter={"t": {"$gte": 1}}) == []
+    assert [i.key for i in store.search((), filter={"t": {"$gte": 1}})] == ["z"]
+
+
+def test_deep_pages_of_a_ranked_search_still_hold_every_item_once() -> None:
+    store = SqliteStore(index={"dims": 5, "embed": toy_embed, "fields": ["t"]})
+    for i in range(60):
+        store.put(("d",), f"k{i}", {"t": "a" * (i % 7 + 1) + "b" * (i % 3)})
+    pages = [[i.key for i in store.search(("d",), query="aaa", limit=7, offset=o)] for o in range(0, 70, 7)]
+    flat = [k for page in pages for k in page]
+    assert len(flat) == 60 and len(set(flat)) == 60
