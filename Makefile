@@ -42,6 +42,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/perception.py
 	$(PY) benchmarks/decision_latency.py
 	$(PY) benchmarks/envelope.py
+	$(PY) benchmarks/memory.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache
