@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from ..agent.bus import EventBus
-from ..contracts.memory import Recollection
+from ..contracts.memory import MemoryKind, Recollection
 from ..contracts.world_model import WorldModel
 from ..memory.fleet import FleetMemory
 from ..memory.recorder import Place, RunRecorder
@@ -47,9 +47,11 @@ class RunMemory:
                                     mission=mission, scene=scene)  # fmt: skip
 
     def recall(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
-        """The context port: earlier runs' memories within :data:`RECALL_M` of the aircraft."""
+        """The context port: earlier runs' memories within :data:`RECALL_M` of the aircraft, the operator's
+        answers there included."""
         ego = world.ego_pose
-        return self.fleet.recall(ego.lat, ego.lon, within_m=RECALL_M, exclude_run=self.run_id)
+        kinds: tuple[MemoryKind, ...] = ("incident", "casualty", "alert", "decision", "approval")
+        return self.fleet.recall(ego.lat, ego.lon, within_m=RECALL_M, kinds=kinds, exclude_run=self.run_id)
 
     def wrap(self, reasoner: Reasoner) -> Reasoner:
         return Remembering(reasoner, self.recall)

@@ -10,9 +10,11 @@ from typing import Any
 
 import pytest
 
+from agentic_core.contracts.memory import Provenance
 from agentic_core.memory.cli import main as memory_main
+from agentic_core.perception.world_model import WorldModel
 from agentic_core.reasoning.rules import RuleReasoner
-from agentic_core.run.run_memory import with_memory
+from agentic_core.run.run_memory import RunMemory, with_memory
 from agentic_core.run.runner import MissionRun, RunSettings
 
 REPO = Path(__file__).resolve().parents[3]
@@ -79,4 +81,18 @@ def test_without_memory_the_run_keeps_its_reasoner_and_opens_nothing(tmp_path: P
     with_settings = SimpleNamespace(**{**vars(run), "settings": remembering, "plan": SimpleNamespace(plan_id="p")})
     memory, wrapped = with_memory(with_settings, reasoner)
     assert memory is not None and wrapped is not reasoner and wrapped.name == "rules"
+    memory.fleet.close()
+
+
+def test_the_context_port_recalls_earlier_runs_answers_near_the_aircraft_not_this_runs(tmp_path: Path) -> None:
+    memory = RunMemory(tmp_path / "m.db", "R2", view=dict, locate=lambda o: None, mission="p", scene=None)
+    lat, lon = 21.4133, 39.8933
+    memory.fleet.remember("approval", "R1:5", "operator declined: land near P-9?", lat=lat, lon=lon,
+                          provenance=Provenance(run_id="R1", verdict="declined"))  # fmt: skip
+    memory.fleet.remember("incident", "R2:3", "this run's own", lat=lat, lon=lon, provenance=Provenance(run_id="R2"))
+    memory.fleet.remember("incident", "R1:9", "a kilometre away", lat=21.4223, lon=39.8933,
+                          provenance=Provenance(run_id="R1"))  # fmt: skip
+    ego = {"north": 0, "east": 0, "down": -30, "alt": 30, "lat": lat, "lon": lon}
+    world = WorldModel.model_validate({"timestamp": 1.0, "objects": [], "relations": [], "ego_pose": ego})
+    assert [r.key for r in memory.recall(world, None)] == ["R1:5"]
     memory.fleet.close()
