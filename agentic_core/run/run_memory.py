@@ -63,7 +63,7 @@ class RunMemory:
         runs = sorted({r.provenance.run_id for r in known if r.provenance.run_id})
         bus.publish("memory", event="recalled", store=str(self.fleet.path), search=self.fleet.search_mode,
                     memories=[f"{r.kind}/{r.key}" for r in known], runs=runs,
-                    summary=f"memory: {len(known)} memories of this area from {len(runs)} earlier runs "
+                    summary=f"{len(known)} memories of this area from {len(runs)} earlier runs "
                     f"({self.fleet.search_mode})")  # fmt: skip
 
     def finish(self, bus: EventBus) -> None:
@@ -71,7 +71,7 @@ class RunMemory:
         try:
             written = self.recorder.flush()
             bus.publish("memory", event="recorded", memories=written,
-                        summary=f"memory: recorded {len(written)} memories of this run")  # fmt: skip
+                        summary=f"recorded {len(written)} memories of this run")  # fmt: skip
         finally:
             self.fleet.close()
 
