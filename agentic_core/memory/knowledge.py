@@ -96,7 +96,7 @@ def chunk(body: str, max_chars: int = MAX_CHARS) -> list[tuple[str, str]]:
     return out
 
 
-def ingest(store: SqliteStore, files: list[Path], *, today: dt.date | None = None) -> list[str]:
+def ingest(store: SqliteStore, files: list[Path]) -> list[str]:
     """Ingest every file (all checked before any is written); the keys of the chunks written."""
     docs = []
     for path in files:
