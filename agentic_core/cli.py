@@ -54,6 +54,7 @@ DELEGATED = {
     "run": "agentic_core.run.cli",
     "examples": "agentic_core.examples.cli",
     "console": "agentic_core.console.cli",
+    "memory": "agentic_core.memory.cli",
 }
 """Commands whose layer parses its own arguments (and ``--help``)."""
 
@@ -254,6 +255,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("run", help="fly a mission end to end and write its report (agentic-uav run --help)", add_help=False)
     sub.add_parser("examples", help="list the shipped missions and scenes; copy them out to edit", add_help=False)
     sub.add_parser("console", help="the operator console in the browser: replay runs (agentic-uav console --help)",
+                   add_help=False)  # fmt: skip
+    sub.add_parser("memory", help="the fleet's memory: why, search, ingest, invalidate (agentic-uav memory --help)",
                    add_help=False)  # fmt: skip
     return parser
 

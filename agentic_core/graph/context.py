@@ -31,6 +31,7 @@ class TaskContext:
     fresh_resume: Any = _MISSING
     calls: int = 0
     run: Any = None  # the Run this task belongs to; subgraph nodes read the parent's checkpointer from it
+    store: Any = None  # the store given to compile(store=...), or the parent graph's
 
 
 _current: ContextVar[TaskContext | None] = ContextVar("agentic_graph_task", default=None)
@@ -76,6 +77,11 @@ def interrupt(value: Any) -> Any:
 def get_stream_writer() -> Callable[[Any], None]:
     """The writer of ``stream_mode="custom"``: anything passed to it is streamed to the caller as it happens."""
     return current_task().writer
+
+
+def get_store() -> Any:
+    """The store the graph was compiled with (``compile(store=...)``; a subgraph uses its parent's), or None."""
+    return current_task().store
 
 
 def get_config() -> dict[str, Any]:

@@ -44,6 +44,7 @@ def make_context(run: Run, task: TaskSpec, writer: Callable[[Any], None]) -> Tas
         resume=run.resume_lists.get(task.id, []),
         fresh_resume=run.fresh_resume.get(task.id, _MISSING),
         run=run,
+        store=run.store,
     )
 
 
@@ -57,6 +58,8 @@ def _kwargs(node: NodeSpec, ctx: TaskContext) -> dict[str, Any]:
         kwargs["config"] = ctx.config
     if node.takes_writer:
         kwargs["writer"] = ctx.writer
+    if node.takes_store:
+        kwargs["store"] = ctx.store
     return kwargs
 
 

@@ -108,6 +108,7 @@ class NodeSpec:
     dynamic: bool = False
     takes_config: bool = False
     takes_writer: bool = False
+    takes_store: bool = False
     is_async: bool = False
     subgraph: CompiledStateGraph | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
@@ -251,6 +252,7 @@ class StateGraph:
             params = _parameters(action)
             spec.takes_config = "config" in params
             spec.takes_writer = "writer" in params
+            spec.takes_store = "store" in params
             spec.is_async = inspect.iscoroutinefunction(action) or (
                 not inspect.isfunction(action)  # a plain function's __call__ is never a coroutine function
                 and inspect.iscoroutinefunction(getattr(action, "__call__", None))  # noqa: B004 - async callables
@@ -444,9 +446,12 @@ class StateGraph:
         interrupt_after: Sequence[str] | str | None = None,
         name: str | None = None,
         debug: bool = False,
+        store: Any = None,
         **kwargs: Any,
     ) -> CompiledStateGraph:
-        """Check the graph and return a runnable one. ``checkpointer=None`` in a subgraph inherits the parent's."""
+        """Check the graph and return a runnable one. ``checkpointer=None`` in a subgraph inherits the parent's;
+        ``store`` (any object with the Store API, e.g. ``agentic_core.memory.SqliteStore``) reaches nodes that take
+        a ``store`` parameter, and ``get_store()``; a subgraph without one uses its parent's."""
         from .compiled import CompiledStateGraph
 
         reject_unsupported("compile()", {**kwargs, "debug": debug})
@@ -468,4 +473,5 @@ class StateGraph:
             interrupt_before=before,
             interrupt_after=after,
             name=name or "graph",
+            store=store,
         )

@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from .checkpoint.base import Checkpoint, TaskOutcome, TaskSpec, diff_values, iso_time
-from .constants import END, INTERRUPT_KEY, START
+from .constants import END, INTERRUPT_KEY, START, STORE_KEY
 from .errors import (
     CheckpointError,
     EmptyInputError,
@@ -107,6 +107,7 @@ class Run:
         self.config: dict[str, Any] = dict(config or {})
         self.configurable: dict[str, Any] = dict(self.config.get("configurable") or {})
         self.saver = saver
+        self.store: Any = graph.store if graph.store is not None else self.configurable.get(STORE_KEY)
         tid = self.configurable.get("thread_id")
         self.thread_id: str | None = None if tid is None else str(tid)
         if saver is not None and self.thread_id is None:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from .checkpoint.base import BaseCheckpointSaver
+from .constants import STORE_KEY
 from .context import _MISSING, TaskContext
 from .errors import GraphError, GraphInterrupt
 from .loop import Run, Sink
@@ -41,7 +42,7 @@ def prepare(graph: CompiledStateGraph, arg: Any, ctx: TaskContext) -> SubgraphCa
     saver = parent.saver if inherit else graph._saver
     label = ctx.node if graph.checkpointer is True else f"{ctx.node}:{ctx.task_id}"
     ns = f"{parent.ns}|{label}" if parent.ns else label
-    configurable = {**parent.configurable, "checkpoint_ns": ns}
+    configurable = {**parent.configurable, "checkpoint_ns": ns, STORE_KEY: parent.store}
     configurable.pop("checkpoint_id", None)
     if hasattr(arg, "model_dump"):
         values = arg.model_dump()

@@ -94,6 +94,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="inject a failure to rehearse a failsafe, repeatable: KIND[=VALUE]@WHEN, e.g. battery=18%%@S1 (when "
         "step S1 completes), gps_loss@t=40s (mission time); kinds: " + ", ".join(FAULT_KINDS),
     )  # fmt: skip
+    parser.add_argument(
+        "--memory",
+        type=Path,
+        metavar="FILE",
+        help="the fleet's memory: recall what earlier runs found near here, record what this one finds",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     add_run_options(parser)
     return parser
@@ -192,6 +198,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             faults=faults,
             **({} if args.gcs is None else {"gcs": args.gcs}),
             tools=args.tools,
+            memory=args.memory,
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
         first = exc.errors()[0]

@@ -57,6 +57,7 @@ from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import RunSummary, TrackPoint, write_report
 from .responses import ResponseLedger
+from .run_memory import with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
@@ -128,6 +129,7 @@ class MissionRun:
         self.agent = mission_caller(self.plan, self.registry)  # the scopes this mission needs, no more
         chosen = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
         self.reasoner, self.model_note = require_model(chosen)
+        self.memory, self.reasoner = with_memory(self, self.reasoner)  # (None, as it was) without --memory
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
         keep_signing_key(self.run_dir, self.backend.signing_key)
@@ -359,6 +361,8 @@ class MissionRun:
                          f"with {self.reasoner.name} on {self.backend.kind}")  # fmt: skip
         if self.model_note:
             self.bus.publish("log", level="warning", summary=self.model_note)
+        if self.memory:
+            self.memory.start(self.bus, self._home())
         final: dict[str, Any] = {}
         outcome = "failed"
         try:
@@ -404,6 +408,8 @@ class MissionRun:
             self.faults.close()
             self.failsafes.close()
             ended = self.where_it_ended()
+            if self.memory:
+                self.memory.finish(self.bus)
             self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
         summary = self._summary(outcome, time.monotonic() - wall0)

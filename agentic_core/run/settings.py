@@ -83,6 +83,9 @@ class RunSettings(BaseModel):
     faults: list[FaultText] = Field(
         default_factory=list, description="failures to inject (--fault), beside the scene's own faults: list"
     )
+    memory: Path | None = Field(
+        default=None, description="the fleet's memory (a SQLite file): recall what earlier runs found, record this one"
+    )
     gcs: str = Field(
         default_factory=default_gcs,
         validate_default=True,

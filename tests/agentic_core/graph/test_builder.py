@@ -165,7 +165,9 @@ def test_unsupported_langgraph_arguments_are_refused_not_ignored() -> None:
         StateGraph(S).add_node("a", noop, cache_policy=object())
     g = StateGraph(S).add_node("a", noop, metadata={"kind": "flight"})
     g.add_edge(START, "a").add_edge("a", END)
-    with pytest.raises(GraphError, match=r"compile\(\): store not supported"):
+    with pytest.raises(GraphError, match=r"compile\(\): cache not supported"):
+        g.compile(cache=object())
+    with pytest.raises(GraphError, match=r"store must have the Store API \(missing get, put, search\)"):
         g.compile(store=object())
     app = g.compile()
     with pytest.raises(GraphError, match=r"invoke\(\): output_keys not supported"):

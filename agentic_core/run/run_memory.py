@@ -1,0 +1,98 @@
+"""A run's link to the fleet's memory (``agentic-uav run --memory FILE``): the reasoner is told what earlier runs
+found near where the aircraft is (cited in its rationale, used as priors), and what this run finds is recorded
+when it ends. A run without ``--memory`` has none of this and behaves as before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from ..agent.bus import EventBus
+from ..contracts.memory import MemoryKind, Recollection
+from ..contracts.world_model import WorldModel
+from ..memory.fleet import FleetMemory
+from ..memory.recorder import Place, RunRecorder
+from ..reasoning.reasoners import Reasoner
+from ..reasoning.remembering import Remembering
+
+if TYPE_CHECKING:
+    from flight.sim.scene_model import Scene
+
+    from ..contracts.policy_graph import PolicyGraph
+    from .settings import RunSettings
+
+RECALL_M = 200.0
+"""How far from the aircraft a memory is still "near here"."""
+AREA_M = 5000.0
+"""How far from home a memory still belongs to the area the start of a run reports on."""
+
+
+def aircraft(view: dict[str, Any]) -> Place:
+    """Where the aircraft is, from its telemetry view (None before the first sample)."""
+    lat, lon = view.get("lat_deg"), view.get("lon_deg")
+    return (float(lat), float(lon)) if isinstance(lat, int | float) and isinstance(lon, int | float) else None
+
+
+class RunMemory:
+    """Opened by the runner when ``settings.memory`` is set: wrap the reasoner, subscribe, announce, record."""
+
+    def __init__(self, path: Path, run_id: str, *, view: Callable[[], dict[str, Any]], locate: Callable[[str], Place],
+                 mission: str, scene: str | None) -> None:  # fmt: skip
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.fleet = FleetMemory(path)
+        self.run_id = run_id
+        self.recorder = RunRecorder(self.fleet, run_id, aircraft=lambda: aircraft(view()), locate=locate,
+                                    mission=mission, scene=scene)  # fmt: skip
+
+    def recall(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
+        """The context port: earlier runs' memories within :data:`RECALL_M` of the aircraft, the operator's
+        answers there included."""
+        ego = world.ego_pose
+        kinds: tuple[MemoryKind, ...] = ("incident", "casualty", "alert", "decision", "approval")
+        return self.fleet.recall(ego.lat, ego.lon, within_m=RECALL_M, kinds=kinds, exclude_run=self.run_id)
+
+    def wrap(self, reasoner: Reasoner) -> Reasoner:
+        return Remembering(reasoner, self.recall)
+
+    def start(self, bus: EventBus, home: tuple[float, float] | None) -> None:
+        """Subscribe the recorder, and say in the trace what the memory holds of this area and how it searches."""
+        bus.subscribe(self.recorder.on_event)
+        known = self.fleet.recall(*home, within_m=AREA_M, limit=1000, exclude_run=self.run_id) if home else []
+        runs = sorted({r.provenance.run_id for r in known if r.provenance.run_id})
+        bus.publish("memory", event="recalled", store=str(self.fleet.path), search=self.fleet.search_mode,
+                    memories=[f"{r.kind}/{r.key}" for r in known], runs=runs,
+                    summary=f"{len(known)} memories of this area from {len(runs)} earlier runs "
+                    f"({self.fleet.search_mode})")  # fmt: skip
+
+    def finish(self, bus: EventBus) -> None:
+        """Record what this run found (before its end event), then close the store."""
+        try:
+            written = self.recorder.flush()
+            bus.publish("memory", event="recorded", memories=written,
+                        summary=f"recorded {len(written)} memories of this run")  # fmt: skip
+        finally:
+            self.fleet.close()
+
+
+class _Run(Protocol):
+    """What :func:`with_memory` reads of a :class:`~agentic_core.run.runner.MissionRun`."""
+
+    settings: RunSettings
+    run_id: str
+    plan: PolicyGraph
+    scene: Scene | None
+
+    def view(self) -> dict[str, Any]: ...
+
+    def _target(self, object_id: str) -> tuple[float, float] | None: ...
+
+
+def with_memory(run: _Run, reasoner: Reasoner) -> tuple[RunMemory | None, Reasoner]:
+    """The run's memory and its reasoner wrapped to remember; ``(None, reasoner)`` without ``--memory``."""
+    if run.settings.memory is None:
+        return None, reasoner
+    memory = RunMemory(run.settings.memory, run.run_id, view=run.view, locate=run._target, mission=run.plan.plan_id,
+                       scene=run.scene.id if run.scene else None)  # fmt: skip
+    return memory, memory.wrap(reasoner)
