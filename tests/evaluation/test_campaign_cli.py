@@ -13,9 +13,8 @@ from agentic_core.cli import main as agentic_main
 from evaluation.campaign import read_records
 from evaluation.campaign.cli import main
 from evaluation.campaign.metrics import compute_metrics
-from flight.sim.scene_file import dump_scene
-from flight.sim.scene_gen import generate_scene
 from tests.agentic_core.reasoning.llm.standin import StandIn, openai_completion, openai_error
+from tests.evaluation.campaign_scenes import write_scenes
 
 ANSWER = {
     "persons_detected": 12,
@@ -29,21 +28,7 @@ ANSWER = {
 
 @pytest.fixture(scope="module")
 def scene_files(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
-    folder = tmp_path_factory.mktemp("scenes")
-    paths = []
-    for i in range(2):
-        scene = generate_scene(300 + i, persons=600, casualties=i, distractors=1, scene_id=f"cli-{i + 1}")
-        path = folder / f"cli-{i + 1}.yaml"
-        path.write_text(dump_scene(scene), encoding="utf-8")
-        paths.append(str(path))
-    return paths
-
-
-@pytest.fixture
-def clean_env(monkeypatch: pytest.MonkeyPatch) -> None:
-    for name in ("AGENTIC_UAV_LLM", "AGENTIC_UAV_LLM_API_KEY", "OPENAI_API_KEY", "HTTP_PROXY", "HTTPS_PROXY"):
-        monkeypatch.delenv(name, raising=False)
-    monkeypatch.setenv("NO_PROXY", "127.0.0.1")
+    return write_scenes(tmp_path_factory.mktemp("scenes"), first_seed=300, persons=600, prefix="cli")
 
 
 @pytest.fixture

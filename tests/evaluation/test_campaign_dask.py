@@ -19,8 +19,7 @@ import pytest
 
 from evaluation.campaign.cli import main
 from evaluation.campaign.records import TIMING_FIELDS
-from flight.sim.scene_file import dump_scene
-from flight.sim.scene_gen import generate_scene
+from tests.evaluation.campaign_scenes import write_scenes
 from tests.waiting import wait_for
 
 pytest.importorskip("distributed")
@@ -94,14 +93,7 @@ def wait_for_workers(address: str, count: int) -> None:
 
 @pytest.fixture(scope="module")
 def scene_files(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
-    folder = tmp_path_factory.mktemp("dask-scenes")
-    paths = []
-    for i in range(2):
-        scene = generate_scene(700 + i, persons=200, casualties=i % 2, distractors=1, scene_id=f"dask-{i + 1}")
-        path = folder / f"dask-{i + 1}.yaml"
-        path.write_text(dump_scene(scene), encoding="utf-8")
-        paths.append(str(path))
-    return paths
+    return write_scenes(tmp_path_factory.mktemp("dask-scenes"), first_seed=700, persons=200, prefix="dask")
 
 
 def campaign(scene_files: list[str], out: Path, *executor: str) -> Path:

@@ -21,9 +21,9 @@ from evaluation.campaign.cli import main
 from evaluation.campaign.model_calls import EndpointLimiter, ModelSettings, limiter_for
 from evaluation.campaign.records import TIMING_FIELDS
 from evaluation.campaign.runner import MODEL_CACHE
-from flight.sim.scene_file import dump_scene
 from flight.sim.scene_gen import generate_scene
 from tests.agentic_core.reasoning.llm.standin import Reply, StandIn, openai_completion, openai_error
+from tests.evaluation.campaign_scenes import write_scenes
 
 
 def answer(path: str, body: Any) -> Reply:
@@ -42,21 +42,7 @@ def answer(path: str, body: Any) -> Reply:
 
 @pytest.fixture(scope="module")
 def scene_files(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
-    folder = tmp_path_factory.mktemp("model-scenes")
-    paths = []
-    for i in range(2):
-        scene = generate_scene(800 + i, persons=150, casualties=i, distractors=1, scene_id=f"model-{i + 1}")
-        path = folder / f"model-{i + 1}.yaml"
-        path.write_text(dump_scene(scene), encoding="utf-8")
-        paths.append(str(path))
-    return paths
-
-
-@pytest.fixture
-def clean_env(monkeypatch: pytest.MonkeyPatch) -> None:
-    for name in ("AGENTIC_UAV_LLM", "AGENTIC_UAV_LLM_API_KEY", "OPENAI_API_KEY", "HTTP_PROXY", "HTTPS_PROXY"):
-        monkeypatch.delenv(name, raising=False)
-    monkeypatch.setenv("NO_PROXY", "127.0.0.1")
+    return write_scenes(tmp_path_factory.mktemp("model-scenes"), first_seed=800, persons=150, prefix="model")
 
 
 @pytest.fixture

@@ -14,8 +14,7 @@ import pytest
 from evaluation.campaign import read_records
 from evaluation.campaign.cli import main
 from evaluation.campaign.records import TIMING_FIELDS
-from flight.sim.scene_file import dump_scene
-from flight.sim.scene_gen import generate_scene
+from tests.evaluation.campaign_scenes import write_scenes
 from tests.waiting import wait_for
 
 REPO = Path(__file__).resolve().parents[2]
@@ -37,12 +36,7 @@ def csv_without_timing(path: Path) -> list[dict[str, str]]:
 
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs SIGKILL")
 def test_a_killed_campaign_resumes_to_the_records_of_an_uninterrupted_one(tmp_path: Path) -> None:
-    files = []
-    for i in range(SCENES):
-        scene = generate_scene(400 + i, persons=600, casualties=i % 2, distractors=1, scene_id=f"kill-{i + 1}")
-        path = tmp_path / f"kill-{i + 1}.yaml"
-        path.write_text(dump_scene(scene), encoding="utf-8")
-        files.append(str(path))
+    files = write_scenes(tmp_path, first_seed=400, persons=600, prefix="kill", count=SCENES)
     args = ["--scene-file", *files, "--systems", ",".join(SYSTEMS), "--frames", "60", "--quiet", "--no-stats"]
     killed, straight = tmp_path / "killed", tmp_path / "straight"
     command = [sys.executable, "-m", "agentic_core", "eval", "campaign", *args, "--out", str(killed)]
