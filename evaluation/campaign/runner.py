@@ -56,7 +56,15 @@ from .manifest import CampaignManifest, SceneSource, build_manifest, load_manife
 from .metrics import CampaignMetrics, compute_metrics, write_metrics
 from .model_calls import ModelSettings, ResponseEntry
 from .progress import Progress
-from .records import DecisionRecord, RecordFileError, append_record, read_records, write_csv, write_jsonl
+from .records import (
+    TIMING_FIELDS,
+    DecisionRecord,
+    RecordFileError,
+    append_record,
+    read_records,
+    write_csv,
+    write_jsonl,
+)
 from .response_cache import append_responses, load_responses
 from .systems import SystemSpec
 
@@ -136,6 +144,7 @@ def run_campaign(
         workers=spec.workers or 0,
     ).model_copy(update={"executor": spec.text, "job_order_seed": order_seed})
     cached = _replayed(replay) if replay is not None else None
+    timings = _recorded_timings(replay) if replay is not None else {}
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -182,7 +191,7 @@ def run_campaign(
         try:
             with contextlib.closing(dispatch(jobs, spec, more=more)) as outputs:
                 for output in outputs:
-                    ran += _keep(out_dir, output, progress)
+                    ran += _keep(out_dir, output, progress, timings)
                     spend.add(output.usage, limits)
         finally:
             progress.finish()
@@ -194,14 +203,30 @@ def run_campaign(
         return _finish(out_dir, plan, manifest, ran, len(finished), expected)
 
 
-def _keep(out_dir: Path, output: JobOutput, progress: Progress) -> int:
-    """Append a job's records and model responses to the campaign's files; the number of records."""
+def _keep(
+    out_dir: Path, output: JobOutput, progress: Progress, timings: dict[str, dict[str, float | None]] | None = None
+) -> int:
+    """Append a job's records and model responses to the campaign's files; the number of records. A replay's
+    records carry the replayed campaign's ``timings`` (its model calls took that long; the replay asked none)."""
     for record in output.records:
-        append_record(out_dir / RESULTS_JSONL, record)
+        recorded = (timings or {}).get(record.job_id)
+        append_record(out_dir / RESULTS_JSONL, record.model_copy(update=recorded) if recorded else record)
     append_responses(out_dir / MODEL_CACHE, output.responses)
     label = output.records[0].scene_id if output.records else ""
     progress.advance(len(output.records), label, [r.system for r in output.records])
     return len(output.records)
+
+
+def _recorded_timings(directory: Path) -> dict[str, dict[str, float | None]]:
+    """The timing fields of each record of the campaign in ``directory``, by job id (none when it has none)."""
+    path = directory / RESULTS_JSONL
+    if not path.is_file():
+        return {}
+    try:
+        records = read_records(path)
+    except RecordFileError as exc:
+        raise CampaignError(f"--replay {directory}: {exc}") from None
+    return {r.job_id: {name: getattr(r, name) for name in TIMING_FIELDS} for r in records if r.job_id}
 
 
 def _replayed(directory: Path) -> dict[str, list[ResponseEntry]]:
