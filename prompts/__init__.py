@@ -5,7 +5,7 @@ the values need no escaping; a placeholder without a value is an error, never a 
 (``prompts/schemas/*.schema.json``) are generated from the pydantic contracts and tested to stay current.
 
 >>> "World Model" in render("assess", goal="patrol", time_s=12.5, ego="30 m above home", focus_line="",
-...                         world_model="{}")
+...                         world_model="{}", knowledge="")
 True
 >>> sorted(schema("assessment")["required"])
 ['confidence', 'persons_detected']

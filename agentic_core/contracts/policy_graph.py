@@ -366,6 +366,12 @@ class PolicyGraph(Contract):
         description="the scopes the agent holds for this mission (e.g. flight:command, alerts:send); default: those "
         "its steps' and triggers' tools need, and nothing more",
     )
+    knowledge: list[Annotated[str, StringConstraints(min_length=1, max_length=200)]] = Field(
+        default_factory=list,
+        max_length=10,
+        description="topics to look up in the knowledge documents ingested into the run's memory (agentic-uav memory "
+        "ingest; the run needs --memory): the passages found reach the model's assessment prompt as untrusted data",
+    )
     allow_tools: list[
         Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)+$")]
     ] = Field(

@@ -18,14 +18,17 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 from pydantic import BaseModel
 
 import prompts
+from agentic_core.contracts.memory import RecallPort, Recollection
 from agentic_core.contracts.world_model import WorldModel, WorldObject
 
 from .assessment import Assessment, Decision, Severity
+from .knowledge import cite_knowledge, knowledge_block
 from .llm import ChatRequest, LLMResult, Message
 from .rules import RuleReasoner
 
@@ -74,8 +77,22 @@ class LLMReasoner:
         self.max_objects = max_objects
         self.temperature = temperature
         self.name = f"llm:{client.model}"
+        self.knowledge: RecallPort | None = None
+        """The knowledge port (a mission's ``knowledge:``): passages for the prompt, fenced as untrusted data."""
 
-    def request(self, world: WorldModel, focus: str | None = None) -> ChatRequest:
+    def passages(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
+        """The knowledge passages for this assessment (none without a port, or when it fails: a knowledge base that
+        cannot be read must not cost the decision)."""
+        if self.knowledge is None:
+            return []
+        try:
+            return list(self.knowledge(world, focus))
+        except Exception:
+            return []
+
+    def request(
+        self, world: WorldModel, focus: str | None = None, passages: Sequence[Recollection] = ()
+    ) -> ChatRequest:
         """The chat request for one assessment (public so a trace can show exactly what was asked)."""
         ego = world.ego_pose
         user = prompts.render(
@@ -85,6 +102,7 @@ class LLMReasoner:
             ego=f"lat {ego.lat:.6f}, lon {ego.lon:.6f}, {-ego.down:.0f} m above home",
             focus_line=f"Focus on object {focus}.\n" if focus else "",
             world_model=world_model_prompt(world, focus, self.max_objects),
+            knowledge=knowledge_block(passages)[0],
         )
         return ChatRequest(
             messages=[Message.system(prompts.template("system")), Message.user(user)], temperature=self.temperature
@@ -92,8 +110,13 @@ class LLMReasoner:
 
     def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
         start = time.perf_counter()
-        result = self.client.chat_structured_sync(self.request(world, focus), Assessment)
-        return self._decision(result, time.perf_counter() - start)
+        passages = self.passages(world, focus)
+        result = self.client.chat_structured_sync(self.request(world, focus, passages), Assessment)
+        decision = self._decision(result, time.perf_counter() - start)
+        if passages and decision.assessment is not None:
+            _, used, kept_out = knowledge_block(passages)
+            decision = decision.model_copy(update={"assessment": cite_knowledge(decision.assessment, used, kept_out)})
+        return decision
 
     def _decision(self, result: LLMResult, elapsed: float) -> Decision:
         common: dict[str, Any] = {
@@ -203,4 +226,12 @@ class HybridReasoner:
         )  # fmt: skip
 
 
-__all__ = ["DEADLINE_S", "HybridReasoner", "LLMReasoner", "StructuredChat", "world_model_prompt"]
+def model_of(reasoner: object) -> LLMReasoner | None:
+    """The language-model reasoner inside ``reasoner`` (itself, or a hybrid's tier 2); None for rules alone."""
+    if isinstance(reasoner, LLMReasoner):
+        return reasoner
+    inner = getattr(reasoner, "model", None)
+    return inner if isinstance(inner, LLMReasoner) else None
+
+
+__all__ = ["DEADLINE_S", "HybridReasoner", "LLMReasoner", "StructuredChat", "model_of", "world_model_prompt"]

@@ -10,10 +10,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from ..agent.bus import EventBus
-from ..contracts.memory import MemoryKind, Recollection
+from ..contracts.memory import MemoryKind, Provenance, RecallPort, Recollection
 from ..contracts.world_model import WorldModel
 from ..memory.fleet import FleetMemory
+from ..memory.knowledge import search_knowledge
 from ..memory.recorder import Place, RunRecorder
+from ..reasoning.model_reasoners import model_of
 from ..reasoning.reasoners import Reasoner
 from ..reasoning.remembering import Remembering
 
@@ -53,7 +55,28 @@ class RunMemory:
         kinds: tuple[MemoryKind, ...] = ("incident", "casualty", "alert", "decision", "approval")
         return self.fleet.recall(ego.lat, ego.lon, within_m=RECALL_M, kinds=kinds, exclude_run=self.run_id)
 
-    def wrap(self, reasoner: Reasoner) -> Reasoner:
+    def knowledge(self, topics: list[str]) -> RecallPort:
+        """The knowledge port for a mission's ``knowledge:`` topics: the passages still valid, most relevant first
+        (one search per topic, each passage once)."""
+
+        def passages(world: WorldModel, focus: str | None = None) -> list[Recollection]:
+            found: dict[str, Recollection] = {}
+            for topic in topics:
+                for item in search_knowledge(self.fleet.store, topic, limit=2):
+                    value = item.value
+                    found.setdefault(item.key, Recollection(
+                        key=item.key, kind="knowledge", text=str(value.get("text", "")),
+                        provenance=Provenance(source=value.get("source"), version=value.get("version"),
+                                              valid_until=value.get("valid_until")),
+                    ))  # fmt: skip
+            return list(found.values())
+
+        return passages
+
+    def wrap(self, reasoner: Reasoner, topics: list[str] | None = None) -> Reasoner:
+        model = model_of(reasoner)
+        if topics and model is not None:
+            model.knowledge = self.knowledge(topics)
         return Remembering(reasoner, self.recall)
 
     def start(self, bus: EventBus, home: tuple[float, float] | None) -> None:
@@ -95,4 +118,4 @@ def with_memory(run: _Run, reasoner: Reasoner) -> tuple[RunMemory | None, Reason
         return None, reasoner
     memory = RunMemory(run.settings.memory, run.run_id, view=run.view, locate=run._target, mission=run.plan.plan_id,
                        scene=run.scene.id if run.scene else None)  # fmt: skip
-    return memory, memory.wrap(reasoner)
+    return memory, memory.wrap(reasoner, run.plan.knowledge)

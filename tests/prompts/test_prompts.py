@@ -47,7 +47,9 @@ def test_a_missing_value_or_an_unknown_name_is_a_clear_error() -> None:
 
 
 def test_values_with_braces_and_dollars_are_left_as_they_are() -> None:
-    text = prompts.render("assess", goal="$5 {x}", time_s=1, ego="e", focus_line="", world_model='{"a": "${b}"}')
+    text = prompts.render(
+        "assess", goal="$5 {x}", time_s=1, ego="e", focus_line="", world_model='{"a": "${b}"}', knowledge=""
+    )
     assert '{"a": "${b}"}' in text and "$5 {x}" in text
 
 

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
 from agentic_core.perception.world_model import WorldModel
-from agentic_core.reasoning.llm import OpenAICompatibleClient, RetryPolicy
+from agentic_core.reasoning.llm import OpenAICompatibleClient
 from agentic_core.reasoning.model_reasoners import HybridReasoner, LLMReasoner, world_model_prompt
 from agentic_core.reasoning.reasoners import ReasonerError, make_reasoner
 from agentic_core.reasoning.rules import RuleReasoner
@@ -45,25 +44,6 @@ def world(emergency: bool, extra: int = 0) -> WorldModel:
         objects.append(person("P-9", 40, still=15))
         relations.append({"subj": "P-9", "pred": "isolated_from", "obj": "crowd", "value": 38.0})
     return WorldModel.model_validate({"timestamp": 30, "ego_pose": EGO, "objects": objects, "relations": relations})
-
-
-@pytest.fixture
-def standin() -> Iterator[StandIn]:
-    with StandIn() as server:
-        yield server
-
-
-@pytest.fixture
-def client(standin: StandIn) -> Iterator[OpenAICompatibleClient]:
-    async def no_wait(seconds: float) -> None:
-        return None
-
-    made = OpenAICompatibleClient(
-        "gpt-4o", standin.url + "/v1", api_key="sk-test", trust_env=False, sleep=no_wait,
-        retry=RetryPolicy(attempts=2, initial_s=0.1, max_s=0.1, jitter_s=0),
-    )  # fmt: skip
-    with made:
-        yield made
 
 
 def test_the_model_assesses_from_the_world_model_and_its_answer_is_the_decision(

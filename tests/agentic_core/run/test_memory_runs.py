@@ -78,7 +78,9 @@ def test_without_memory_the_run_keeps_its_reasoner_and_opens_nothing(tmp_path: P
     assert with_memory(run, reasoner) == (None, reasoner)
     assert list(tmp_path.iterdir()) == []
     remembering = settings.model_copy(update={"memory": tmp_path / "m.db"})
-    with_settings = SimpleNamespace(**{**vars(run), "settings": remembering, "plan": SimpleNamespace(plan_id="p")})
+    with_settings = SimpleNamespace(
+        **{**vars(run), "settings": remembering, "plan": SimpleNamespace(plan_id="p", knowledge=[])}
+    )
     memory, wrapped = with_memory(with_settings, reasoner)
     assert memory is not None and wrapped is not reasoner and wrapped.name == "rules"
     memory.fleet.close()
