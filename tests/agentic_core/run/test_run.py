@@ -1,7 +1,7 @@
 """``agentic-uav run`` end to end: the simulated vehicle over MAVLink, perception over a scene, the tools, the
 reasoner, the trace and the report. The scenes are the paper's two with thin crowds, so a run takes seconds; the
-camera runs at 15 Hz, half its default, where there is a casualty to confirm, and at 5 Hz over normal activity
-(perception at 30 Hz is tested on its own, in tests/agentic_core/perception)."""
+camera runs at 15 Hz, half its default, in the rules and operator runs, and at 5 Hz where what is tested is the
+model's part or the patrol (perception at 30 Hz is tested on its own, in tests/agentic_core/perception)."""
 
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ def fly(tmp_path: Path, mission: Path, scene: str, **options: Any) -> RunResult:
     return run_mission(settings, progress=None)
 
 
-def fly_with_model(tmp_path: Path, scene: str, model: ScriptedModel, camera_hz: float = 15.0) -> tuple[RunResult, int]:
+def fly_with_model(tmp_path: Path, scene: str, model: ScriptedModel, camera_hz: float = 5.0) -> tuple[RunResult, int]:
     """The emergency mission with ``--reasoner llm`` against ``model`` behind the stand-in; the run and how many
     chat requests the stand-in answered."""
     with StandIn(responder=model) as server:
@@ -120,7 +120,7 @@ def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) 
     """The emergency mission over normal activity with the llm reasoner: the model reads each scan's World Model
     and sees no one in distress (people resting in the shade are not casualties), so nothing is planned."""
     model = ScriptedModel()
-    result, _ = fly_with_model(tmp_path, "small_normal", model, camera_hz=5.0)  # no casualty: a slower camera will do
+    result, _ = fly_with_model(tmp_path, "small_normal", model)
     assert model.asked["Assessment"] >= 2 and model.asked["Proposal"] == 0
     assert all(d["reasoner"] == "llm:m" for d in records(result, "decision"))
     tools = tools_called(result)
@@ -207,7 +207,7 @@ def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan
     with StandIn(responder=model) as server:
         settings = RunSettings(
             mission=EMERGENCY, scene=SCENES / "small_emergency.yaml", runs_dir=tmp_path / "runs",
-            params={"rounds": "1"}, reasoner="hybrid", llm=f"openai-compatible:m@{server.url}/v1", camera_hz=15.0,
+            params={"rounds": "1"}, reasoner="hybrid", llm=f"openai-compatible:m@{server.url}/v1", camera_hz=5.0,
         )  # fmt: skip
         run = MissionRun(settings)
         forbidden = ToolSpec.from_schema(
