@@ -9,10 +9,10 @@ from typing import Any
 import pytest
 
 from agentic_core.run.settings import GCS_ENV
+from tests.shared_flights import MEDICAL_TEAM, route_alerts
 from tests.tools.builtin.conftest import Inbox, _start
 
-MEDICAL_TEAM = "medical-team@example.org"
-"""The medical team ``missions/hajj_emergency.yaml`` mails (its ``medical_team`` parameter's default)."""
+__all__ = ["MEDICAL_TEAM"]
 
 
 @pytest.fixture(autouse=True)
@@ -26,9 +26,6 @@ def smtp(monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
     """An SMTP server on 127.0.0.1 that the run's alerts go to (``smtp.inbox.envelopes``), with the medical team
     the missions mail configured as the alert recipients (the only addresses mail may go out to)."""
     controller, server = _start(Inbox())
-    monkeypatch.setenv("AGENTIC_UAV_ALERT_RECIPIENTS", MEDICAL_TEAM)
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_HOST", server.host)
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(server.port))
-    monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")
+    route_alerts(monkeypatch, server)
     yield server
     controller.stop()

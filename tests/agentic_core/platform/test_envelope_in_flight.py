@@ -52,7 +52,7 @@ def test_a_model_plan_past_the_fence_is_refused_before_it_flies(tmp_path: Path, 
             RunSettings(
                 mission=repo / "missions" / "hajj_emergency.yaml", scene=NEAR, runs_dir=tmp_path / "runs",
                 params={"rounds": "1", "still_s": "4"}, reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1",
-                camera_hz=15.0,
+                camera_hz=5.0,
             ),
             progress=None,
         )  # fmt: skip

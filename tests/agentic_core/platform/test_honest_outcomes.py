@@ -82,7 +82,7 @@ def test_an_alert_that_reached_only_the_outbox_is_degraded_with_exit_3(
     monkeypatch.setenv("AGENTIC_UAV_SMTP_PORT", str(_closed_port()))
     monkeypatch.setenv("AGENTIC_UAV_SMTP_STARTTLS", "false")
     monkeypatch.setenv("AGENTIC_UAV_HTTP_TIMEOUT_S", "2")
-    argv = [str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path / "runs"), "--camera-hz", "15", "--quiet"]
+    argv = [str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path / "runs"), "--camera-hz", "5", "--quiet"]
     argv += [arg for name, value in PARAMS.items() for arg in ("--param", f"{name}={value}")]
     assert run_main(argv) == DEGRADED_EXIT == 3
     out = capsys.readouterr().out

@@ -34,7 +34,7 @@ def fly(tmp_path: Path, plan: list[dict[str, Any]]) -> tuple[Any, list[dict[str,
     with server:
         settings = RunSettings(
             mission=mission_allowing_webhooks(tmp_path), scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS,
-            reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1", camera_hz=15.0,
+            reasoner="llm", llm=f"openai-compatible:m@{server.url}/v1", camera_hz=5.0,
         )  # fmt: skip
         result = MissionRun(settings).execute()
     return result, trace(result.run_dir)

@@ -5,6 +5,7 @@ and simulated time runs at real time while the agent waits (so a 5 s call is 5 s
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,7 @@ import pytest
 
 from agentic_core.contracts import RunEvent
 from agentic_core.run.runner import MissionRun, RunSettings
+from tests.shared_flights import Flown, shared_flights
 
 from .conftest import (
     EMERGENCY,
@@ -51,11 +53,25 @@ def fly(tmp_path: Path, reasoner: str, latency_s: float, speed: float | None, *,
     return result.run_dir
 
 
+FullSpeed = Callable[[str, float], Flown[Path]]
+
+
+@pytest.fixture(scope="module")
+def at_full_speed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[FullSpeed]:
+    """``at_full_speed(reasoner, latency_s)``: that run at full speed, flown once for this module (the hybrid 1.5 s
+    run is read by two tests), with the SMTP server its alert went to."""
+    with shared_flights(tmp_path_factory) as flights:
+        yield lambda reasoner, latency_s: flights.get(
+            (reasoner, latency_s), lambda folder: fly(folder, reasoner, latency_s, None)
+        )
+
+
 @pytest.mark.parametrize("reasoner", ["llm", "hybrid"])
 @pytest.mark.parametrize("latency_s", [1.5, 5.0])
-def test_a_slow_model_at_full_speed_serves_the_casualty(tmp_path: Path, smtp: Any, reasoner: str, latency_s: float):
-    run_dir = fly(tmp_path, reasoner, latency_s, None)
-    records = assert_served(run_dir, smtp)
+def test_a_slow_model_at_full_speed_serves_the_casualty(at_full_speed: FullSpeed, reasoner: str, latency_s: float):
+    flown = at_full_speed(reasoner, latency_s)
+    run_dir = flown.result
+    records = assert_served(run_dir, flown.smtp)
     # the model's call on the event really took that long, and as much flight; all that time the drone kept the
     # person in its camera's view (27 m to either side at 30 m): it held over them instead of flying on
     first = next(d for d in of_kind(records, "decision") if d["why"].startswith("trigger"))
@@ -100,10 +116,13 @@ def test_a_slow_model_at_real_time_serves_the_casualty(tmp_path: Path, smtp: Any
         assert 0.8 * wall <= sim <= 1.05 * wall, (case, sim, wall)  # real time: simulated seconds are wall seconds
 
 
-def test_two_runs_with_the_same_seed_and_latency_decide_the_same(tmp_path: Path, smtp: Any) -> None:
+def test_two_runs_with_the_same_seed_and_latency_decide_the_same(
+    tmp_path: Path, smtp: Any, at_full_speed: FullSpeed
+) -> None:
+    """The shared hybrid 1.5 s run, and a second one flown here with the same seed and latency."""
     decided = []
     for n in (1, 2):
-        run_dir = fly(tmp_path / str(n), "hybrid", 1.5, None)
+        run_dir = at_full_speed("hybrid", 1.5).result if n == 1 else fly(tmp_path / str(n), "hybrid", 1.5, None)
         records = trace(run_dir)
         decided.append(
             (
