@@ -81,25 +81,37 @@ def test_an_answered_question_leaves_the_snapshot_and_a_timed_out_one_too() -> N
     assert feed.snapshot()["questions"] == []
 
 
+class Asked:
+    """A console over a control port whose run waits on one question (``land_near``), asked from its own thread."""
+
+    def __init__(self, tmp_path: Path, timeout_s: float = 30.0) -> None:
+        self.commands: list[tuple[str, dict[str, Any]]] = []
+        self.port = ControlPort(on_command=lambda name, detail: self.commands.append((name, detail)))
+        feed = LiveFeed()
+        self.port.on_question(lambda q: feed.question(q.id, q.request))
+        self.client = TestClient(build_app(tmp_path, Guard(TOKEN), Live(feed, self.port)), base_url=BASE)
+        self.answers: list[Any] = []
+        ask = lambda: self.answers.append(self.port.ask({"step": "land_near"}, timeout_s=timeout_s))  # noqa: E731
+        self.asking = threading.Thread(target=ask)
+        self.asking.start()
+        (self.question,) = wait_for(lambda: feed.snapshot()["questions"], timeout_s=10.0, what="the question")
+
+    def post(self, body: dict[str, Any]) -> Any:
+        headers = {"authorization": f"Bearer {TOKEN}", "origin": BASE}
+        return self.client.post(f"/api/questions/{self.question['id']}", json=body, headers=headers)
+
+    def answer(self) -> Any:
+        self.asking.join(timeout=10.0)
+        return self.answers[0]
+
+
 def test_a_page_answers_a_waiting_question_and_the_run_hears_it(tmp_path: Path) -> None:
-    commands: list[tuple[str, dict[str, Any]]] = []
-    port = ControlPort(on_command=lambda name, detail: commands.append((name, detail)))
-    feed = LiveFeed()
-    port.on_question(lambda q: feed.question(q.id, q.request))
-    client = TestClient(build_app(tmp_path, Guard(TOKEN), Live(feed, port)), base_url=BASE)
-    answers: list[Any] = []
-    asking = threading.Thread(target=lambda: answers.append(port.ask({"step": "land_near"}, timeout_s=30.0)))
-    asking.start()
-    (question,) = wait_for(lambda: feed.snapshot()["questions"], timeout_s=10.0, what="the question")
-    headers = {"authorization": f"Bearer {TOKEN}", "origin": BASE}
-    response = client.post(f"/api/questions/{question['id']}", json={"approve": False, "reason": "crowd"},
-                           headers=headers)  # fmt: skip
-    assert response.status_code == 200
-    asking.join(timeout=10.0)
-    assert answers[0].approved is False and answers[0].said == "crowd"
-    assert commands == [("decline", {"by": "console", "question": "q1", "step": "land_near", "reason": "crowd"})]
-    again = client.post(f"/api/questions/{question['id']}", json={"approve": True}, headers=headers)
-    assert again.status_code == 404  # answered once: a second click changes nothing
+    asked = Asked(tmp_path)
+    assert asked.post({"approve": False, "reason": "crowd"}).status_code == 200
+    answer = asked.answer()
+    assert answer.approved is False and answer.said == "crowd"
+    assert asked.commands == [("decline", {"by": "console", "question": "q1", "step": "land_near", "reason": "crowd"})]
+    assert asked.post({"approve": True}).status_code == 404  # answered once: a second click changes nothing
 
 
 @pytest.mark.parametrize(
@@ -116,19 +128,10 @@ def test_a_page_answers_a_waiting_question_and_the_run_hears_it(tmp_path: Path) 
 def test_an_approval_may_carry_edited_arguments_and_nothing_else_does(
     tmp_path: Path, body: dict[str, Any], status: int
 ) -> None:
-    port = ControlPort()
-    feed = LiveFeed()
-    port.on_question(lambda q: feed.question(q.id, q.request))
-    client = TestClient(build_app(tmp_path, Guard(TOKEN), Live(feed, port)), base_url=BASE)
-    answers: list[Any] = []
-    asking = threading.Thread(target=lambda: answers.append(port.ask({"step": "land_near"}, timeout_s=5.0)))
-    asking.start()
-    (question,) = wait_for(lambda: feed.snapshot()["questions"], timeout_s=10.0, what="the question")
-    headers = {"authorization": f"Bearer {TOKEN}", "origin": BASE}
-    response = client.post(f"/api/questions/{question['id']}", json=body, headers=headers)
-    assert response.status_code == status
+    asked = Asked(tmp_path, timeout_s=5.0)
+    assert asked.post(body).status_code == status
     if status != 200:
-        port.decline(question["id"], by="test")  # a refused request answered nothing: the question still waits
-    asking.join(timeout=10.0)
-    assert answers[0].approved is (status == 200)
-    assert answers[0].args == (body["args"] if status == 200 else None)
+        asked.port.decline(asked.question["id"], by="test")  # a refused request answered nothing: it still waits
+    answer = asked.answer()
+    assert answer.approved is (status == 200)
+    assert answer.args == (body["args"] if status == 200 else None)
