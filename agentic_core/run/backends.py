@@ -21,6 +21,7 @@ from __future__ import annotations
 import queue
 import socket
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
@@ -61,6 +62,9 @@ class Backend(Protocol):
     def start(self) -> None: ...
 
     def snapshot(self) -> dict[str, Any] | None: ...
+
+    def flush(self) -> None:
+        """Hand the hooks what has been heard since the last sample, before the run says where the aircraft ended."""
 
     def close(self) -> None: ...
 
@@ -129,6 +133,9 @@ class SimBackend:
         data: dict[str, Any] = snap.model_dump(mode="json")
         return data
 
+    def flush(self) -> None:
+        """Nothing: the simulator's samples are its state itself, in lockstep."""
+
     def close(self) -> None:
         self.vehicle.close()
         if self.tlog is not None:
@@ -156,6 +163,7 @@ class LinkBackend:
         self._lock = threading.Lock()
         self._queue: queue.Queue[TelemetrySample | None] = queue.Queue(maxsize=1000)
         self._worker: threading.Thread | None = None
+        self._fed: TelemetrySample | None = None
         self.dropped = 0
 
     @property
@@ -194,6 +202,19 @@ class LinkBackend:
         while (sample := self._queue.get()) is not None:
             for hook in self._hooks:
                 hook(sample)
+            self._fed = sample
+
+    def flush(self, timeout_s: float = 2.0) -> None:
+        """One last sample of all the client has heard, fed to the hooks before this returns (or ``timeout_s``): a
+        vehicle's disarm arrives in a HEARTBEAT between position messages, and the run's end must not miss it."""
+        client, worker = self._attached, self._worker
+        last = client.telemetry.sample() if client is not None else None
+        if last is None or worker is None or not worker.is_alive():
+            return
+        self._offer(last)
+        deadline = time.monotonic() + timeout_s
+        while self._fed is not last and time.monotonic() < deadline:
+            time.sleep(0.005)  # the feed thread is the one that calls the hooks; a short poll is the wait
 
     def start(self) -> None:
         """Nothing to start: the vehicle runs on its own."""

@@ -407,6 +407,7 @@ class MissionRun:
             outcome = self.responses.outcome(outcome)  # every critical event answered, or the run says otherwise
             self.faults.close()
             self.failsafes.close()
+            self.backend.flush()
             ended = self.where_it_ended()
             if self.memory:
                 self.memory.finish(self.bus)

@@ -62,13 +62,15 @@ def judge(run_dir: Path, mission: Path) -> Judged:
     centre = (float(fence.center.lat), float(fence.center.lon))
     outside = max(math.hypot(*local_offset(*centre, s["lat_deg"], s["lon_deg"])) - fence.radius_m for s in samples)
     last = samples[-1]
+    (end,) = [r for r in records(run_dir, "trace.jsonl") if r["kind"] == "run" and r.get("event") == "end"]
     return Judged(
         outside_m=outside,
         over_ceiling_m=max(s["alt_m"] for s in samples) - limits.max_altitude_m,
         ended_from_home_m=math.hypot(last["north_m"], last["east_m"]),
-        # on the ground: said so, or disarmed at ground level (over a link the disarm's heartbeat can come before
-        # the next EXTENDED_SYS_STATE; the run's own where_it_ended judges the same way)
-        ended_on_ground=last["alt_m"] < 0.5 and (last["landed_state"] in ("on_ground", "unknown") or not last["armed"]),
+        # at ground level in the last line of telemetry, and on the ground as the run's end says: over a link the
+        # disarm arrives in a HEARTBEAT between position messages, after the last line the log kept of its period,
+        # and the run hands its hooks that last word before it says where the aircraft ended
+        ended_on_ground=last["alt_m"] < 0.5 and str(end.get("ended", "")).startswith("on the ground"),
         samples=samples,
     )
 
