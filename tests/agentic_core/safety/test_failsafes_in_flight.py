@@ -55,8 +55,15 @@ def test_a_lost_link_fires_the_agent_link_failsafe_and_the_vehicle_comes_home_on
     text = (EXAMPLES / "square_15m.yaml").read_text(encoding="utf-8")
     mission = tmp_path / "link.yaml"
     mission.write_text(text.replace("  max_altitude_m: 20\n", "  max_altitude_m: 20\n  link_loss_s: 2\n"))
-    settings = RunSettings(mission=mission, runs_dir=tmp_path / "runs", faults=[parse_fault("link_loss@c1")])
+    # Both ends judge link loss on the wall clock while the simulation runs free. At full speed the vehicle could
+    # hover away its battery in the seconds it waits (its battery failsafe then acts first), and the run ends about
+    # 6.5 wall seconds after the cut (2 s to its own failsafe, 4.5 s of RTL retries): so 40x real time, and the
+    # vehicle's data-link timeout at its minimum, 5 s, as PX4 allows.
+    settings = RunSettings(
+        mission=mission, runs_dir=tmp_path / "runs", faults=[parse_fault("link_loss@c1")], speed=40.0
+    )
     run = MissionRun(settings, progress=None)
+    assert isinstance(run.backend, SimBackend) and run.backend.vehicle.params.set("COM_DL_LOSS_T", 5)
     result = run.execute()
     trace = records(result.run_dir, "trace.jsonl")
     (fault,) = of_kind(trace, "fault")
