@@ -94,6 +94,10 @@ class LLMReasoner:
         self, world: WorldModel, focus: str | None = None, passages: Sequence[Recollection] = ()
     ) -> ChatRequest:
         """The chat request for one assessment (public so a trace can show exactly what was asked)."""
+        return self._request(world, focus, knowledge_block(passages)[0])
+
+    def _request(self, world: WorldModel, focus: str | None, knowledge: str) -> ChatRequest:
+        """The chat request with the knowledge section already screened and fenced (:func:`knowledge_block`)."""
         ego = world.ego_pose
         user = prompts.render(
             "assess",
@@ -102,7 +106,7 @@ class LLMReasoner:
             ego=f"lat {ego.lat:.6f}, lon {ego.lon:.6f}, {-ego.down:.0f} m above home",
             focus_line=f"Focus on object {focus}.\n" if focus else "",
             world_model=world_model_prompt(world, focus, self.max_objects),
-            knowledge=knowledge_block(passages)[0],
+            knowledge=knowledge,
         )
         return ChatRequest(
             messages=[Message.system(prompts.template("system")), Message.user(user)], temperature=self.temperature
@@ -111,10 +115,10 @@ class LLMReasoner:
     def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
         start = time.perf_counter()
         passages = self.passages(world, focus)
-        result = self.client.chat_structured_sync(self.request(world, focus, passages), Assessment)
+        knowledge, used, kept_out = knowledge_block(passages)  # each passage screened once, for prompt and citation
+        result = self.client.chat_structured_sync(self._request(world, focus, knowledge), Assessment)
         decision = self._decision(result, time.perf_counter() - start)
         if passages and decision.assessment is not None:
-            _, used, kept_out = knowledge_block(passages)
             decision = decision.model_copy(update={"assessment": cite_knowledge(decision.assessment, used, kept_out)})
         return decision
 
