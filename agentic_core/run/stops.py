@@ -17,9 +17,6 @@ from ..contracts.geodesy import local_offset
 from ..contracts.policy_graph import ON_ABORT_TOOLS, OnAbort
 from ..contracts.telemetry import TelemetrySample
 
-STOP_TOOLS = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}
-"""What the aircraft does when the operator stops the run (``abort``: what the mission's ``on_abort`` says)."""
-
 STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed", "hold": "held"}
 
 Call = Callable[[str, dict[str, Any]], Any]
@@ -29,7 +26,7 @@ Publish = Callable[..., Any]
 def stop_tool(command: str, on_abort: OnAbort) -> str:
     """The tool a stop calls: ``abort`` (the operator's, or Ctrl-C and SIGTERM) does what the mission's ``on_abort``
     says; ``rtl``, ``land`` and ``hold`` as said."""
-    return ON_ABORT_TOOLS[on_abort] if command == "abort" else STOP_TOOLS[command]
+    return ON_ABORT_TOOLS[on_abort if command == "abort" else command]  # an explicit stop names its own tool
 
 
 def carry_out(command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish) -> None:
@@ -91,4 +88,4 @@ def where_it_ended(sample: TelemetrySample | None) -> str:
     return f"in the air at {sample.alt_m:.1f} m, {away} (mode {sample.mode})"
 
 
-__all__ = ["GONE_M", "STOP_OUTCOMES", "STOP_TOOLS", "carry_out", "go_back", "stop_tool", "where_it_ended"]
+__all__ = ["GONE_M", "STOP_OUTCOMES", "carry_out", "go_back", "stop_tool", "where_it_ended"]
