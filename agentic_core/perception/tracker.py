@@ -122,6 +122,11 @@ class TrackerState(BaseModel):
 
 _ROWS = ("cls", "state", "x", "P", "hist", "misses", "age", "last_seen", "still_since", "anchor", "anchor_var",
          "conf", "boxes")  # fmt: skip
+_ROW_TYPES: dict[str, tuple[type, tuple[int, ...]]] = {
+    "cls": (np.intp, ()), "state": (np.int8, ()), "hist": (np.int64, ()), "misses": (np.int64, ()),
+    "age": (np.int64, ()), "x": (float, (4,)), "P": (float, (4, 4)), "anchor": (float, (2,)), "boxes": (float, (4,)),
+}  # fmt: skip
+"""Each row's dtype and per-track shape, where it is not a float per track (for :meth:`Tracker.restore`)."""
 
 
 @dataclass(frozen=True)
@@ -315,19 +320,9 @@ class Tracker:
         self._counters = dict(state.counters)
         self._ids = list(state.ids)
         n = len(state.ids)
-        self._cls = np.array(state.cls, np.intp)
-        self._state = np.array(state.state, np.int8)
-        self._x = np.array(state.x, float).reshape(n, 4)
-        self._P = np.array(state.P, float).reshape(n, 4, 4)
-        self._hist = np.array(state.hist, np.int64)
-        self._misses = np.array(state.misses, np.int64)
-        self._age = np.array(state.age, np.int64)
-        self._last_seen = np.array(state.last_seen, float)
-        self._still_since = np.array(state.still_since, float)
-        self._anchor = np.array(state.anchor, float).reshape(n, 2)
-        self._anchor_var = np.array(state.anchor_var, float)
-        self._conf = np.array(state.conf, float)
-        self._boxes = np.array(state.boxes, float).reshape(n, 4)
+        for name in _ROWS:
+            dtype, shape = _ROW_TYPES.get(name, (float, ()))
+            setattr(self, f"_{name}", np.array(getattr(state, name), dtype).reshape(n, *shape))
         self._det_index = np.full(n, -1, np.intp)
 
     def table(self) -> TrackTable:
