@@ -69,6 +69,28 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
     parser.add_argument("--altitude", type=float, default=30.0, metavar="M", help="hover height, metres (default 30)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="the campaign directory")
     parser.add_argument("--no-stats", action="store_true", help="skip the statistics report")
+    stop = parser.add_argument_group("stopping when the answer is known")
+    stop.add_argument(
+        "--stop-at-width",
+        type=float,
+        metavar="W",
+        help="start no new scene once the 95%% interval of the primary comparison is at most W wide",
+    )
+    stop.add_argument(
+        "--stop-compare",
+        metavar="T,B",
+        help="the primary comparison: system T minus system B, paired by scene (default: the second system "
+        "minus the first)",
+    )
+    stop.add_argument(
+        "--stop-metric",
+        default="detection_confidence",
+        metavar="FIELD",
+        help="the numeric record field compared (default detection_confidence)",
+    )
+    stop.add_argument(
+        "--stop-min-scenes", type=int, default=5, metavar="N", help="never stop before N paired scenes (default 5)"
+    )
     add_model_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no progress display")
     return parser
@@ -96,6 +118,7 @@ class _UsageError(InputError):
 def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pydantic import ValidationError
 
+    from .early_stop import parse_stop_rule
     from .episode import EpisodeSettings
     from .executors import ExecutorSpecError, parse_executor
     from .model_options import model_options
@@ -125,6 +148,9 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     except SystemSpecError as exc:
         raise _UsageError(str(exc)) from None
     models, budget = model_options(args, systems)
+    stop = parse_stop_rule(
+        args.stop_at_width, args.stop_compare, args.stop_metric, args.stop_min_scenes, [s.name for s in systems]
+    )
     scenes, source = _scenes(args)
     settings = EpisodeSettings(frames=args.frames, assess_every=args.assess_every, altitude_m=args.altitude)
     try:
@@ -134,7 +160,7 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     try:
         result = run_campaign(
             plan, args.out, executor=executor, quiet=args.quiet, stream=err, models=models, budget=budget,
-            replay=args.replay,
+            replay=args.replay, stop=stop,
         )  # fmt: skip
     except BudgetSpent as exc:
         print(f"{PROG}: stopped: {exc}", file=err)
@@ -148,8 +174,10 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     stats_line = "skipped (--no-stats)" if args.no_stats else _stats(args.out, len(systems))
     table = result.metrics.to_markdown().split("\n\nRates count")[0]
     print(table, file=out)
-    n_scenes, n_systems = len(scenes), len(systems)
+    n_scenes, n_systems = len(result.records) // len(systems), len(systems)
     resumed = f", {result.resumed_from} from an earlier run" if result.resumed_from else ""
+    if result.stopped_early:
+        print(f"\nstopped early, {n_scenes} of {len(scenes)} scenes: {result.stopped_early}", file=out)
     print(
         f"\ncampaign complete: {len(result.records)} records ({n_scenes} scenes × {n_systems} systems; "
         f"{result.ran} run now{resumed}) in {args.out}",

@@ -48,6 +48,7 @@ from flight.sim.scene_model import Scene
 
 from .budget import Budget, Spend
 from .dispatch import dispatch
+from .early_stop import StopRule
 from .episode import EpisodeSettings, derive_seed
 from .errors import BudgetSpent, CampaignError
 from .executors import ExecutorSpec, parse_executor
@@ -108,6 +109,8 @@ class CampaignResult:
     ran: int = 0
     resumed_from: int = 0
     files: dict[str, Path] = field(default_factory=dict)
+    stopped_early: str | None = None
+    """Why the campaign stopped adding scenes (``--stop-at-width``): the comparison that answered."""
 
 
 def run_campaign(
@@ -121,11 +124,13 @@ def run_campaign(
     models: ModelSettings | None = None,
     budget: Budget | None = None,
     replay: Path | None = None,
+    stop: StopRule | None = None,
 ) -> CampaignResult:
     """Run (or resume) ``plan`` in ``out_dir`` on ``executor`` (default ``local:workers``); see the module docs.
 
-    ``models`` sets how model calls are made, ``budget`` when to stop, and ``replay`` names a campaign directory
-    whose ``model_cache.jsonl`` answers every model call instead of a model.
+    ``models`` sets how model calls are made, ``budget`` when to stop, ``replay`` names a campaign directory
+    whose ``model_cache.jsonl`` answers every model call instead of a model, and ``stop`` stops adding scenes
+    once the primary comparison is known (:mod:`evaluation.campaign.early_stop`).
 
     Raises :class:`CampaignError`: a directory holding a different campaign, another run in progress on it, a
     results file that cannot be read (usage errors), or a job that failed (a bug: ``usage=False``);
@@ -180,41 +185,54 @@ def run_campaign(
         limits = budget or Budget()
         spend = Spend()
         stopped: list[str] = []
+        kept = [r for r in done if r.job_id in expected]
+        answered: list[str] = []
 
         def more() -> bool:
             reason = spend.exceeded(limits) if limits.limited else None
             if reason and not stopped:
                 stopped.append(reason)
-            return reason is None
+            if stop is not None and not answered:
+                check = stop.check_records(kept)
+                if check.answered:
+                    answered.append(check.text(stop))
+                    progress.note(f"stopping early: {answered[0]}")
+            return reason is None and not answered
 
         ran = 0
         try:
             with contextlib.closing(dispatch(jobs, spec, more=more)) as outputs:
                 for output in outputs:
-                    ran += _keep(out_dir, output, progress, timings)
+                    new = _keep(out_dir, output, progress, timings)
+                    kept += new
+                    ran += len(new)
                     spend.add(output.usage, limits)
         finally:
             progress.finish()
-        if stopped or (limits.limited and ran < sum(len(j.systems) for j in jobs)):
+        if stopped or (limits.limited and not answered and ran < sum(len(j.systems) for j in jobs)):
             raise BudgetSpent(
                 f"budget spent ({stopped[0] if stopped else spend.text()}): {ran} records run now, "
                 f"{len(finished) + ran} of {total} kept in {out_dir}; run again with a larger budget to go on"
             )
-        return _finish(out_dir, plan, manifest, ran, len(finished), expected)
+        result = _finish(out_dir, plan, manifest, ran, len(finished), expected, partial=bool(answered))
+        result.stopped_early = answered[0] if answered else None
+        return result
 
 
 def _keep(
     out_dir: Path, output: JobOutput, progress: Progress, timings: dict[str, dict[str, float | None]] | None = None
-) -> int:
-    """Append a job's records and model responses to the campaign's files; the number of records. A replay's
-    records carry the replayed campaign's ``timings`` (its model calls took that long; the replay asked none)."""
+) -> list[DecisionRecord]:
+    """Append a job's records and model responses to the campaign's files; the records kept. A replay's records
+    carry the replayed campaign's ``timings`` (its model calls took that long; the replay asked none)."""
+    kept = []
     for record in output.records:
         recorded = (timings or {}).get(record.job_id)
-        append_record(out_dir / RESULTS_JSONL, record.model_copy(update=recorded) if recorded else record)
+        kept.append(record.model_copy(update=recorded) if recorded else record)
+        append_record(out_dir / RESULTS_JSONL, kept[-1])
     append_responses(out_dir / MODEL_CACHE, output.responses)
     label = output.records[0].scene_id if output.records else ""
     progress.advance(len(output.records), label, [r.system for r in output.records])
-    return len(output.records)
+    return kept
 
 
 def _recorded_timings(directory: Path) -> dict[str, dict[str, float | None]]:
@@ -282,14 +300,23 @@ def _prepare(out_dir: Path, manifest: CampaignManifest) -> list[DecisionRecord]:
 
 
 def _finish(
-    out_dir: Path, plan: CampaignPlan, manifest: CampaignManifest, ran: int, resumed_from: int, expected: set[str]
+    out_dir: Path,
+    plan: CampaignPlan,
+    manifest: CampaignManifest,
+    ran: int,
+    resumed_from: int,
+    expected: set[str],
+    *,
+    partial: bool = False,
 ) -> CampaignResult:
-    """Rewrite the results in balanced order (only records of this campaign's jobs), write the CSV and metrics."""
+    """Rewrite the results in balanced order (only records of this campaign's jobs), write the CSV and metrics;
+    ``partial`` (stopped early): of the scenes every system has finished."""
     found: dict[tuple[str, str], DecisionRecord] = {}
     for record in read_records(out_dir / RESULTS_JSONL):
         if record.job_id in expected:
             found.setdefault(record.key, record)
-    ordered = [found[(s.id, system.name)] for s in plan.scenes for system in plan.systems]
+    scenes = [s for s in plan.scenes if not partial or all((s.id, x.name) in found for x in plan.systems)]
+    ordered = [found[(s.id, system.name)] for s in scenes for system in plan.systems]
     write_jsonl(out_dir / RESULTS_JSONL, ordered)
     write_csv(out_dir / RESULTS_CSV, ordered)
     metrics = compute_metrics(ordered, [s.name for s in plan.systems])
