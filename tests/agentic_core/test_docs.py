@@ -53,6 +53,7 @@ MODULES = [
     "evaluation.campaign.jobs",
     "evaluation.campaign.model_calls",
     "evaluation.campaign.budget",
+    "evaluation.campaign.early_stop",
     "prompts",
     "agentic_core.reasoning.assessment",
     "agentic_core.reasoning.proposal",
