@@ -117,6 +117,7 @@ MODULES = [
     "agentic_core.swarm.fusion",
     "agentic_core.swarm.sectors",
     "agentic_core.swarm.consensus",
+    "agentic_core.swarm.card_signing",
     "agentic_core.swarm.projection",
     "agentic_core.swarm.separation",
     "agentic_core.swarm.coordinator",
