@@ -33,6 +33,7 @@ from typing import Any, TypeVar
 from agentic_core.contracts.errors import AgenticUAVError
 from agentic_core.contracts.swarm import Point, SwarmMessage, SwarmTask, UavState
 from agentic_core.contracts.world_model import WorldModel
+from agentic_core.swarm.consensus import ConsensusAgent, agree
 from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
 from agentic_core.swarm.fusion import fuse
 from agentic_core.swarm.sectors import Sector
@@ -184,6 +185,35 @@ class SwarmCoordinator:
             holds = self.manager.allocation.tasks_of(uav)  # a UAV that went home with nothing left to do is not lost
             if uav not in self.failed and holds and not member.alive():
                 self.fail(uav, "its vehicle stopped answering")
+
+    def without_ground(self) -> dict[str, str]:
+        """The ground link is gone: the live UAVs share out every task not yet done among themselves by consensus
+        (:mod:`~agentic_core.swarm.consensus`, signed messages through their own guards), and each holds what it
+        won from then on. Task id → its UAV."""
+        allocation = self.manager.allocation
+        open_ids = [t for t in self.manager.tasks if t not in allocation.done]
+        tasks = [self.manager.tasks[t] for t in open_ids]
+        live = [u for u in self.members if u not in self.failed and self.members[u].alive()]
+        agents = {
+            u: ConsensusAgent(Sealer(self.key, u), self.guards[u], self.members[u].state, max_bundle=len(tasks) or 1)
+            for u in live
+        }
+        result = agree(agents, tasks, links={u: [v for v in live if v != u] for u in live})
+        with self._lock:
+            for uav in self.members:
+                for task_id in open_ids:
+                    self.participants[uav].tasks.pop(task_id, None)
+            for task_id in open_ids:
+                allocation.awarded.pop(task_id, None)
+                allocation.costs.pop(task_id, None)
+            for task_id, uav in result.assignment.items():
+                allocation.awarded[task_id] = uav
+                self.participants[uav].tasks[task_id] = self.manager.tasks[task_id]
+        self._record(
+            "consensus", agreed=result.agreed, rounds=result.rounds, awarded=result.assignment,
+            unassigned=result.unassigned,
+        )  # fmt: skip
+        return dict(result.assignment)
 
     # ---- what the tools ask ----
 

@@ -218,3 +218,24 @@ def test_a_forged_award_is_refused_and_audited(swarm: SwarmCoordinator) -> None:
         assert refused.value.rejection.reason == "forged"
     assert swarm.audit.reasons().count("forged") == 2  # type: ignore[attr-defined]
     assert "survey:S9" not in swarm.participants[uav].tasks
+
+
+def test_without_the_ground_the_live_uavs_share_out_the_open_work_by_consensus(
+    swarm: SwarmCoordinator, uavs: list[Uav]
+) -> None:
+    awarded = swarm.allocate_sectors()
+    done_sector = "S1"
+    swarm.task_done(awarded[done_sector], f"survey:{done_sector}")
+    victim = awarded["S3"]
+    next(u for u in uavs if u.name == victim).alive = False
+    shared = swarm.without_ground()
+    assert sorted(shared) == ["survey:S2", "survey:S3", "survey:S4"]  # the open work, the done sector left alone
+    assert victim not in shared.values()
+    for task_id, uav in shared.items():
+        assert swarm.manager.allocation.awarded[task_id] == uav
+        holders = [u for u, p in swarm.participants.items() if task_id in p.tasks]
+        assert holders == [uav]  # exactly one UAV holds each task, and next_task hands it out
+    heir = shared["survey:S3"]
+    assert "survey:S3" in {swarm.next_task(heir)["id"]} | {t for t in swarm.participants[heir].tasks}
+    record = next(r for r in swarm.records if r["event"] == "consensus")  # type: ignore[attr-defined]
+    assert record["agreed"] and record["unassigned"] == []
