@@ -113,6 +113,8 @@ def write_summary(directory: Path, summary: dict[str, Any]) -> None:
         "",
         *(f"- problem: {p}" for p in summary["problems"]),
         *(f"- lost: {u} (its tasks auctioned again)" for u in summary["lost"]),
+        *(f"- degraded: {u}'s run (an alert reached only the outbox: its report.md says which)"
+          for u, v in summary["uavs"].items() if v["outcome"] == "degraded"),
         "",
         "| UAV | system id | role | outcome | run |",
         "|---|---|---|---|---|",

@@ -22,6 +22,9 @@ from tests.waiting import wait_for
 REPO = Path(__file__).resolve().parents[3]
 MISSION = REPO / "missions" / "hajj_swarm.yaml"
 
+CAMERA_HZ = 5.0
+"""Each UAV's camera: enough to find and verify the casualty, and four perception loops fit a shared machine."""
+
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
 
 
@@ -30,7 +33,8 @@ def _lines(path: Path) -> list[dict[str, Any]]:
 
 
 def test_four_uavs_cover_the_sectors_and_answer_the_casualty_together(tmp_path: Path, smtp: Any) -> None:
-    code = main(["swarm", "run", str(MISSION), "--vehicles", "4", "--runs-dir", str(tmp_path), "--speed", "max"])
+    argv = ["swarm", "run", str(MISSION), "--vehicles", "4", "--runs-dir", str(tmp_path), "--speed", "max"]
+    code = main([*argv, "--camera-hz", str(CAMERA_HZ)])
     (swarm_dir,) = tmp_path.iterdir()
     summary = json.loads((swarm_dir / "summary.json").read_text(encoding="utf-8"))
     assert code == 0, summary["problems"]
@@ -64,7 +68,7 @@ def test_four_uavs_cover_the_sectors_and_answer_the_casualty_together(tmp_path: 
 def test_a_uav_killed_mid_mission_loses_its_sector_to_another_and_bad_awards_are_refused(
     tmp_path: Path, smtp: Any
 ) -> None:
-    settings = SwarmSettings(mission=MISSION, vehicles=3, runs_dir=tmp_path, speed=None)
+    settings = SwarmSettings(mission=MISSION, vehicles=3, runs_dir=tmp_path, speed=None, camera_hz=CAMERA_HZ)
     swarm = SwarmRun(settings)
     wire: list[tuple[str, SwarmMessage]] = []
     for uav, channel in swarm.coordinator.channels.items():
