@@ -52,6 +52,7 @@ DELEGATED = {
     "mcp": "tools.mcp.cli",
     "sim": "flight.cli",
     "run": "agentic_core.run.cli",
+    "swarm": "agentic_core.run.swarm_cli",
     "examples": "agentic_core.examples.cli",
     "console": "agentic_core.console.cli",
     "memory": "agentic_core.memory.cli",
@@ -87,9 +88,11 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     from .mission.source import MissionError
     from .mission.validate import iter_steps, load_mission
+    from .swarm.fleet_tools import register_swarm_tools
 
     try:
         registry = registry_from_args(args)
+        register_swarm_tools(registry, None, "validate")  # a swarm mission's tools, for their names and arguments
         home = _validate_home(args)
     except (ToolDefinitionError, ValueError) as exc:
         print(f"agentic-uav validate: error: {exc}", file=sys.stderr)
@@ -253,6 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
         "sim", help="the simulated quadrotor on MAVLink/UDP, like PX4 SITL (agentic-uav sim --help)", add_help=False
     )
     sub.add_parser("run", help="fly a mission end to end and write its report (agentic-uav run --help)", add_help=False)
+    sub.add_parser("swarm", help="fly a mission with several UAVs (agentic-uav swarm run --help)", add_help=False)
     sub.add_parser("examples", help="list the shipped missions and scenes; copy them out to edit", add_help=False)
     sub.add_parser("console", help="the operator console in the browser: replay runs (agentic-uav console --help)",
                    add_help=False)  # fmt: skip

@@ -14,6 +14,12 @@ from agentic_core.cli import main
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 NOT_RUN_HERE = {
+    "agentic-uav swarm run missions/hajj_swarm.yaml --vehicles 4": "a minute of four UAVs; flown in "
+    "tests/agentic_core/run/test_swarm_run.py",
+    "agentic-uav swarm run missions/hajj_swarm.yaml --vehicles 4 --gcs 127.0.0.1:14550 --px4-ports": "streams to "
+    "fixed ports a test may not take; tests/flight/mavlink/test_lockstep.py checks the numbering",
+    "agentic-uav swarm run missions/hajj_swarm.yaml --connect udp://127.0.0.1:14580,udp://127.0.0.1:14581": "needs "
+    "two vehicles running in other processes; not flown by the tests yet",
     "pip install agentic-uavs": "installs from PyPI; tests/release/ installs the built wheel in a fresh venv",
     "agentic-uav run hajj_emergency": "minutes of flight over the whole scene; tests/release/ flies the mission by "
     "name from the installed wheel",

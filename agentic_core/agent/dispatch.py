@@ -38,6 +38,8 @@ from .ports import Publish
 WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
 """Long flight actions during which the control port and the triggers are watched."""
 
+VEHICLE_WAITS = ("flight.", "swarm.")
+"""Tools whose wait is a wait on vehicles (its own, or the swarm's flying a task): the simulation runs at full speed."""
 HOLD = "flight.hold"
 HOLD_WAIT_S = 2.0
 """How long a hold is given to end the action it supersedes before another is sent."""
@@ -113,7 +115,7 @@ class Dispatcher:
         if problems:
             result = _refused(tool, problems)
         else:
-            with self.pace.waiting("vehicle" if tool.startswith("flight.") else "tool"):
+            with self.pace.waiting("vehicle" if tool.startswith(VEHICLE_WAITS) else "tool"):
                 result = self.executor.call(tool, args, **options)
         if publish:
             self.published(tool, args, result, key)

@@ -23,6 +23,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
 
 from . import flight_args
+from .swarm_plan import SwarmPlan, uav_problems
 
 TEMPLATE_PATTERN = r"^\$\{.+\}$"
 Template = Annotated[str, StringConstraints(pattern=TEMPLATE_PATTERN)]
@@ -187,6 +188,11 @@ class StepBase(Contract):
     max_retries: int = Field(default=0, ge=0, le=20, description="retries before on_fail applies")
     timeout_s: float | None = Field(default=None, gt=0)
     approval: bool = Field(default=False, description="an operator must approve before the step runs")
+    uav: str | None = Field(
+        default=None,
+        description="a swarm mission's UAVs that have this step: a role of swarm.roles, or 'any' (the swarm awards "
+        "it at run time); default: every UAV, or the one drone",
+    )
 
 
 class TakeoffStep(StepBase):
@@ -339,6 +345,11 @@ class Trigger(Contract):
         description="who writes the response: 'steps' runs the steps above; 'reasoner' asks the reasoner for a "
         "plan (checked like the mission itself), the steps above running when it proposes none or is refused",
     )
+    uav: str | None = Field(
+        default=None,
+        description="a swarm mission's UAVs that watch for this: a role of swarm.roles, or 'any' (whichever sees it "
+        "first responds for the fleet); default: every UAV, or the one drone",
+    )
 
 
 OnAbort = Literal["rtl", "land", "hold"]
@@ -378,6 +389,28 @@ class PolicyGraph(Contract):
         default_factory=list,
         description="tools a model's plan or revision may call besides those the mission's own steps use",
     )
+    swarm: SwarmPlan | None = Field(
+        default=None, description="flown by several UAVs (agentic-uav swarm run): sectors, roles, layers, k-of-n"
+    )
+
+    @model_validator(mode="after")
+    def _uav_names(self) -> PolicyGraph:
+        named = [s.uav for s in walk_steps(self.steps)] + [t.uav for t in self.triggers]
+        named += [s.uav for t in self.triggers for s in walk_steps(t.steps)]
+        problems = uav_problems((n for n in named if n is not None), self.swarm)
+        if problems:
+            raise ValueError("; ".join(problems))
+        return self
+
+
+def walk_steps(steps: list[Any]) -> list[StepBase]:
+    """Every step of ``steps``, those nested in repeats and branches included, in document order."""
+    found: list[StepBase] = []
+    for step in steps:
+        found.append(step)
+        for nested in ("steps", "then", "else_"):
+            found += walk_steps(getattr(step, nested, None) or [])
+    return found
 
 
 ON_ABORT_TOOLS: dict[str, str] = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}
@@ -456,4 +489,5 @@ __all__ = [
     "WaitUntilStep",
     "mission_json_schema",
     "step_args",
+    "walk_steps",
 ]

@@ -84,6 +84,8 @@ class SimBackend:
         gcs: tuple[str, int] | None = None,
         tlog: Path | None = None,
         signing_key: bytes | None = None,
+        system_id: int = 1,
+        api: tuple[str, int] | None = None,
     ) -> None:
         self.pace = pace
         self.tlog_path = tlog
@@ -91,7 +93,7 @@ class SimBackend:
         self.signing_key = signing_key
         ground = resolve(gcs) if gcs else None
         self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed)
-        self.vehicle = MavlinkVehicle(self.sim, gcs=ground, api=None, signing_key=signing_key)
+        self.vehicle = MavlinkVehicle(self.sim, gcs=ground, api=api, signing_key=signing_key, system_id=system_id)
         if restore is not None:
             try:
                 self.vehicle.restore(VehicleSnapshot.model_validate(restore))

@@ -47,6 +47,7 @@ from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
 from .faults import SCHEDULE, FaultSchedule
+from .fleet_seat import FleetSeat
 from .link_key import keep_signing_key, run_signing_key
 from .model_check import require_model
 from .model_side import ModelSide
@@ -78,8 +79,10 @@ class MissionRun:
         progress: TextIO | None = None,
         operator: Operator | None = None,
         run_id: str | None = None,
+        fleet: FleetSeat | None = None,
     ) -> None:
         self.settings = settings
+        self.fleet = fleet  # a swarm's member: its shared pace, its lockstep vehicle, the swarm's tools
         self.progress = progress
         self._operator = operator
         self.resuming = run_id is not None
@@ -93,9 +96,9 @@ class MissionRun:
         self.registry, self.agent = run_tools(settings.tools, config)
         scene_path = settings.scene or default_scene(settings.mission)
         self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
-        self.pace = Pace(settings.speed)
+        self.pace = fleet.pace if fleet else Pace(settings.speed)
         tlog = self.run_dir / "flight.tlog"
-        self.backend: Backend = (
+        self.backend: Backend = fleet.backend(self) if fleet else (
             LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key)
             if settings.connect
             else SimBackend(
@@ -123,6 +126,8 @@ class MissionRun:
         if self.loop is not None:
             self.backend.on_sample(self.loop.on_sample)
         register_flight_tools(self.registry, self._connect, targets=self._target)
+        if self.fleet is not None:
+            self.fleet.tools(self.registry, self)
         self.registry.register(spec_from_function(self._analyze_scene, name="perception.analyze_scene",
                                                   scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
         self.plan = load_run_mission(settings.mission, self.registry, self._home())

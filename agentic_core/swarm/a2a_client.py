@@ -39,7 +39,8 @@ from agentic_core.contracts.errors import RunFailure
 from agentic_core.contracts.swarm import SwarmMessage, UavState
 from agentic_core.swarm.a2a_server import swarm_part, swarm_text
 from agentic_core.swarm.card import SIGNED_EXTENSION, state_from_card
-from agentic_core.swarm.signing import Guard
+from agentic_core.swarm.card_signing import verify_card
+from agentic_core.swarm.signing import Guard, SwarmKey
 
 TIMEOUT_S = 5.0
 
@@ -55,18 +56,30 @@ class PeerError(RunFailure):
 class A2APeer:
     """One A2A agent at ``base_url``, reached over HTTP; use as ``async with``."""
 
-    def __init__(self, base_url: str, *, guard: Guard | None = None, timeout_s: float = TIMEOUT_S) -> None:
+    def __init__(
+        self,
+        base_url: str,
+        *,
+        guard: Guard | None = None,
+        timeout_s: float = TIMEOUT_S,
+        card_key: SwarmKey | None = None,
+    ) -> None:
         self.base_url = base_url.rstrip("/")
         self.guard = guard
+        self.card_key = card_key
+        """With a key, a card is believed only when its JWS verifies (:mod:`.card_signing`): else ``CardRejected``."""
         self._http = httpx.AsyncClient(timeout=timeout_s)
         self._client: Client | None = None
 
     async def card(self) -> AgentCard:
         """The peer's Agent Card, fetched now from ``/.well-known/agent-card.json``."""
         try:
-            return await A2ACardResolver(self._http, self.base_url).get_agent_card()
+            card = await A2ACardResolver(self._http, self.base_url).get_agent_card()
         except (A2AClientError, httpx.HTTPError) as exc:
             raise PeerError(f"{self.base_url}: no agent card ({exc})") from exc
+        if self.card_key is not None:
+            verify_card(card, self.card_key)
+        return card
 
     async def state(self) -> UavState:
         """The state the peer's card advertises now."""

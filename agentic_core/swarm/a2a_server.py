@@ -43,7 +43,8 @@ except ImportError as exc:
 from agentic_core.contracts.errors import RunFailure
 from agentic_core.contracts.swarm import SwarmMessage, UavState
 from agentic_core.swarm.card import RPC_PATH, SIGNED_EXTENSION, SWARM_MEDIA_TYPE, uav_card, with_state
-from agentic_core.swarm.signing import Guard, Refused
+from agentic_core.swarm.card_signing import sign_card
+from agentic_core.swarm.signing import Guard, Refused, SwarmKey
 
 START_TIMEOUT_S = 10.0
 
@@ -110,9 +111,19 @@ def _describe(state: UavState) -> str:
 class A2AServer:
     """Serves one UAV over A2A on 127.0.0.1 (a free port unless ``port`` is given) until :meth:`close`."""
 
-    def __init__(self, agent: SwarmAgent, guard: Guard, *, host: str = "127.0.0.1", port: int = 0) -> None:
+    def __init__(
+        self,
+        agent: SwarmAgent,
+        guard: Guard,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        card_key: SwarmKey | None = None,
+    ) -> None:
         self.agent = agent
         self.guard = guard
+        self.card_key = card_key
+        """With a key, every card served is signed (a JWS in ``signatures``: :mod:`.card_signing`)."""
         self._socket = socket.create_server((host, port))
         self.host, self.port = self._socket.getsockname()[:2]
         self.url = f"http://{self.host}:{self.port}"
@@ -132,7 +143,8 @@ class A2AServer:
             raise RunFailure(f"the A2A server of {name} did not start within {START_TIMEOUT_S:g} s")
 
     async def _fresh_card(self, card: AgentCard) -> AgentCard:
-        return with_state(card, self.agent.state())
+        fresh = with_state(card, self.agent.state())
+        return sign_card(fresh, self.card_key) if self.card_key is not None else fresh
 
     def _serve(self) -> None:
         asyncio.run(self._server.serve(sockets=[self._socket]))

@@ -405,15 +405,7 @@ class MavlinkVehicle(TelemetryBuilders, Sender):
         pace raises is recorded in :attr:`tick_errors`."""
         pacer = Pacer(speed, self.tick_errors)
         self._stop.clear()
-        # Clients send heartbeats on their own clock, at real-time rates: faster than real time, simulated time
-        # would make a healthy link look lost, so link loss is judged on the wall clock while running free.
-        self._link_clock = time.monotonic
-        if self.last_rx_s is not None:
-            self.last_rx_s = time.monotonic()
-        if self.links.commander_heard is not None:
-            self.links.commander_heard = time.monotonic()
-        if self.navigator.offboard_time_s is not None:
-            self.navigator.offboard_time_s = time.monotonic()
+        self.link_on_wall_clock()
         current = pacer.speed
         wall0, sim0 = time.monotonic(), self.sim.time_s
         while not self._stop.is_set():
@@ -432,6 +424,28 @@ class MavlinkVehicle(TelemetryBuilders, Sender):
                             self._poll()
                 if pacer.changed():
                     break  # the next tick re-bases on the new answer
+
+    def link_on_wall_clock(self) -> None:
+        """Judge link loss (and offboard streams) on the wall clock from now on, as :meth:`run` does: clients send
+        heartbeats at real-time rates, so faster than real time simulated seconds would make a healthy link look
+        lost. A caller that ticks this vehicle at a pace of its own (:mod:`flight.mavlink.lockstep`) calls it."""
+        self._link_clock = time.monotonic
+        if self.last_rx_s is not None:
+            self.last_rx_s = time.monotonic()
+        if self.links.commander_heard is not None:
+            self.links.commander_heard = time.monotonic()
+        if self.navigator.offboard_time_s is not None:
+            self.navigator.offboard_time_s = time.monotonic()
+
+    def poll(self) -> None:
+        """Read the datagrams waiting now and answer them, between ticks (a no-op once closed)."""
+        with self._lock:
+            if not self._closed:
+                self._poll()
+
+    def fileno(self) -> int:
+        """The socket's descriptor, for ``select`` over several vehicles (-1 once closed)."""
+        return -1 if self._closed else self._sock.fileno()
 
     def start(self, speed: Speed = 1.0) -> threading.Thread:
         """Run :meth:`run` on a daemon thread (``speed``: a multiple of real time, None, or a pace)."""

@@ -22,6 +22,7 @@ def test_quick_run_prints_the_table() -> None:
         "over A2A on 127.0.0.1, 2 UAVs",
         "deconflicted legs",
         "lockstep physics, 4",
+        "lockstep MAVLink vehicles, 4",
     )
     for row in rows:
         assert row in proc.stdout, proc.stdout

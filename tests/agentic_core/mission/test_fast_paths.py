@@ -53,7 +53,7 @@ def test_the_source_map_composes_the_tree_only_when_a_position_is_asked_for() ->
 def test_a_merged_field_is_reported_where_the_anchor_wrote_it() -> None:
     assert messages(MERGED) == [
         "m.yaml:3:1: unknown field 'defaults' in the mission (known: plan_id, goal, params, limits, steps, "
-        "triggers, dependencies, on_abort, scopes, knowledge, allow_tools)",
+        "triggers, dependencies, on_abort, scopes, knowledge, allow_tools, swarm)",
         "m.yaml:5:22: step 'wait' args duration_s: Input should be greater than 0",
     ]
 

@@ -15,7 +15,8 @@ from agentic_core.run.runner import RunSettings, default_scene, run_mission
 from flight.sim.scene_file import load_scene
 
 REPO = Path(__file__).resolve().parents[3]
-SHIPPED = sorted((REPO / "missions").glob("*.yaml"))
+SHIPPED = sorted(p for p in (REPO / "missions").glob("*.yaml") if load_mission(p).swarm is None)
+"""The one-drone missions; a swarm mission (hajj_swarm) flies in tests/agentic_core/run/test_swarm_run.py."""
 CAMERA_HZ = 5.0
 """Frames per second of the camera: enough to find, watch and confirm the casualty; a sixth of the default."""
 

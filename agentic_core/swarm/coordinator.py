@@ -1,0 +1,350 @@
+"""The swarm's ground side during a run: Contract Net over signed messages allocates the sectors, then the
+casualty work (verify, deliver) as it comes; each UAV's agent asks it for its next task through the ``swarm.*``
+tools (:mod:`agentic_core.swarm.fleet_tools`). It watches the members: one whose vehicle has died loses its tasks, which
+are auctioned again among the rest. Everything it decides goes to ``swarm.jsonl``; refused messages to the audit.
+
+The manager runs on its own asyncio loop (thread ``swarm-manager``); the tools call it from the UAVs' tool threads
+and wait for the answer (:meth:`SwarmCoordinator.call`). Every message crosses as JSON through the receiver's
+:class:`~agentic_core.swarm.signing.Guard`, as it would over A2A.
+
+>>> from agentic_core.swarm.signing import SwarmKey
+>>> from agentic_core.contracts.swarm import Point, UavState
+>>> from agentic_core.swarm.sectors import Sector
+>>> state = lambda: UavState(uav_id="uav-1", position=Point(north=0, east=0, alt=30), battery_pct=90)
+>>> sector = Sector("S1", ((0.0, 0.0), (0.001, 0.0), (0.001, 0.001)), Point(north=50, east=50))
+>>> from agentic_core.swarm.coordinator import SwarmCoordinator
+>>> swarm = SwarmCoordinator(SwarmKey.generate("doc"), [Member("uav-1", state, layer_m=30.0)], [sector])
+>>> swarm.allocate_sectors()
+{'S1': 'uav-1'}
+>>> swarm.next_task("uav-1")["skill"]
+'survey_sector'
+>>> swarm.close()
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+from collections.abc import Callable, Coroutine, Iterable
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+from agentic_core.contracts.errors import AgenticUAVError
+from agentic_core.contracts.swarm import Point, SwarmMessage, SwarmTask, UavState
+from agentic_core.contracts.world_model import WorldModel
+from agentic_core.swarm.consensus import ConsensusAgent, agree
+from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
+from agentic_core.swarm.fusion import fuse
+from agentic_core.swarm.sectors import Sector
+from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmKey
+
+T = TypeVar("T")
+GROUND = "ground"
+SAME_OBJECT_M = 10.0
+"""A claim this near an earlier one of the same class is the same casualty."""
+
+
+@dataclass
+class Member:
+    """One UAV as the coordinator sees it: its state and World Model (read live), whether it lives, its layer."""
+
+    uav: str
+    state: Callable[[], UavState]
+    layer_m: float
+    world: Callable[[], WorldModel | None] = lambda: None
+    alive: Callable[[], bool] = lambda: True
+    park: tuple[float, float] = (0.0, 0.0)
+    """Where it waits for work (latitude, longitude): over its own pad, clear of every other UAV's."""
+
+
+class FinderRefuses(Participant):
+    """A participant that does not bid to verify its own find (a verification is another UAV's eyes)."""
+
+    async def handle(self, message: SwarmMessage) -> SwarmMessage | None:
+        task = message.body.get("task")
+        parts = str(task.get("id", "")).split(":") if isinstance(task, dict) else []
+        if message.kind == "cfp" and parts[:2] == ["verify_casualty", self.sealer.sender]:
+            return self.sealer.seal(
+                "refuse", {"reason": "my own find"}, recipient=message.sender, conversation=message.conversation
+            )
+        return await super().handle(message)
+
+
+@dataclass
+class Casualty:
+    """A casualty the fleet responds to: who found it, where, who verified it, who delivers."""
+
+    id: str
+    finder: str
+    object_id: str
+    where: Point
+    lat: float
+    lon: float
+    verified_by: list[str] = field(default_factory=list)
+    delivery: str | None = None
+    delivered: bool = False
+
+
+class SwarmCoordinator:
+    """See the module docstring. ``log`` receives every decision as a dict (a line of ``swarm.jsonl``)."""
+
+    def __init__(
+        self,
+        key: SwarmKey,
+        members: Iterable[Member],
+        sectors: Iterable[Sector],
+        *,
+        rounds: int = 1,
+        verify_k: int = 2,
+        audit: Audit | None = None,
+        log: Callable[[dict[str, Any]], None] = lambda _: None,
+        clock: Callable[[], float] = lambda: 0.0,
+        bid_window_s: float = 2.0,
+    ) -> None:
+        self.key = key
+        self.members = {m.uav: m for m in members}
+        self.sectors = {s.id: s for s in sectors}
+        self.rounds = rounds
+        self.verify_k = verify_k
+        self.audit = audit or MemoryAudit()
+        self.log = log
+        self.clock = clock
+        self.coverage: dict[str, list[str]] = {s: [] for s in self.sectors}
+        """Sector id → the UAVs that finished a survey of it, one entry per survey."""
+        self.casualties: dict[str, Casualty] = {}
+        self.failed: list[str] = []
+        self.participants: dict[str, Participant] = {}
+        self.channels: dict[str, LocalChannel] = {}
+        self.guards: dict[str, Guard] = {}
+        names = [GROUND, *self.members]
+        ground_guard = Guard(key, GROUND, audit=self.audit, members=names)
+        for uav, member in self.members.items():
+            guard = Guard(key, uav, audit=self.audit, members=names)
+            agent = FinderRefuses(Sealer(key, uav), member.state, manager=GROUND, guard=guard)
+            self.participants[uav], self.guards[uav] = agent, guard
+            self.channels[uav] = LocalChannel(agent, guard, reply_guard=ground_guard)
+        self.manager = Manager(Sealer(key, GROUND), ground_guard, self.channels, bid_window_s=bid_window_s)
+        self._lock = threading.RLock()
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="swarm-manager", daemon=True)
+        self._thread.start()
+
+    # ---- the manager's loop ----
+
+    def call(self, work: Coroutine[Any, Any, T], timeout_s: float = 60.0) -> T:
+        """Run ``work`` on the manager's loop and wait for its result."""
+        return asyncio.run_coroutine_threadsafe(work, self._loop).result(timeout=timeout_s)
+
+    def close(self) -> None:
+        """Stop the manager's loop (idempotent)."""
+        if self._loop.is_running():
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join(timeout=5.0)
+        if not self._loop.is_running() and not self._loop.is_closed():
+            self._loop.close()
+
+    def _record(self, event: str, **fields: Any) -> None:
+        self.log({"event": event, "sim_t": round(self.clock(), 2), "t": time.time(), **fields})
+
+    def _awards_since(self, before: int) -> None:
+        for entry in self.manager.allocation.rounds[before:]:
+            task = entry["task"]
+            winner = self.manager.allocation.awarded.get(task)
+            self._record("round", task=task, bids=entry["bids"], silent=sorted(entry["silent"]), awarded=winner)
+
+    # ---- allocation ----
+
+    def allocate_sectors(self) -> dict[str, str]:
+        """Auction every sector (a survey where its centre is, at each bidder's layer); sector id → winner."""
+        tasks = [
+            SwarmTask(id=f"survey:{s.id}", skill="survey_sector", where=s.centre, work_s=60.0)
+            for s in self.sectors.values()
+        ]
+        before = len(self.manager.allocation.rounds)
+        allocation = self.call(self.manager.allocate(tasks))
+        self._awards_since(before)
+        return {t.split(":", 1)[1]: uav for t, uav in allocation.awarded.items() if t.startswith("survey:")}
+
+    def fail(self, uav: str, why: str) -> list[str]:
+        """``uav`` is lost: its undone tasks auctioned again among the rest. The tasks that moved."""
+        with self._lock:
+            if uav in self.failed:
+                return []
+            self.failed.append(uav)
+        self.channels[uav].alive = False
+        before = len(self.manager.allocation.rounds)
+        moved = self.call(self.manager.fail(uav))
+        self._record("failed", uav=uav, why=why, moved=moved)
+        self._awards_since(before)
+        return moved
+
+    def watch(self) -> None:
+        """Check every member once: one whose vehicle is gone has failed (its tasks move)."""
+        for uav, member in self.members.items():
+            holds = self.manager.allocation.tasks_of(uav)  # a UAV that went home with nothing left to do is not lost
+            if uav not in self.failed and holds and not member.alive():
+                self.fail(uav, "its vehicle stopped answering")
+
+    def without_ground(self) -> dict[str, str]:
+        """The ground link is gone: the live UAVs share out every task not yet done among themselves by consensus
+        (:mod:`~agentic_core.swarm.consensus`, signed messages through their own guards), and each holds what it
+        won from then on. Task id → its UAV."""
+        allocation = self.manager.allocation
+        open_ids = [t for t in self.manager.tasks if t not in allocation.done]
+        tasks = [self.manager.tasks[t] for t in open_ids]
+        live = [u for u in self.members if u not in self.failed and self.members[u].alive()]
+        agents = {
+            u: ConsensusAgent(Sealer(self.key, u), self.guards[u], self.members[u].state, max_bundle=len(tasks) or 1)
+            for u in live
+        }
+        result = agree(agents, tasks, links={u: [v for v in live if v != u] for u in live})
+        with self._lock:
+            for uav in self.members:
+                for task_id in open_ids:
+                    self.participants[uav].tasks.pop(task_id, None)
+            for task_id in open_ids:
+                allocation.awarded.pop(task_id, None)
+                allocation.costs.pop(task_id, None)
+            for task_id, uav in result.assignment.items():
+                allocation.awarded[task_id] = uav
+                self.participants[uav].tasks[task_id] = self.manager.tasks[task_id]
+        self._record(
+            "consensus", agreed=result.agreed, rounds=result.rounds, awarded=result.assignment,
+            unassigned=result.unassigned,
+        )  # fmt: skip
+        return dict(result.assignment)
+
+    # ---- what the tools ask ----
+
+    def next_task(self, uav: str) -> dict[str, Any]:
+        """The UAV's next work: a verification or delivery first, then its least-covered sector, else ``hold``
+        (others are still at work) or ``done``."""
+        layer = self.members[uav].layer_m
+        held = [t for t in self.participants[uav].tasks.values() if t.id not in self.manager.allocation.done]
+        for task in held:
+            if task.skill in ("verify_casualty", "deliver_kit"):
+                casualty = self.casualties[task.id.split(":", 2)[2]]
+                return {"skill": task.skill, "id": task.id, "lat": casualty.lat, "lon": casualty.lon, "alt_m": layer}
+        surveys = sorted(
+            (t for t in held if t.skill == "survey_sector"), key=lambda t: len(self.coverage[t.id.split(":")[1]])
+        )
+        if surveys:
+            sector = self.sectors[surveys[0].id.split(":")[1]]
+            return {"skill": "survey_sector", "id": surveys[0].id, "polygon": sector.corners(), "alt_m": layer}
+        lat, lon = self.members[uav].park
+        return {"skill": "done" if self.finished() else "hold", "id": "", "lat": lat, "lon": lon, "alt_m": layer}
+
+    def finished(self) -> bool:
+        """Whether every task is done (or no live UAV can do what is left): the UAVs may go home."""
+        allocation = self.manager.allocation
+        open_tasks = [t for t in allocation.awarded if t not in allocation.done]
+        return not open_tasks
+
+    def task_done(self, uav: str, task_id: str) -> dict[str, Any]:
+        """The UAV finished one piece of ``task_id`` (a survey of its sector, a verification, a delivery)."""
+        if self.manager.allocation.awarded.get(task_id) != uav:
+            raise AgenticUAVError(f"{uav} does not hold {task_id!r}")
+        finished = True
+        if task_id.startswith("survey:"):
+            sector = task_id.split(":")[1]
+            self.coverage[sector].append(uav)
+            finished = len(self.coverage[sector]) >= self.rounds
+            self._record("covered", uav=uav, sector=sector, surveys=len(self.coverage[sector]))
+        elif task_id.startswith("deliver_kit:"):
+            self.casualties[task_id.split(":", 2)[2]].delivered = True
+            self._record("delivered", uav=uav, casualty=task_id.split(":", 2)[2])
+        if finished:
+            self.call(self.manager.report(self.participants[uav].report(task_id, done=True)))
+        return {"task": task_id, "finished": finished}
+
+    def claim(self, uav: str, object_id: str, cls: str = "person") -> dict[str, Any]:
+        """The UAV found ``object_id`` and would respond for the fleet: yes unless another already does (an object of
+        the class within :data:`SAME_OBJECT_M` of an earlier claim)."""
+        world = self.members[uav].world()
+        obj = world.get(object_id) if world is not None else None
+        if obj is None:
+            raise AgenticUAVError(f"{uav} sees no {object_id!r}")
+        here = Point(north=obj.pose.north, east=obj.pose.east)
+        with self._lock:
+            for casualty in self.casualties.values():
+                if casualty.where.horizontal_to(here) <= SAME_OBJECT_M:
+                    self._record("claim", uav=uav, object=object_id, claimed=False, by=casualty.finder)
+                    return {"claimed": False, "casualty": casualty.id, "by": casualty.finder}
+            casualty = Casualty(f"C{len(self.casualties) + 1}", uav, object_id, here, obj.pose.lat, obj.pose.lon)
+            self.casualties[casualty.id] = casualty
+        self._record("claim", uav=uav, object=object_id, claimed=True, casualty=casualty.id, where=here.model_dump())
+        return {"claimed": True, "casualty": casualty.id, "by": uav}
+
+    def seen_by(self, casualty: Casualty) -> list[str]:
+        """The UAVs whose World Models hold the casualty now, fused by position (:func:`~.fusion.fuse`)."""
+        views = {u: w for u, m in self.members.items() if u not in self.failed and (w := m.world()) is not None}
+        if casualty.finder not in views:
+            return []
+        fleet = fuse(views)
+        found = fleet.fleet_id(casualty.finder, casualty.object_id)
+        return sorted(fleet.seen_by(found)) if found is not None else []
+
+    def verify(self, uav: str, casualty_id: str, timeout_s: float, wait: Callable[[], None]) -> dict[str, Any]:
+        """Ask another UAV (Contract Net) to look at the casualty; wait until ``verify_k`` UAVs see it, or
+        ``timeout_s`` of simulated time. ``wait`` pauses between looks."""
+        casualty = self.casualties[casualty_id]
+        if casualty.finder != uav:
+            raise AgenticUAVError(f"{casualty_id} was found by {casualty.finder}, not {uav}")
+        if self.verify_k > 1:
+            task = SwarmTask(id=f"verify_casualty:{uav}:{casualty_id}", skill="verify_casualty", where=casualty.where)
+            before = len(self.manager.allocation.rounds)
+            self.call(self.manager.allocate([task]))
+            self._awards_since(before)
+        deadline = self.clock() + timeout_s
+        seen = self.seen_by(casualty)
+        while len(seen) < self.verify_k and self.clock() < deadline:
+            wait()
+            seen = self.seen_by(casualty)
+        casualty.verified_by = seen
+        verified = len(seen) >= self.verify_k
+        self._record("verify", uav=uav, casualty=casualty_id, seen_by=seen, k=self.verify_k, verified=verified)
+        task_id = f"verify_casualty:{uav}:{casualty_id}"
+        holder = self.manager.allocation.awarded.get(task_id)
+        if holder is not None and task_id not in self.manager.allocation.done:
+            self.task_done(holder, task_id)  # verified or given up: the verifier goes back to its sector
+        return {"verified": verified, "seen_by": seen, "k": self.verify_k}
+
+    def clearance(
+        self, uav: str, task_id: str, horizontal_m: float, timeout_s: float, wait: Callable[[], None]
+    ) -> dict[str, Any]:
+        """Wait until no other UAV is airborne within ``horizontal_m`` of the task's place (a UAV about to descend
+        there through the lower layers), or ``timeout_s`` of simulated time; whether it is clear."""
+        casualty = self.casualties[task_id.split(":", 2)[2]]
+        deadline = self.clock() + timeout_s
+
+        def near() -> list[str]:
+            return sorted(
+                other
+                for other, member in self.members.items()
+                if other != uav and other not in self.failed and member.alive()
+                and (state := member.state()).position.alt > 1.0
+                and state.position.horizontal_to(casualty.where) < horizontal_m
+            )  # fmt: skip
+
+        blocking = near()
+        while blocking and self.clock() < deadline:
+            wait()
+            blocking = near()
+        self._record("clearance", uav=uav, task=task_id, clear=not blocking, blocking=blocking)
+        return {"clear": not blocking, "blocking": blocking}
+
+    def deliver(self, uav: str, casualty_id: str) -> dict[str, Any]:
+        """Auction the kit's delivery to the casualty (only a UAV with a medkit bids); the award."""
+        casualty = self.casualties[casualty_id]
+        task = SwarmTask(
+            id=f"deliver_kit:{uav}:{casualty_id}", skill="deliver_kit", where=casualty.where, needs="medkit"
+        )
+        before = len(self.manager.allocation.rounds)
+        allocation = self.call(self.manager.allocate([task]))
+        self._awards_since(before)
+        casualty.delivery = allocation.awarded.get(task.id)
+        return {"awarded": casualty.delivery, "cost": allocation.costs.get(task.id)}
+
+
+__all__ = ["GROUND", "Casualty", "FinderRefuses", "Member", "SwarmCoordinator"]

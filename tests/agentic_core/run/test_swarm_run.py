@@ -1,0 +1,117 @@
+"""``agentic-uav swarm run``: the shipped swarm mission flown by four simulated UAVs on one clock, each with its own
+agent loop — sectors covered, the casualty found, verified by a second UAV, alerted, and served by the medic UAV
+awarded the kit, with the separation kept; and a UAV killed mid-mission whose sector another UAV covers, while
+forged and replayed awards injected on the wire are refused and audited."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import threading
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from agentic_core.cli import main
+from agentic_core.contracts.swarm import SwarmMessage
+from agentic_core.run.swarm_run import SwarmRun, SwarmSettings
+from agentic_core.swarm.signing import Refused, Sealer, SwarmKey
+from tests.waiting import wait_for
+
+REPO = Path(__file__).resolve().parents[3]
+MISSION = REPO / "missions" / "hajj_swarm.yaml"
+
+CAMERA_HZ = 5.0
+"""Each UAV's camera: enough to find and verify the casualty, and four perception loops fit a shared machine."""
+
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
+
+
+def _lines(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+
+
+def test_four_uavs_cover_the_sectors_and_answer_the_casualty_together(tmp_path: Path, smtp: Any) -> None:
+    argv = ["swarm", "run", str(MISSION), "--vehicles", "4", "--runs-dir", str(tmp_path), "--speed", "max"]
+    code = main([*argv, "--camera-hz", str(CAMERA_HZ)])
+    (swarm_dir,) = tmp_path.iterdir()
+    summary = json.loads((swarm_dir / "summary.json").read_text(encoding="utf-8"))
+    assert code == 0, summary["problems"]
+    assert summary["outcome"] == "completed" and summary["lost"] == []
+    assert sorted(summary["sectors"]) == ["S1", "S2", "S3", "S4"] and all(summary["sectors"].values())
+    assert [u["system_id"] for u in summary["uavs"].values()] == [1, 2, 3, 4]
+    assert {u["outcome"] for u in summary["uavs"].values()} == {"completed"}
+    (casualty,) = [c for c in summary["casualties"] if c["truth"] == "P-12"]
+    assert (
+        casualty["verified"] and len(casualty["verified_by"]) >= 2 and casualty["found_by"] in casualty["verified_by"]
+    )
+    assert casualty["alerted"] and casualty["delivered"]
+    medic = casualty["delivery_awarded"]
+    assert summary["uavs"][medic]["role"] == "medic"  # only a UAV with a kit may be awarded the delivery
+    separation = summary["separation"]
+    assert separation["losses"] == 0 and separation["instants"] > 100
+    assert separation["min_distance_m"] >= min(separation["horizontal_m"], separation["vertical_m"])
+    records = _lines(swarm_dir / "swarm.jsonl")
+    kit_round = next(r for r in records if r["event"] == "round" and r["task"].startswith("deliver_kit:"))
+    assert set(kit_round["bids"]) <= {u for u, v in summary["uavs"].items() if v["role"] == "medic"}
+    assert kit_round["awarded"] == min(kit_round["bids"], key=kit_round["bids"].get) == medic
+    assert any(r["event"] == "delivered" and r["uav"] == medic for r in records)
+    assert len(smtp.inbox.envelopes) == 1  # one alert for the fleet, not one per UAV that saw the casualty
+    for uav in summary["uavs"].values():  # each UAV's own run: its trace and report
+        run_dir = Path(uav["run_dir"])
+        assert (run_dir / "trace.jsonl").is_file() and (run_dir / "report.md").is_file()
+    assert (swarm_dir / "missions" / "uav-3.yaml").read_text(encoding="utf-8").count("deliver_kit") >= 1
+    assert "deliver_kit" not in (swarm_dir / "missions" / "uav-1.yaml").read_text(encoding="utf-8")  # a scout's
+
+
+def test_a_uav_killed_mid_mission_loses_its_sector_to_another_and_bad_awards_are_refused(
+    tmp_path: Path, smtp: Any
+) -> None:
+    settings = SwarmSettings(mission=MISSION, vehicles=3, runs_dir=tmp_path, speed=None, camera_hz=CAMERA_HZ)
+    swarm = SwarmRun(settings)
+    wire: list[tuple[str, SwarmMessage]] = []
+    for uav, channel in swarm.coordinator.channels.items():
+        send = channel.send
+
+        async def tap(message: SwarmMessage, uav: str = uav, send: Any = send) -> SwarmMessage | None:
+            wire.append((uav, message))
+            reply: SwarmMessage | None = await send(message)
+            return reply
+
+        channel.send = tap  # type: ignore[method-assign]
+    outcome: dict[str, Any] = {}
+    flight = threading.Thread(target=lambda: outcome.update(swarm.execute()), name="test-swarm")
+    flight.start()
+    try:
+        sectors: dict[str, str] = wait_for(lambda: dict(swarm.coordinator.manager.allocation.awarded), timeout_s=60.0)
+        victim = sectors["survey:S1"]  # the strip nearest the pads: P-12 lies in S2
+        seat = next(s for s in swarm.seats if s.uav == victim)
+        wait_for(lambda: seat.run is not None and (s := seat.run.last_sample) is not None and s.alt_m > 10.0,
+                 timeout_s=120.0, what=f"{victim} in the air")  # fmt: skip
+        assert swarm.coordinator.coverage["S1"] == []
+        swarm.kill(victim)
+        wait_for(lambda: victim in swarm.coordinator.failed, timeout_s=60.0, what="the swarm noticing")
+        uav, award = next((u, m) for u, m in wire if m.kind == "award" and u != victim)
+        channel = swarm.coordinator.channels[uav]
+        forged = Sealer(SwarmKey.generate("mina"), "ground").seal("award", award.body, recipient=uav)
+        for bad in (award, forged):  # the genuine award again (replayed), and one signed with another key
+            with pytest.raises(Refused):
+                asyncio.run_coroutine_threadsafe(channel.send(bad), swarm.coordinator._loop).result(timeout=10.0)
+    finally:
+        flight.join(timeout=500.0)
+    assert not flight.is_alive()
+    heir = outcome["allocation"]["survey:S1"]
+    assert heir != victim
+    assert outcome["sectors"]["S1"] and victim not in outcome["sectors"]["S1"]
+    assert outcome["lost"] == [victim] and outcome["uavs"][victim]["outcome"] != "completed"
+    assert outcome["outcome"] == "degraded" and outcome["exit"] == 3, outcome["problems"]
+    records = _lines(swarm.dir / "swarm.jsonl")
+    failed = next(r for r in records if r["event"] == "failed")
+    assert failed["uav"] == victim and "survey:S1" in failed["moved"]
+    refusals = _lines(swarm.dir / "refusals.jsonl")
+    assert [(r["receiver"], r["reason"], r["kind"]) for r in refusals] == [
+        (uav, "replayed", "award"),
+        (uav, "forged", "award"),
+    ]
+    assert outcome["refusals"] == {"replayed": 1, "forged": 1}
