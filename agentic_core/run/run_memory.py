@@ -10,14 +10,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from ..agent.bus import EventBus
+from ..contracts.feedback import PreferenceFeatures
 from ..contracts.memory import MemoryKind, Provenance, RecallPort, Recollection
 from ..contracts.world_model import WorldModel
+from ..memory.feedback import FeedbackError, FeedbackModel
 from ..memory.fleet import FleetMemory
 from ..memory.knowledge import search_knowledge
 from ..memory.recorder import Place, RunRecorder
 from ..reasoning.model_reasoners import model_of
 from ..reasoning.reasoners import Reasoner
 from ..reasoning.remembering import Remembering
+from ..reasoning.rules import RuleReasoner
 
 if TYPE_CHECKING:
     from flight.sim.scene_model import Scene
@@ -45,12 +48,30 @@ class RunMemory:
         path.parent.mkdir(parents=True, exist_ok=True)
         self.fleet = FleetMemory(path)
         self.run_id = run_id
+        self.world: WorldModel | None = None  # the last World Model assessed: the evidence an answer is about
         self.recorder = RunRecorder(self.fleet, run_id, aircraft=lambda: aircraft(view()), locate=locate,
-                                    mission=mission, scene=scene)  # fmt: skip
+                                    mission=mission, scene=scene, evidence=self.evidence)  # fmt: skip
+        self.feedback_error: str | None = None
+        try:
+            self.feedback = FeedbackModel.load(self.fleet)
+        except FeedbackError as exc:  # a broken record must not ground the fleet: the rules' table stands
+            self.feedback, self.feedback_error = FeedbackModel.fit([]), str(exc)
+
+    def evidence(self, object_id: str) -> PreferenceFeatures | None:
+        """What the reasoner last saw of an object (for the operator's answer about it)."""
+        return PreferenceFeatures.of(self.world, object_id) if self.world is not None else None
+
+    def examples(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
+        """The few-shot port: past answers about evidence like the focus's (else the stillest person's)."""
+        people = sorted(world.objects_of("person"), key=lambda o: -o.stationary_s)
+        subject = focus or (people[0].id if people else None)
+        seen = PreferenceFeatures.of(world, subject, severity="critical") if subject else None
+        return self.feedback.examples(seen) if seen is not None and self.feedback.records else []
 
     def recall(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
         """The context port: earlier runs' memories within :data:`RECALL_M` of the aircraft, the operator's
         answers there included."""
+        self.world = world
         ego = world.ego_pose
         kinds: tuple[MemoryKind, ...] = ("incident", "casualty", "alert", "decision", "approval")
         return self.fleet.recall(ego.lat, ego.lon, within_m=RECALL_M, kinds=kinds, exclude_run=self.run_id)
@@ -77,6 +98,11 @@ class RunMemory:
         model = model_of(reasoner)
         if topics and model is not None:
             model.knowledge = self.knowledge(topics)
+        rules = reasoner if isinstance(reasoner, RuleReasoner) else getattr(reasoner, "rules", None)
+        if self.feedback.records and isinstance(rules, RuleReasoner):
+            rules.prior = self.feedback
+        if self.feedback.records and model is not None:
+            model.examples = self.examples
         return Remembering(reasoner, self.recall)
 
     def start(self, bus: EventBus, home: tuple[float, float] | None) -> None:
@@ -86,8 +112,10 @@ class RunMemory:
         runs = sorted({r.provenance.run_id for r in known if r.provenance.run_id})
         bus.publish("memory", event="recalled", store=str(self.fleet.path), search=self.fleet.search_mode,
                     memories=[f"{r.kind}/{r.key}" for r in known], runs=runs,
+                    feedback=len(self.feedback.records), feedback_error=self.feedback_error,
                     summary=f"{len(known)} memories of this area from {len(runs)} earlier runs "
-                    f"({self.fleet.search_mode})")  # fmt: skip
+                    f"({self.fleet.search_mode}); {len(self.feedback.records)} operator answers as priors"
+                    + (f" ({self.feedback_error}: not used)" if self.feedback_error else ""))  # fmt: skip
 
     def finish(self, bus: EventBus) -> None:
         """Record what this run found (before its end event), then close the store."""
