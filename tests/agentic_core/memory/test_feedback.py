@@ -16,7 +16,6 @@ from agentic_core.contracts.world_model import WorldModel
 from agentic_core.memory.cli import main as memory_main
 from agentic_core.memory.feedback import FeedbackError, FeedbackModel
 from agentic_core.memory.fleet import FleetMemory
-from agentic_core.memory.recorder import RunRecorder
 from agentic_core.reasoning.rules import RuleReasoner
 from agentic_core.run.run_memory import RunMemory
 
@@ -94,7 +93,8 @@ def test_answers_in_a_run_become_preference_records_with_provenance_and_change_t
     model = FeedbackModel.load(fleet)
     ((memory, pref),) = model.records
     assert pref.verdict == "declined" and pref.object_id == "P-7" and pref.step == "emergency/land_near"
-    assert pref.features.stationary_s == 12.0 and pref.features.isolation_m == 31.0 and pref.features.severity == "critical"
+    seen = pref.features
+    assert seen.stationary_s == 12.0 and seen.isolation_m == 31.0 and seen.severity == "critical"
     assert memory.provenance.run_id == "R1" and memory.provenance.seq == 6
     fleet.close()
 
@@ -111,8 +111,11 @@ def put_preference(path: Path, key: str, preference: dict[str, Any]) -> None:
     fleet.close()
 
 
-@pytest.mark.parametrize(("field", "bad"), [("confidence", 7.0), ("stationary_s", -3.0), ("stationary_s", 1e12),
-                                            ("isolation_m", 1e9), ("confidence", "sure"), ("object_class", "Person; rm -rf")])  # fmt: skip
+ABSURD = [("confidence", 7.0), ("stationary_s", -3.0), ("stationary_s", 1e12), ("isolation_m", 1e9),
+          ("confidence", "sure"), ("object_class", "Person; rm -rf")]  # fmt: skip
+
+
+@pytest.mark.parametrize(("field", "bad"), ABSURD)
 def test_absurd_features_are_refused_naming_the_record_and_field(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], field: str, bad: Any
 ) -> None:
