@@ -31,7 +31,7 @@ def scene(still_s: float, isolation_m: float = 31.0) -> WorldModel:
 
 def answer(verdict: str, still_s: float, said: str = "") -> Preference:
     features = PreferenceFeatures(severity="critical", confidence=0.85, stationary_s=still_s, isolation_m=31.0)
-    return Preference(verdict=verdict, action="land", features=features, said=said)  # type: ignore[arg-type]
+    return Preference(verdict=verdict, action="land", features=features, said=said)
 
 
 def severity(rules: RuleReasoner, still_s: float) -> str:

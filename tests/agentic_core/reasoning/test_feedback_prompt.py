@@ -21,7 +21,7 @@ from .test_model_reasoners import CRITICAL, world
 def answer(verdict: str, still_s: float, said: str, seq: int, cls: str = "person") -> Preference:
     features = PreferenceFeatures(object_class=cls, severity="critical", confidence=0.8, stationary_s=still_s,
                                   isolation_m=38.0)  # fmt: skip
-    return Preference(verdict=verdict, action="land", features=features, said=said, run_id="R1", seq=seq)  # type: ignore[arg-type]
+    return Preference(verdict=verdict, action="land", features=features, said=said, run_id="R1", seq=seq)
 
 
 def test_similar_answers_reach_the_prompt_and_an_injected_one_is_screened(
