@@ -1,4 +1,5 @@
-"""A run's memories, gathered from its event bus while it flies and written to the fleet's memory at its end.
+"""A run's memories, gathered from its event bus while it flies and written to the fleet's memory as they come
+(``incremental``: a run killed with ``kill -9`` keeps what it found before the kill) or at its end.
 
 From the events: every incident logged (``incidents.log``), every alert sent (``alerts.notify``), every decision
 that saw something or drew on a memory (severity above ``none``, or a memory cited; a ``critical`` one is also
@@ -45,7 +46,8 @@ def step_of(key: object) -> str | None:
 
 
 class RunRecorder:
-    """Subscribe :meth:`on_event` to a run's bus; call :meth:`flush` when it ends. Thread-safe."""
+    """Subscribe :meth:`on_event` to a run's bus; call :meth:`flush` when it ends (with ``incremental``, each
+    memory is also written in the publishing thread as soon as its event is seen). Thread-safe."""
 
     def __init__(
         self,
@@ -57,6 +59,7 @@ class RunRecorder:
         mission: str | None = None,
         scene: str | None = None,
         evidence: Evidence | None = None,
+        incremental: bool = False,
     ) -> None:
         self.fleet = fleet
         self.run_id = run_id
@@ -65,6 +68,9 @@ class RunRecorder:
         self.mission = mission
         self.scene = scene
         self.evidence = evidence
+        self.incremental = incremental
+        self.written: list[str] = []
+        """Every memory written so far (``kind/key``), by :meth:`flush` or as it came."""
         self.pending: list[Pending] = []
         self._last: dict[str, Any] = {}  # the last decision's assessment: what an approval that follows is about
         self._lock = threading.Lock()
@@ -79,6 +85,8 @@ class RunRecorder:
         if found:
             with self._lock:
                 self.pending.extend(found)
+            if self.incremental:
+                self.flush()
 
     def _memories(self, event: RunEvent) -> list[Pending]:
         f = event.fields()
@@ -141,6 +149,8 @@ class RunRecorder:
             lat, lon = p.place if p.place is not None else (None, None)
             written.append(self.fleet.remember(p.kind, p.key, p.text, lat=lat, lon=lon, severity=p.severity,
                                                provenance=p.provenance, cites=p.cites, **p.extra))  # fmt: skip
+        with self._lock:
+            self.written.extend(written)
         return written
 
 

@@ -1,6 +1,7 @@
 """A run's link to the fleet's memory (``agentic-uav run --memory FILE``): the reasoner is told what earlier runs
 found near where the aircraft is (cited in its rationale, used as priors), and what this run finds is recorded
-when it ends. A run without ``--memory`` has none of this and behaves as before.
+as it happens (a run killed with ``kill -9`` keeps it; ``--resume`` records the rest). A run without ``--memory``
+has none of this and behaves as before.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ class RunMemory:
         self.run_id = run_id
         self.world: WorldModel | None = None  # the last World Model assessed: the evidence an answer is about
         self.recorder = RunRecorder(self.fleet, run_id, aircraft=lambda: aircraft(view()), locate=locate,
-                                    mission=mission, scene=scene, evidence=self.evidence)  # fmt: skip
+                                    mission=mission, scene=scene, evidence=self.evidence, incremental=True)  # fmt: skip
         self.feedback_error: str | None = None
         try:
             self.feedback = FeedbackModel.load(self.fleet)
@@ -118,13 +119,25 @@ class RunMemory:
                     + (f" ({self.feedback_error}: not used)" if self.feedback_error else ""))  # fmt: skip
 
     def finish(self, bus: EventBus) -> None:
-        """Record what this run found (before its end event), then close the store."""
+        """Record what is left of what this run found (before its end event), say all it recorded, close the store."""
         try:
-            written = self.recorder.flush()
+            self.recorder.flush()
+            written = list(self.recorder.written)
             bus.publish("memory", event="recorded", memories=written,
                         summary=f"recorded {len(written)} memories of this run")  # fmt: skip
         finally:
             self.fleet.close()
+
+
+def start_memory(memory: RunMemory | None, knowledge: list[str] | None, bus: EventBus,
+                 home: Callable[[], tuple[float, float] | None]) -> None:  # fmt: skip
+    """Start the run's memory; without one, a mission's ``knowledge:`` would be silently unread: say so."""
+    if memory is not None:
+        memory.start(bus, home())
+    elif knowledge:
+        bus.publish("log", level="warning", event="knowledge_unused", topics=list(knowledge),
+                    summary=f"the mission declares knowledge: {', '.join(knowledge)}; without --memory nothing is "
+                    "looked up (ingest documents with agentic-uav memory ingest, run with --memory FILE)")  # fmt: skip
 
 
 class _Run(Protocol):
