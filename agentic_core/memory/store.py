@@ -376,6 +376,7 @@ class SqliteStore:
             self.conn.execute("INSERT INTO store_vectors (item_id, path, vec) VALUES (?, ?, ?)", (item_id, path, blob))
         self._vectors.stale()
         self._prefilter.stale()
+        self._words.stale()
         self._log(ns, key, "put", text, at)
 
     def _erase(self, item_id: int) -> None:
@@ -384,6 +385,7 @@ class SqliteStore:
         self.conn.execute("DELETE FROM store_vectors WHERE item_id = ?", (item_id,))
         self._vectors.stale()
         self._prefilter.stale()
+        self._words.stale()
 
     def _list(self, op: ListNamespacesOp) -> list[tuple[str, ...]]:
         live, t = self._live()

@@ -39,16 +39,33 @@ class WordRanker:
     def __init__(self, conn: sqlite3.Connection, *, hybrid_max_docs: int = HYBRID_MAX_DOCS) -> None:
         self.conn = conn
         self.hybrid_max_docs = hybrid_max_docs
+        self._frequency: dict[str, int] = {}  # documents per word, kept until the store writes (:meth:`stale`)
+        self._total: int | None = None
+
+    def stale(self) -> None:
+        """The store wrote: forget the counts (FTS5 counts a frequent word's documents one by one: seconds' worth
+        over a day of queries)."""
+        self._frequency.clear()
+        self._total = None
+
+    def _counts(self, terms: list[str]) -> tuple[dict[str, int], int]:
+        missing = [t for t in terms if t not in self._frequency]
+        if missing:
+            marks = ",".join("?" * len(missing))
+            found = dict(self.conn.execute(f"SELECT term, doc FROM store_words_vocab WHERE term IN ({marks})",
+                                           missing).fetchall())  # fmt: skip
+            self._frequency.update({t: int(found.get(t, 0)) for t in missing})
+        if self._total is None:
+            self._total = int(self.conn.execute("SELECT count(*) FROM store_items").fetchone()[0])
+        return {t: self._frequency[t] for t in terms if self._frequency[t]}, self._total
 
     def rank(self, query: str, top: int, *, hybrid: bool = False) -> Ranked:
         """The ``top`` best ids; ``hybrid``: only rare words count (see the module docs)."""
         terms = words(query)
         if not terms:
             return [], {}
-        marks = ",".join("?" * len(terms))
-        frequency = dict(self.conn.execute(f"SELECT term, doc FROM store_words_vocab WHERE term IN ({marks})",
-                                           terms).fetchall())  # fmt: skip
-        total = self.conn.execute("SELECT count(*) FROM store_items").fetchone()[0] if frequency else 0
+        frequency, total = self._counts(terms)
+        total = total if frequency else 0
         if hybrid:
             terms = [t for t in terms if frequency.get(t, 0) <= self.hybrid_max_docs]
         expression = match_expression(terms, frequency, total) if terms else None

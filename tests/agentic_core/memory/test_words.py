@@ -38,3 +38,13 @@ def test_without_an_embedder_frequent_words_are_still_ranked() -> None:
     store = crowded(embed=False)
     found = store.search(("h",), query="crowd", limit=3)
     assert len(found) == 3 and all(i.score is not None for i in found)
+
+
+def test_the_word_counts_kept_between_queries_are_forgotten_when_the_store_writes() -> None:
+    store = crowded()
+    assert store._words.rank("qqq", 10, hybrid=True)[0]  # one memory holds it: rare, ranked
+    for i in range(20):
+        store.put(("h",), f"more{i}", {"t": "qqq"})
+    assert store._words.rank("qqq", 10, hybrid=True)[0] == []  # 21 now: frequent, left to the vectors
+    store.delete(("h",), "rare")
+    assert store._words.rank("crowd", 10)[0]  # BM25 alone still ranks what is left
