@@ -46,7 +46,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return code
 
 
-EVAL_COMMANDS = ("stats", "paper", "campaign", "paper-campaign")
+EVAL_COMMANDS = ("stats", "paper", "campaign", "paper-campaign", "feedback", "tune")
 DELEGATED = {
     "tools": "tools.cli",
     "mcp": "tools.mcp.cli",
@@ -73,6 +73,14 @@ def _run_eval(command: str, argv: Sequence[str]) -> int:
         from evaluation.campaign.cli import main as campaign_main
 
         return campaign_main(argv)
+    if command == "tune":
+        from evaluation.tuning.cli import main as tune_main
+
+        return tune_main(argv)
+    if command == "feedback":
+        from evaluation.campaign.feedback_study import main as feedback_main
+
+        return feedback_main(argv)
     if command == "paper-campaign":
         from evaluation.campaign.paper_campaign import main as paper_campaign_main
 
@@ -248,6 +256,8 @@ def build_parser() -> argparse.ArgumentParser:
         ("paper", "recompute the paper's statistics from its published figures (agentic-uav eval paper --help)"),
         ("campaign", "run scenes through systems: records, metrics, statistics (agentic-uav eval campaign --help)"),
         ("paper-campaign", "the paper's 44-scene comparison, its results beside the paper's (--help)"),
+        ("feedback", "operator feedback before/after on held-out scenes, a paired test (--help)"),
+        ("tune", "tune the position controller's gains on gust flights; accept only if significantly better"),
     ):
         eval_sub.add_parser(name, help=text, add_help=False)  # listed here; parsed by _run_eval
     sub.add_parser("tools", help="list and describe the registered tools (agentic-uav tools --help)", add_help=False)

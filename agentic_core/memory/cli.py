@@ -4,6 +4,7 @@
     agentic-uav memory search QUERY [--near LAT,LON,M] [--knowledge]
     agentic-uav memory ingest FILES...         Markdown with source/version/valid_until front matter
     agentic-uav memory invalidate KEY --reason TEXT [--by NAME]
+    agentic-uav memory feedback                the model fitted to the operators' answers, and what it moves
 
 Every command takes ``--memory FILE`` (default ``runs/memory.db``, the file ``agentic-uav run --memory`` uses
 when given the same path) and says how it searches: the offline model with BM25, or BM25 alone.
@@ -18,6 +19,7 @@ from pathlib import Path
 
 from agentic_core.contracts.errors import AgenticUAVError, InputError, report_error
 
+from .feedback import FeedbackModel
 from .fleet import FleetMemory
 from .knowledge import ingest, search_knowledge
 
@@ -42,6 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
     inv.add_argument("key", metavar="KEY")
     inv.add_argument("--reason", required=True)
     inv.add_argument("--by", default="operator")
+    fb = sub.add_parser("feedback", help="the model fitted to the operators' approvals, declines and edits")
+    fb.add_argument("--still-s", type=float, default=10.0, help="the rules' stillness threshold (default 10 s)")
     return parser
 
 
@@ -78,6 +82,11 @@ def _command(args: argparse.Namespace, fleet: FleetMemory) -> int:
     if args.command == "ingest":
         keys = ingest(fleet.store, list(args.files))
         print(f"ingested {len(keys)} chunks from {len(args.files)} documents")
+        return 0
+    if args.command == "feedback":
+        if not args.still_s > 0:
+            raise InputError(f"--still-s must be a positive number of seconds, got {args.still_s}")
+        print("\n".join(FeedbackModel.load(fleet, args.still_s).describe()))
         return 0
     if args.command == "invalidate":
         fleet.invalidate(args.key, args.reason, by=args.by)

@@ -37,6 +37,7 @@ from .namespaces import check_labels, check_writable, decode, encode, matches, u
 from .paths import texts_at, tokens
 from .prefilter import Prefilter
 from .vectors import VectorIndex
+from .words import WordRanker
 
 FETCH = 256  # candidate rows read per query while filling a page
 FUSE_DEPTH = 1000  # how deep each ranking goes at least (4 x the page when that is more)
@@ -120,6 +121,7 @@ class SqliteStore:
             schema.create(self.conn, self.embedder.name if self.embedder else None, dims)
         self._vectors = VectorIndex(self.conn, self._lock)
         self._prefilter = Prefilter(self.conn, self._lock)
+        self._words = WordRanker(self.conn)
         with self._lock:
             has_ttl = self.conn.execute("SELECT 1 FROM store_items WHERE ttl_minutes IS NOT NULL LIMIT 1").fetchone()
         self._ttl_seen = has_ttl is not None  # no item ever had a TTL: reads need not write
@@ -374,6 +376,7 @@ class SqliteStore:
             self.conn.execute("INSERT INTO store_vectors (item_id, path, vec) VALUES (?, ?, ?)", (item_id, path, blob))
         self._vectors.stale()
         self._prefilter.stale()
+        self._words.stale()
         self._log(ns, key, "put", text, at)
 
     def _erase(self, item_id: int) -> None:
@@ -382,6 +385,7 @@ class SqliteStore:
         self.conn.execute("DELETE FROM store_vectors WHERE item_id = ?", (item_id,))
         self._vectors.stale()
         self._prefilter.stale()
+        self._words.stale()
 
     def _list(self, op: ListNamespacesOp) -> list[tuple[str, ...]]:
         live, t = self._live()
@@ -398,9 +402,10 @@ class SqliteStore:
             raise InputError(f"search: limit and offset cannot be negative (limit={op.limit}, offset={op.offset})")
         scores: dict[int, float] = {}
         need = op.offset + op.limit
-        ranked = self._ranked(op.query, prefix, scores, max(FUSE_DEPTH, 4 * need)) if op.query else []
-        rest: list[int] | None = None  # None: every row, oldest first
         allowed = self._prefilter.allowed(wanted, prefix)
+        top = max(FUSE_DEPTH, 4 * need)
+        ranked = self._ranked(op.query, prefix, scores, top, allowed) if op.query else []
+        rest: list[int] | None = None  # None: every row, oldest first
         if allowed is not None:
             rest = allowed.tolist()
             inside = set(rest)
@@ -450,34 +455,22 @@ class SqliteStore:
             last = rows[-1][0]
             yield from (r for r in rows if r[0] not in seen)
 
-    def _ranked(self, query: str, prefix: tuple[str, ...], scores: dict[int, float], top: int) -> list[int]:
+    def _ranked(self, query: str, prefix: tuple[str, ...], scores: dict[int, float], top: int, allowed: Any = None
+                ) -> list[int]:  # fmt: skip
         """The ``top`` ids most relevant to ``query``: vector ranking (scores = cosine) fused with BM25 words, or
         either alone. Past them, candidates come oldest first: the ranking is exact for the first ``top``, which
         is at least four times the page asked for. Words are ranked over the whole store (the namespace is
-        checked when rows are read), so that FTS5 can rank them without a join."""
-        from .ranking import fuse, match_expression, words
+        checked when rows are read), so that FTS5 can rank them without a join; beside vectors, only rare words
+        (:mod:`.words`)."""
+        from .ranking import fuse
 
-        by_vector: list[int] = []
-        if self.embedder is not None:
-            q = self.embedder.embed([query])[0]
-            by_vector = self._vectors.rank(q, prefix, scores, top)
-        by_words: list[int] = []
-        if self.embedder is None or self.hybrid:
-            terms = words(query)
-            marks = ",".join("?" * len(terms))
-            frequency = dict(
-                self.conn.execute(f"SELECT term, doc FROM store_words_vocab WHERE term IN ({marks})", terms).fetchall()
-            ) if terms else {}  # fmt: skip
-            total = self.conn.execute("SELECT count(*) FROM store_items").fetchone()[0] if frequency else 0
-            expression = match_expression(terms, frequency, total)
-            if expression is not None:
-                rows = self.conn.execute(
-                    "SELECT rowid, rank FROM store_words WHERE store_words MATCH ? ORDER BY rank LIMIT ?",
-                    (expression, top),
-                ).fetchall()
-                by_words = [int(r[0]) for r in rows]
-                if self.embedder is None:
-                    scores.update({int(r[0]): -float(r[1]) for r in rows})
+        if self.embedder is None:
+            by_words, word_scores = self._words.rank(query, top)
+            scores.update(word_scores)
+            return by_words
+        q = self.embedder.embed([query])[0]
+        by_vector = self._vectors.rank(q, prefix, scores, top, allowed)
+        by_words = self._words.rank(query, top, hybrid=True)[0] if self.hybrid else []
         if not by_vector or not by_words:
             return by_vector or by_words
         return fuse([by_vector, by_words])

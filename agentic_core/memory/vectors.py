@@ -40,9 +40,11 @@ class VectorIndex:
         width = len(rows[0][2]) // 4 if rows else 0
         self._matrix = np.frombuffer(b"".join(r[2] for r in rows), dtype=np.float32).reshape(len(rows), width)
 
-    def rank(self, query: Any, prefix: tuple[str, ...], scores: dict[int, float], top: int) -> list[int]:
+    def rank(self, query: Any, prefix: tuple[str, ...], scores: dict[int, float], top: int, only: Any = None
+             ) -> list[int]:  # fmt: skip
         """The ``top`` best item ids under ``prefix`` (about: an item with several vectors counts once), best first;
-        fills ``scores`` with each one's cosine similarity."""
+        fills ``scores`` with each one's cosine similarity. ``only``: the item ids a filter allows (the others are
+        not scored at all, so a search near a place costs what its place holds)."""
         with self.lock:
             if self._matrix is None:
                 self._load()
@@ -55,7 +57,10 @@ class VectorIndex:
             from agentic_core.contracts.errors import InputError
 
             raise InputError(f"search: the query has {q.shape[0]} dimensions, the stored vectors {matrix.shape[1]}")
-        mask = np.isin(codes, inside) if len(inside) < len(self._namespaces) else slice(None)
+        mask: Any = np.isin(codes, inside) if len(inside) < len(self._namespaces) else slice(None)
+        if only is not None:
+            allowed = np.isin(ids, only)
+            mask = allowed if isinstance(mask, slice) else mask & allowed
         sims = matrix[mask] @ q
         row_ids = ids[mask]
         if sims.shape[0] > top:

@@ -28,6 +28,7 @@ from agentic_core.contracts.memory import RecallPort, Recollection
 from agentic_core.contracts.world_model import WorldModel, WorldObject
 
 from .assessment import Assessment, Decision, Severity
+from .examples import examples_block
 from .knowledge import cite_knowledge, knowledge_block
 from .llm import ChatRequest, LLMResult, Message
 from .rules import RuleReasoner
@@ -79,16 +80,13 @@ class LLMReasoner:
         self.name = f"llm:{client.model}"
         self.knowledge: RecallPort | None = None
         """The knowledge port (a mission's ``knowledge:``): passages for the prompt, fenced as untrusted data."""
+        self.examples: RecallPort | None = None
+        """Past operator answers about similar evidence (``--memory``): few-shot examples, fenced the same way."""
 
     def passages(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
         """The knowledge passages for this assessment (none without a port, or when it fails: a knowledge base that
         cannot be read must not cost the decision)."""
-        if self.knowledge is None:
-            return []
-        try:
-            return list(self.knowledge(world, focus))
-        except Exception:
-            return []
+        return _read(self.knowledge, world, focus)
 
     def request(
         self, world: WorldModel, focus: str | None = None, passages: Sequence[Recollection] = ()
@@ -116,10 +114,12 @@ class LLMReasoner:
         start = time.perf_counter()
         passages = self.passages(world, focus)
         knowledge, used, kept_out = knowledge_block(passages)  # each passage screened once, for prompt and citation
-        result = self.client.chat_structured_sync(self._request(world, focus, knowledge), Assessment)
+        shots, shown, screened = examples_block(_read(self.examples, world, focus))
+        result = self.client.chat_structured_sync(self._request(world, focus, knowledge + shots), Assessment)
         decision = self._decision(result, time.perf_counter() - start)
-        if passages and decision.assessment is not None:
-            decision = decision.model_copy(update={"assessment": cite_knowledge(decision.assessment, used, kept_out)})
+        if (used or kept_out or shown or screened) and decision.assessment is not None:
+            cited = cite_knowledge(decision.assessment, used + shown, kept_out + screened)
+            decision = decision.model_copy(update={"assessment": cited})
         return decision
 
     def _decision(self, result: LLMResult, elapsed: float) -> Decision:
@@ -135,6 +135,16 @@ class LLMReasoner:
         if result.ok and isinstance(result.parsed, Assessment):
             return Decision(assessment=result.parsed, **common)
         return Decision(assessment=None, error=f"{result.status}: {result.error or 'no assessment'}", **common)
+
+
+def _read(port: RecallPort | None, world: WorldModel, focus: str | None) -> list[Recollection]:
+    """What a context port gives (nothing without one, or when it fails: a memory must not cost the decision)."""
+    if port is None:
+        return []
+    try:
+        return list(port(world, focus))
+    except Exception:
+        return []
 
 
 DEADLINE_S = 10.0

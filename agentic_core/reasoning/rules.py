@@ -43,6 +43,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
+from agentic_core.contracts.feedback import PreferenceFeatures, ThresholdPort
 from agentic_core.contracts.world_model import Landmark, WorldModel, WorldObject
 
 from .assessment import SEVERITIES, Assessment, Decision, Severity
@@ -104,6 +105,8 @@ class RuleReasoner:
 
     def __init__(self, settings: RuleSettings | None = None) -> None:
         self.settings = settings or RuleSettings()
+        self.prior: ThresholdPort | None = None
+        """Operator feedback as a prior: seconds added to ``still_s`` for a person's evidence (``--memory``)."""
 
     def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
         return timed(self.name, lambda: self.assessment(world, focus))
@@ -156,14 +159,30 @@ class RuleReasoner:
             shelter = self._shelter(world, person)
             if shelter is not None:
                 return "low", ["log_observation"], f"{person.id} is resting at {shelter.kind} {shelter.id}"
-            if person.stationary_s >= s.still_s:
+            still_s, moved = self._still_s(world, person)
+            if person.stationary_s >= still_s:
                 return (
                     "critical",
                     list(CRITICAL_ACTIONS),
-                    f"{person.id} has been motionless for {person.stationary_s:.0f} s, isolated from the crowd",
+                    f"{person.id} has been motionless for {person.stationary_s:.0f} s, isolated from the crowd{moved}",
                 )
-            return "high", ["approach_and_confirm"], f"{person.id} has stopped moving, isolated from the crowd"
+            return "high", ["approach_and_confirm"], f"{person.id} has stopped moving, isolated from the crowd{moved}"
         return "none", ["log_crowd_density"], "people are moving normally"
+
+    def _still_s(self, world: WorldModel, person: WorldObject) -> tuple[float, str]:
+        """The stillness threshold for this person, moved by the operators' answers (and the rationale's note)."""
+        s = self.settings
+        if self.prior is None:
+            return s.still_s, ""
+        try:
+            features = PreferenceFeatures.of(world, person.id, severity="critical")
+            shift = float(self.prior(features)) if features is not None else 0.0
+        except Exception:  # a prior that fails must not cost the decision: the table stands
+            return s.still_s, ""
+        if not math.isfinite(shift) or abs(shift) < 0.05:
+            return s.still_s, ""
+        still_s = min(max(s.still_s + shift, s.suspect_s), 4 * s.still_s)
+        return still_s, f" (threshold {still_s:.1f} s: operator feedback moved it {still_s - s.still_s:+.1f} s)"
 
     def _shelter(self, world: WorldModel, person: WorldObject) -> Landmark | None:
         s = self.settings

@@ -1,6 +1,7 @@
 """A run's link to the fleet's memory (``agentic-uav run --memory FILE``): the reasoner is told what earlier runs
 found near where the aircraft is (cited in its rationale, used as priors), and what this run finds is recorded
-when it ends. A run without ``--memory`` has none of this and behaves as before.
+as it happens (a run killed with ``kill -9`` keeps it; ``--resume`` records the rest). A run without ``--memory``
+has none of this and behaves as before.
 """
 
 from __future__ import annotations
@@ -10,14 +11,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from ..agent.bus import EventBus
+from ..contracts.feedback import PreferenceFeatures
 from ..contracts.memory import MemoryKind, Provenance, RecallPort, Recollection
 from ..contracts.world_model import WorldModel
+from ..memory.feedback import FeedbackError, FeedbackModel
 from ..memory.fleet import FleetMemory
 from ..memory.knowledge import search_knowledge
 from ..memory.recorder import Place, RunRecorder
 from ..reasoning.model_reasoners import model_of
 from ..reasoning.reasoners import Reasoner
 from ..reasoning.remembering import Remembering
+from ..reasoning.rules import RuleReasoner
 
 if TYPE_CHECKING:
     from flight.sim.scene_model import Scene
@@ -45,12 +49,30 @@ class RunMemory:
         path.parent.mkdir(parents=True, exist_ok=True)
         self.fleet = FleetMemory(path)
         self.run_id = run_id
+        self.world: WorldModel | None = None  # the last World Model assessed: the evidence an answer is about
         self.recorder = RunRecorder(self.fleet, run_id, aircraft=lambda: aircraft(view()), locate=locate,
-                                    mission=mission, scene=scene)  # fmt: skip
+                                    mission=mission, scene=scene, evidence=self.evidence, incremental=True)  # fmt: skip
+        self.feedback_error: str | None = None
+        try:
+            self.feedback = FeedbackModel.load(self.fleet)
+        except FeedbackError as exc:  # a broken record must not ground the fleet: the rules' table stands
+            self.feedback, self.feedback_error = FeedbackModel.fit([]), str(exc)
+
+    def evidence(self, object_id: str) -> PreferenceFeatures | None:
+        """What the reasoner last saw of an object (for the operator's answer about it)."""
+        return PreferenceFeatures.of(self.world, object_id) if self.world is not None else None
+
+    def examples(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
+        """The few-shot port: past answers about evidence like the focus's (else the stillest person's)."""
+        people = sorted(world.objects_of("person"), key=lambda o: -o.stationary_s)
+        subject = focus or (people[0].id if people else None)
+        seen = PreferenceFeatures.of(world, subject, severity="critical") if subject else None
+        return self.feedback.examples(seen) if seen is not None and self.feedback.records else []
 
     def recall(self, world: WorldModel, focus: str | None = None) -> list[Recollection]:
         """The context port: earlier runs' memories within :data:`RECALL_M` of the aircraft, the operator's
         answers there included."""
+        self.world = world
         ego = world.ego_pose
         kinds: tuple[MemoryKind, ...] = ("incident", "casualty", "alert", "decision", "approval")
         return self.fleet.recall(ego.lat, ego.lon, within_m=RECALL_M, kinds=kinds, exclude_run=self.run_id)
@@ -77,6 +99,11 @@ class RunMemory:
         model = model_of(reasoner)
         if topics and model is not None:
             model.knowledge = self.knowledge(topics)
+        rules = reasoner if isinstance(reasoner, RuleReasoner) else getattr(reasoner, "rules", None)
+        if self.feedback.records and isinstance(rules, RuleReasoner):
+            rules.prior = self.feedback
+        if self.feedback.records and model is not None:
+            model.examples = self.examples
         return Remembering(reasoner, self.recall)
 
     def start(self, bus: EventBus, home: tuple[float, float] | None) -> None:
@@ -86,17 +113,31 @@ class RunMemory:
         runs = sorted({r.provenance.run_id for r in known if r.provenance.run_id})
         bus.publish("memory", event="recalled", store=str(self.fleet.path), search=self.fleet.search_mode,
                     memories=[f"{r.kind}/{r.key}" for r in known], runs=runs,
+                    feedback=len(self.feedback.records), feedback_error=self.feedback_error,
                     summary=f"{len(known)} memories of this area from {len(runs)} earlier runs "
-                    f"({self.fleet.search_mode})")  # fmt: skip
+                    f"({self.fleet.search_mode}); {len(self.feedback.records)} operator answers as priors"
+                    + (f" ({self.feedback_error}: not used)" if self.feedback_error else ""))  # fmt: skip
 
     def finish(self, bus: EventBus) -> None:
-        """Record what this run found (before its end event), then close the store."""
+        """Record what is left of what this run found (before its end event), say all it recorded, close the store."""
         try:
-            written = self.recorder.flush()
+            self.recorder.flush()
+            written = list(self.recorder.written)
             bus.publish("memory", event="recorded", memories=written,
                         summary=f"recorded {len(written)} memories of this run")  # fmt: skip
         finally:
             self.fleet.close()
+
+
+def start_memory(memory: RunMemory | None, knowledge: list[str] | None, bus: EventBus,
+                 home: Callable[[], tuple[float, float] | None]) -> None:  # fmt: skip
+    """Start the run's memory; without one, a mission's ``knowledge:`` would be silently unread: say so."""
+    if memory is not None:
+        memory.start(bus, home())
+    elif knowledge:
+        bus.publish("log", level="warning", event="knowledge_unused", topics=list(knowledge),
+                    summary=f"the mission declares knowledge: {', '.join(knowledge)}; without --memory nothing is "
+                    "looked up (ingest documents with agentic-uav memory ingest, run with --memory FILE)")  # fmt: skip
 
 
 class _Run(Protocol):

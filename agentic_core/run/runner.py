@@ -58,7 +58,7 @@ from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import RunSummary, TrackPoint, write_report
 from .responses import ResponseLedger
-from .run_memory import with_memory
+from .run_memory import start_memory, with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
@@ -366,8 +366,7 @@ class MissionRun:
                          f"with {self.reasoner.name} on {self.backend.kind}")  # fmt: skip
         if self.model_note:
             self.bus.publish("log", level="warning", summary=self.model_note)
-        if self.memory:
-            self.memory.start(self.bus, self._home())
+        start_memory(self.memory, self.plan.knowledge, self.bus, self._home)  # or say knowledge goes unread
         final: dict[str, Any] = {}
         outcome = "failed"
         try:

@@ -167,9 +167,11 @@ def run_episode(
     campaign_seed: int = 0,
     *,
     clients: ClientFactory | None = None,
+    wrap: Callable[[SystemSpec, Reasoner], Reasoner] | None = None,
 ) -> list[DecisionRecord]:
     """Observe ``scene`` as the module docs say and return one record per system, in ``systems`` order;
-    ``clients`` builds the model clients (see :func:`~evaluation.campaign.systems.build_reasoner`)."""
+    ``clients`` builds the model clients (see :func:`~evaluation.campaign.systems.build_reasoner`); ``wrap``
+    amends each built reasoner (a study's prior, a recorder)."""
     cfg = settings or EpisodeSettings()
     rules = RuleSettings(still_s=cfg.still_s)
     seed = perception_seed(campaign_seed, scene.id)
@@ -183,6 +185,9 @@ def run_episode(
         home=(home.lat_deg, home.lon_deg, home.alt_msl_m), landmarks=scene.landmarks if cfg.landmarks else ()
     )
     runs = [_start(system, rules, cfg.goal, clients) for system in systems]
+    for run in runs:
+        if wrap is not None and run.reasoner is not None:
+            run.reasoner = wrap(run.system, run.reasoner)
     casualties = list(scene.ground_truth.casualties)
     first_in_view: dict[str, float] = {}
     perception_time = 0.0
