@@ -42,8 +42,9 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
+from render_timing import render_section  # noqa: E402  (beside this script)
+
 from agentic_core.perception.pipeline import STAGES, Perception  # noqa: E402
-from benchmarks.render_timing import render_section  # noqa: E402
 from flight.camera import BoundingBox, CameraPose, CameraSpec, Detection, Frame, footprint, project_points  # noqa: E402
 
 TABLE_HEADER = "perception update benchmark"
