@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agentic_core.contracts.polygon import crossing_parity
 from flight.sim.scene_model import Landmark, Scene, Zone
 
 from .palette import MATERIALS, SHADE_FACTOR, ZONE_MATERIAL, Material
@@ -121,7 +122,7 @@ class GroundLayers:
                 material,
                 (float(lo[0]), float(lo[1])),
                 (float(hi[0]), float(hi[1])),
-                functools.partial(_inside, vertices=vertices),
+                functools.partial(_in_polygon, vertices=vertices),
                 vertices if kerb else None,
             )
         )
@@ -193,16 +194,15 @@ def hash_unit(seed: int, north: float, east: float) -> float:
     return float(np.random.default_rng(key).random())
 
 
-def _inside(points: FloatArray, vertices: FloatArray) -> BoolArray:
-    """Even-odd ray casting, edge by edge (a texel exactly on an edge may fall either side: it does not matter)."""
-    px, py = points[:, 0], points[:, 1]
-    odd = np.zeros(len(points), dtype=bool)
-    for (x1, y1), (x2, y2) in zip(vertices, np.roll(vertices, -1, axis=0), strict=True):
-        if y1 == y2:
-            continue
-        crosses = (y1 > py) != (y2 > py)
-        odd ^= crosses & (px < x1 + (py - y1) * ((x2 - x1) / (y2 - y1)))
-    return odd
+def _in_polygon(points: FloatArray, vertices: FloatArray) -> BoolArray:
+    """Which points lie inside (even-odd), testing only those inside the polygon's bounding box."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    boxed = np.flatnonzero(
+        (points[:, 0] >= lo[0]) & (points[:, 0] <= hi[0]) & (points[:, 1] >= lo[1]) & (points[:, 1] <= hi[1])
+    )
+    inside = np.zeros(len(points), dtype=bool)
+    inside[boxed] = crossing_parity(points[boxed], vertices)
+    return inside
 
 
 def _near_edge(points: FloatArray, vertices: FloatArray, within: float) -> BoolArray:
