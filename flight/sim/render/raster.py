@@ -41,6 +41,8 @@ def draw_capsules(image: Image, a: FloatArray, b: FloatArray, r: FloatArray, rgb
     overlap, the later one shows."""
     if len(a) == 0:
         return
+    if not image.flags.c_contiguous:
+        raise ValueError("draw_capsules draws into a C-contiguous image only (it writes through a flat view)")
     height, width = image.shape[:2]
     box = capsule_boxes(a, b, r)
     x0 = np.clip(np.floor(box[:, 0] - 0.5), 0, width).astype(np.int64)
@@ -102,9 +104,8 @@ def _draw_group(image: Image, k: IntArray, w: int, h: int, s: _Shapes) -> None:
     qx *= qx
     qy *= qy
     qx += qy
-    rad = s.r[k, None, None]
-    alpha = (rad * rad + f(1e-6) - qx) * (f(0.5) / np.maximum(rad, f(0.25))) + f(0.5)
-    which, yy, xx = np.nonzero(alpha > 0)
+    reach = s.r[k] * s.r[k] + np.maximum(s.r[k], f(0.25))  # d² below this: some coverage
+    which, yy, xx = np.nonzero(qx < reach[:, None, None])
     kk = k[which]
     ys = s.y0[kk] + yy
     xs = s.x0[kk] + xx
@@ -113,16 +114,20 @@ def _draw_group(image: Image, k: IntArray, w: int, h: int, s: _Shapes) -> None:
         which, yy, xx, kk, ys, xs = which[keep], yy[keep], xx[keep], kk[keep], ys[keep], xs[keep]
     if len(which) == 0:
         return
-    al = np.minimum(alpha[which, yy, xx], f(1.0))[:, None]
-    under = image[ys, xs].astype(f)
+    d2 = qx[which, yy, xx]
+    r = s.r[kk]
+    al = np.clip((r * r + f(1e-6) - d2) * (f(0.5) / np.maximum(r, f(0.25))) + f(0.5), f(0.0), f(1.0))[:, None]
+    flat = image.reshape(-1, 3)
+    at = ys * image.shape[1] + xs
+    under = np.take(flat, at, axis=0).astype(f)
     if s.mode == SHADOW:
         colour = under * f(SHADE_FACTOR)
     elif s.mode == BODY:
-        rim2 = np.minimum(qx[which, yy, xx] / np.maximum(s.r[kk] * s.r[kk], f(1e-6)), f(1.0))
+        rim2 = np.minimum(d2 / np.maximum(r * r, f(1e-6)), f(1.0))
         colour = s.rgb[kk] * (f(1.0) - f(0.35) * rim2)[:, None]
     else:
         colour = s.rgb[kk]
-    image[ys, xs] = (under + (colour - under) * al).astype(np.uint8)
+    flat[at] = (under + (colour - under) * al).astype(np.uint8)
 
 
 def draw_quads(image: Image, corners: FloatArray, rgb: FloatArray) -> None:
