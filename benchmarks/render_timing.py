@@ -68,19 +68,21 @@ def render_section(sizes: list[int], frames: int, warmup: int, repeats: int) -> 
         f"{'persons':>8}{'shown':>8}{'mean':>9}{'p95':>9}{'cpu':>9}",
     ]
     means: dict[int, float] = {}
+    cpus: dict[int, float] = {}
     for n in sizes:
         runs = [run_once(n, frames, warmup, seed) for seed in range(repeats)]
         wall = [v for r in runs for v in r["wall"]]
         cpu = [v for r in runs for v in r["cpu"]]
         shown = statistics.mean(v for r in runs for v in r["shown"])
         means[n] = 1e3 * statistics.mean(wall)
-        lines.append(
-            f"{n:>8}{shown:>8.0f}{means[n]:>9.2f}{1e3 * float(np.percentile(wall, 95)):>9.2f}"
-            f"{1e3 * statistics.median(cpu):>9.2f}"
-        )
+        cpus[n] = 1e3 * statistics.median(cpu)
+        lines.append(f"{n:>8}{shown:>8.0f}{means[n]:>9.2f}{1e3 * float(np.percentile(wall, 95)):>9.2f}{cpus[n]:>9.2f}")
     if TARGET_SIZE in means:
         verdict = "PASS" if means[TARGET_SIZE] <= TARGET_MS else "MISS"
-        lines.append(f"render target: mean <= {TARGET_MS:g} ms at {TARGET_SIZE} persons -> {verdict}")
+        lines.append(
+            f"render target: mean <= {TARGET_MS:g} ms at {TARGET_SIZE} persons -> {verdict}"
+            f" ({means[TARGET_SIZE]:.2f} ms; CPU {cpus[TARGET_SIZE]:.2f} ms)"
+        )
     return lines
 
 
