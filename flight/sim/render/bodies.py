@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from flight.sim.scene import SceneState
 from flight.sim.scene_model import BEHAVIOURS
 
-from .palette import clothing_colours, hair_colours, skin_colours, vehicle_colours
+from .palette import clothing_colours, hair_colours, skin_colours, uniforms, vehicle_colours
 from .raster import BODY, FLAT, SHADOW
 
 FloatArray = NDArray[np.float64]
@@ -82,14 +82,15 @@ class Looks:
     def refresh(self, rows: IntArray) -> None:
         """Draw the looks of ``rows`` not drawn yet for their current generation."""
         stale = rows[self._generation[rows] != self._state.generations[rows]]
-        for i in stale:
-            g = int(self._state.generations[i])
-            rng = np.random.default_rng([self._seed, self._state.scene.seed, int(i), g])
-            self.clothing[i] = clothing_colours(rng, 1)[0]
-            self.skin[i] = skin_colours(rng, 1)[0]
-            self.hair[i] = hair_colours(rng, 1)[0]
-            self.paint[i] = vehicle_colours(rng, 1)[0]
-            self._generation[i] = g
+        if len(stale) == 0:
+            return
+        generations = self._state.generations[stale]
+        u = uniforms(self._seed * 1_000_003 + self._state.scene.seed, stale, generations, 6)
+        self.clothing[stale] = clothing_colours(u[:, :3])
+        self.skin[stale] = skin_colours(u[:, 3])
+        self.hair[stale] = hair_colours(u[:, 4])
+        self.paint[stale] = vehicle_colours(u[:, 5])
+        self._generation[stale] = generations
 
 
 @dataclass(frozen=True)

@@ -100,11 +100,11 @@ class GroundLayers:
                 near = inside.ravel().copy()
                 near[near] = _near_edge(points[near], layer.kerb, KERB_M)
                 material[near.reshape(TILE, TILE)] = Material.KERB
-        r = (rows[:, None] + self._offset[0]) % SIZE
-        c = (cols[None, :] + self._offset[1]) % SIZE
+        r = (rows + self._offset[0]) % SIZE
+        c = (cols + self._offset[1]) % SIZE
         amps = _AMPS[material]
-        lum = 1.0 + amps[..., 0] * texture("grain")[r, c] + amps[..., 1] * texture("mottle")[r, c]
-        lum += amps[..., 2] * texture("blotch")[r // 4, c // 4]
+        lum = 1.0 + amps[..., 0] * _window(texture("grain"), r, c) + amps[..., 1] * _window(texture("mottle"), r, c)
+        lum += amps[..., 2] * _window(texture("blotch"), r // 4, c // 4)
         joints = _JOINTS[material]
         if joints.any():
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -194,8 +194,19 @@ def hash_unit(seed: int, north: float, east: float) -> float:
     return float(np.random.default_rng(key).random())
 
 
+def _window(field: NDArray[np.float32], rows: NDArray[np.int64], cols: NDArray[np.int64]) -> NDArray[np.float32]:
+    """``field`` at the rows × columns given (one take per axis: quicker than a broadcast fancy index)."""
+    out: NDArray[np.float32] = np.take(np.take(field, rows, axis=0), cols, axis=1)
+    return out
+
+
 def _in_polygon(points: FloatArray, vertices: FloatArray) -> BoolArray:
-    """Which points lie inside (even-odd), testing only those inside the polygon's bounding box."""
+    """Which points of a tile's grid (ordered: the first is its south-west corner, the last its north-east) lie
+    inside (even-odd): all or none when no edge crosses the tile (one point tells which), else testing those inside
+    the polygon's bounding box."""
+    box_lo, box_hi = points[0], points[-1]
+    if not _edges_cross_box(vertices, box_lo, box_hi):
+        return np.full(len(points), bool(crossing_parity(points[:1], vertices)[0]))
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     boxed = np.flatnonzero(
         (points[:, 0] >= lo[0]) & (points[:, 0] <= hi[0]) & (points[:, 1] >= lo[1]) & (points[:, 1] <= hi[1])
@@ -203,6 +214,22 @@ def _in_polygon(points: FloatArray, vertices: FloatArray) -> BoolArray:
     inside = np.zeros(len(points), dtype=bool)
     inside[boxed] = crossing_parity(points[boxed], vertices)
     return inside
+
+
+def _edges_cross_box(vertices: FloatArray, lo: FloatArray, hi: FloatArray) -> bool:
+    """Whether any edge of the polygon meets the box (Liang–Barsky clipping of each edge, all edges at once)."""
+    a = vertices
+    d = np.roll(vertices, -1, axis=0) - a
+    enter, leave = np.zeros(len(a)), np.ones(len(a))
+    missed = np.zeros(len(a), dtype=bool)
+    for axis in (0, 1):
+        for p, q in ((-d[:, axis], a[:, axis] - lo[axis]), (d[:, axis], hi[axis] - a[:, axis])):
+            level = p == 0.0
+            missed |= level & (q < 0.0)
+            ratio = q / np.where(level, 1.0, p)
+            enter = np.where(~level & (p < 0.0), np.maximum(enter, ratio), enter)
+            leave = np.where(~level & (p > 0.0), np.minimum(leave, ratio), leave)
+    return bool((~missed & (enter <= leave)).any())
 
 
 def _near_edge(points: FloatArray, vertices: FloatArray, within: float) -> BoolArray:

@@ -12,6 +12,7 @@ frame costs an addition rather than a million fresh normal draws.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -29,7 +30,6 @@ class Sensor:
         self.seed = seed
         self.noise_std = noise_std
         self.exposure_s = exposure_s
-        self._bank: dict[tuple[int, ...], list[NDArray[np.int16]]] = {}
 
     def expose(self, image: Image, frame_index: int, blur_px: tuple[float, float]) -> Image:
         """The picture as recorded: ``image`` blurred by ``blur_px`` (the image's motion during the exposure, in
@@ -44,13 +44,19 @@ class Sensor:
         np.clip(out, 0, 255, out=out)
         return out.astype(np.uint8)
 
-    def _noise(self, shape: tuple[int, ...]) -> list[NDArray[np.int16]]:
-        if shape not in self._bank:
-            rng = np.random.default_rng([self.seed, 52])
-            self._bank[shape] = [
-                np.round(rng.standard_normal(shape) * self.noise_std).astype(np.int16) for _ in range(BANK)
-            ]
-        return self._bank[shape]
+    def _noise(self, shape: tuple[int, ...]) -> tuple[NDArray[np.int16], ...]:
+        return _noise_bank(self.seed, shape, self.noise_std)
+
+
+@functools.lru_cache(maxsize=4)
+def _noise_bank(seed: int, shape: tuple[int, ...], std: float) -> tuple[NDArray[np.int16], ...]:
+    """:data:`BANK` noise images, drawn once per process for a seed, size and strength (every camera shares them:
+    a dataset makes a renderer per scene). Read-only."""
+    rng = np.random.default_rng([seed, 52])
+    bank = tuple(np.round(rng.standard_normal(shape) * std).astype(np.int16) for _ in range(BANK))
+    for noise in bank:
+        noise.setflags(write=False)
+    return bank
 
 
 def _blur(image: Image, blur_px: tuple[float, float]) -> Image:
