@@ -7,6 +7,7 @@ import io
 from pathlib import Path
 
 import numpy as np
+import pytest
 from matplotlib.image import imread
 
 from agentic_core.perception.annotate import position_text
@@ -63,3 +64,23 @@ def test_without_rendering_the_alert_keeps_the_schematic(tmp_path: Path) -> None
 def test_position_text() -> None:
     assert position_text(21.4133, 39.8933) == "21.41330° N, 39.89330° E"
     assert position_text(-1.5, -0.25) == "1.50000° S, 0.25000° W"
+
+
+@pytest.mark.parametrize(("flag", "expected"), [([], False), (["--render"], True)])
+def test_run_render_option_reaches_the_run(
+    flag: list[str], expected: bool, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from agentic_core.contracts.errors import InputError
+    from agentic_core.run import runner
+    from agentic_core.run.cli import main
+
+    seen: list[bool] = []
+
+    def capture(self: object, settings: runner.RunSettings, **_: object) -> None:
+        seen.append(settings.render)
+        raise InputError("stop here: the settings are what this test reads")
+
+    monkeypatch.setattr(runner.MissionRun, "__init__", capture)
+    mission = str(SCENE.parents[1] / "missions" / "hajj_emergency.yaml")
+    assert main([mission, "--runs-dir", str(tmp_path), "--quiet", *flag]) == 2
+    assert seen == [expected]
