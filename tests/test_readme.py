@@ -53,6 +53,12 @@ def test_perception_example_runs_as_documented(tmp_path: Path, monkeypatch: pyte
     assert (tmp_path / "frame.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_render_example_runs_as_documented(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(README.parent)
+    (line,) = _run_block("render_spec")
+    assert line.startswith("(480, 640, 3) lying [")
+
+
 def test_the_custom_tool_example_is_the_shipped_file_and_registers() -> None:
     (code,) = [b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "fence.status" in b]
     shipped = (README.parent / "tools" / "examples" / "fence_tools.py").read_text()
@@ -86,6 +92,7 @@ RUN_BY = {
     "tools_condition": "test_langgraph_agent_example_runs_as_documented",
     "home_once_up": "test_control_port_example_runs_as_documented",
     "SimulatedDetector": "test_perception_example_runs_as_documented",
+    "render_spec": "test_render_example_runs_as_documented",
     "fence.status": "test_the_custom_tool_example_is_the_shipped_file_and_registers",
     "manager.allocate(tasks)": "test_the_swarm_example_prints_what_the_readme_says",
     "someone collapsed in the sun": "test_memory_example_runs_as_documented",

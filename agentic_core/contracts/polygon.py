@@ -81,6 +81,14 @@ def points_in_polygon(points: ArrayLike, polygon: ArrayLike) -> BoolArray:
     return inside
 
 
+def crossing_parity(points: ArrayLike, polygon: ArrayLike) -> BoolArray:
+    """The even-odd rule alone, without :func:`points_in_polygon`'s edge test: quicker, for rasterising (a texel
+    exactly on an edge may go either way, which no picture shows)."""
+    pts = _points(points)
+    a, b = _corners(polygon)
+    return _crossings_odd(pts, a, b) if len(a) else np.zeros(len(pts), dtype=bool)
+
+
 def point_in_polygon(point: Sequence[float], polygon: Sequence[Sequence[float]]) -> bool:
     """:func:`points_in_polygon` for one point, in plain Python (the vehicle asks this every tick)."""
     return outside_by(point, polygon) == 0.0
@@ -128,6 +136,7 @@ def polygon_area(polygon: ArrayLike) -> float:
 
 __all__ = [
     "EDGE_TOLERANCE_M",
+    "crossing_parity",
     "distance_to_edge",
     "outside_by",
     "point_in_polygon",

@@ -116,7 +116,11 @@ class MissionRun:
     def _assemble(self, snapshot: Snapshot | None) -> None:
         settings = self.settings
         camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
-        self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
+        self.loop = (
+            PerceptionLoop(self.scene, seed=settings.seed, camera=camera, render=settings.render)
+            if self.scene
+            else None
+        )
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
             self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen, snapshot.tracks)
         self.last_sample: TelemetrySample | None = None
