@@ -120,6 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the wind gusts and GPS noise")
     parser.add_argument(
+        "--gains", default=None, metavar="FILE", help="position-controller gains: tune.json of agentic-uav eval tune"
+    )
+    parser.add_argument(
         "--param", type=parse_param, action="append", default=[], metavar="NAME=VALUE", help="a vehicle parameter"
     )
     parser.add_argument(
@@ -138,21 +141,23 @@ def _simulator(args: argparse.Namespace) -> tuple[Simulator, VehicleSnapshot | N
     """The simulator the arguments ask for, and the snapshot to resume (ValueError naming what is wrong)."""
     from flight.mavlink import VehicleSnapshot
     from flight.sim import Environment, Home, Simulator
+    from flight.sim.gains_file import load_gains
     from flight.sim.scene_file import load_scene
 
+    gains = load_gains(args.gains) if args.gains is not None else None
     if args.resume is not None:
         try:
             text = Path(args.resume).read_text(encoding="utf-8")
         except OSError as exc:
             raise ValueError(f"cannot read the snapshot {args.resume}: {exc.strerror or exc}") from None
-        return Simulator(seed=args.seed), VehicleSnapshot.from_json(text, file=args.resume)
+        return Simulator(seed=args.seed, gains=gains), VehicleSnapshot.from_json(text, file=args.resume)
     if args.scene is not None:
         if not Path(args.scene).is_file():
             raise ValueError(f"no scene file {args.scene}")
         home = load_scene(args.scene).home.to_home()
     else:
         home = Home(*args.home) if args.home else Home()
-    return Simulator(Environment(home=home), seed=args.seed), None
+    return Simulator(Environment(home=home), seed=args.seed, gains=gains), None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -33,6 +33,7 @@ from flight.mavlink.snapshot import VehicleSnapshot
 from flight.signing import read_key_file
 from flight.sim import Environment as SimEnvironment
 from flight.sim import Simulator
+from flight.sim.controller import Gains
 from flight.sim.environment import Home
 from flight.tlog import TlogWriter, simulated_clock
 from flight.vehicle import VehicleClient
@@ -86,13 +87,14 @@ class SimBackend:
         signing_key: bytes | None = None,
         system_id: int = 1,
         api: tuple[str, int] | None = None,
+        gains: Gains | None = None,
     ) -> None:
         self.pace = pace
         self.tlog_path = tlog
         self.tlog: TlogWriter | None = None
         self.signing_key = signing_key
         ground = resolve(gcs) if gcs else None
-        self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed)
+        self.sim = Simulator(environment=SimEnvironment(home=home) if home else None, seed=seed, gains=gains)
         self.vehicle = MavlinkVehicle(self.sim, gcs=ground, api=api, signing_key=signing_key, system_id=system_id)
         if restore is not None:
             try:

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import ValidationError
 
 from flight.cli import parse_speed
+from flight.sim.gains_file import load_gains
 
 from ..console.cli import add_run_options, console_check, live_console, operator_for
 from ..contracts.errors import AgenticUAVError, report_error
@@ -91,6 +92,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--camera-hz", type=float, default=30.0, help="frames per second of the camera (30)")
     parser.add_argument(
         "--render", action="store_true", help="the simulated camera renders pixels (640x480): alerts carry the frame"
+    )
+    parser.add_argument(
+        "--gains", type=Path, metavar="FILE", help="the simulated vehicle's controller gains (tune.json of eval tune)"
     )
     parser.add_argument(
         "--fault", action="append", default=[], metavar="FAULT",
@@ -177,9 +181,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.signing_key is not None and args.connect is None:
         print(f"{PROG}: error: --signing-key goes with --connect (the simulator makes a key per run)", file=sys.stderr)
         return 2
+    if args.gains is not None and args.connect is not None:
+        print(f"{PROG}: error: --gains sets the simulated vehicle's controller; not one at --connect", file=sys.stderr)
+        return 2
     try:
         mission = resolve_mission(args.mission)
         scene = None if args.scene is None else resolve_scene(args.scene)
+        if args.gains is not None:
+            load_gains(args.gains)  # a bad file is refused before anything starts
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)
     try:
@@ -199,6 +208,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             max_wall_s=args.max_wall_s,
             camera_hz=args.camera_hz,
             render=args.render,
+            gains=args.gains,
             faults=faults,
             **({} if args.gcs is None else {"gcs": args.gcs}),
             tools=args.tools,

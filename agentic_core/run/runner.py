@@ -20,6 +20,7 @@ from typing import Any, TextIO
 
 from flight.camera import CameraSpec
 from flight.sim.detector import SimulatedCamera
+from flight.sim.gains_file import load_gains
 from flight.sim.scene_model import Scene
 from flight.tools import register_flight_tools
 from flight.vehicle import VehicleClient
@@ -104,7 +105,7 @@ class MissionRun:
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
                 restore=snapshot.vehicle if snapshot else None, gcs=settings.gcs_address, tlog=tlog,
-                signing_key=run_signing_key(self.run_dir),
+                signing_key=run_signing_key(self.run_dir), gains=load_gains(settings.gains) if settings.gains else None,
             )
         )  # fmt: skip
         try:

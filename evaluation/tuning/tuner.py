@@ -17,16 +17,12 @@ import numpy as np
 from agentic_core.contracts.extras import require
 from evaluation.stats.paired import PairedResult, paired_test
 from flight.sim.controller import Gains
+from flight.sim.gains_file import TUNABLE
 
 from .flights import TARGET, Costs, costs, fly, read_telemetry, write_telemetry
 
-BOUNDS: dict[str, tuple[float, float]] = {
-    "pos_xy": (0.3, 1.6),
-    "vel_xy_p": (1.0, 4.5),
-    "vel_xy_i": (0.0, 1.0),
-    "vel_xy_d": (0.0, 0.3),
-}
-"""The safe envelope of each tuned gain (outside it the F450 oscillates or crawls)."""
+BOUNDS: dict[str, tuple[float, float]] = TUNABLE
+"""The safe envelope of each tuned gain (outside it the F450 oscillates or crawls): the ranges a gains file may set."""
 
 
 def gains_at(x: Sequence[float], base: Gains) -> Gains:
