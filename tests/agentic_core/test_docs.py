@@ -39,6 +39,7 @@ MODULES = [
     "flight.sim.scene_model",
     "flight.sim.scene",
     "flight.sim.scene_file",
+    "flight.sim.gains_file",
     "flight.sim.scene_gen",
     "flight.sim.detector",
     "evaluation.stats.plots",
