@@ -209,6 +209,17 @@ def parse_mixed(
     return numeric_kind(numbers, name, False)
 
 
+def level_code(lookup: dict[str, int], text: str, raw: RawTable, row: int, name: str) -> int:
+    """The code of ``text`` among the levels seen so far, a new level taking the next code; more than
+    :data:`MAX_GROUPS` levels is an error naming the cell."""
+    code = lookup.get(text)
+    if code is None:
+        if len(lookup) == MAX_GROUPS:
+            raise raw.error(too_many_groups(), row, name)
+        code = lookup[text] = len(lookup)
+    return code
+
+
 def categorical(raw: RawTable, name: str, texts: Sequence[str | None], explicit: bool) -> Parsed | SkippedColumn:
     lookup: dict[str, int] = {}
     codes = np.empty(len(texts), dtype=np.int64)
@@ -216,12 +227,7 @@ def categorical(raw: RawTable, name: str, texts: Sequence[str | None], explicit:
         if text is None:
             codes[row] = -1
             continue
-        code = lookup.get(text)
-        if code is None:
-            if len(lookup) == MAX_GROUPS:
-                raise raw.error(too_many_groups(), row, name)
-            code = lookup[text] = len(lookup)
-        codes[row] = code
+        codes[row] = level_code(lookup, text, raw, row, name)
     n_levels = len(lookup)
     if n_levels > MAX_CATEGORICAL_LEVELS or n_levels >= raw.n_rows:
         message = f"{n_levels} distinct text values: neither numeric nor categorical (at most {MAX_CATEGORICAL_LEVELS})"
@@ -261,6 +267,7 @@ __all__ = [
     "cell_text",
     "cells",
     "format_number",
+    "level_code",
     "parse_column",
     "text_kind",
     "too_many_groups",

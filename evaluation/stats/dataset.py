@@ -39,6 +39,7 @@ from evaluation.stats.columns import (
     binary_as_numbers,
     cell_text,
     format_number,
+    level_code,
     parse_column,
     text_kind,
     too_many_groups,
@@ -303,12 +304,7 @@ def _parse_groups(raw: RawTable, name: str) -> tuple[list[str], IntArray]:
         text = cell_text(cell)
         if text is None:
             raise raw.error("empty group value", row, name)
-        code = lookup.get(text)
-        if code is None:
-            if len(lookup) == MAX_GROUPS:
-                raise raw.error(too_many_groups(), row, name)
-            code = lookup[text] = len(lookup)
-        codes[row] = code
+        codes[row] = level_code(lookup, text, raw, row, name)
     return list(lookup), codes
 
 

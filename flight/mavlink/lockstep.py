@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Iterable
 
-from flight.mavlink.pacing import Pacer, Speed
+from flight.mavlink.pacing import ClockThread, Pacer, Speed
 from flight.mavlink.vehicle import MavlinkVehicle
 
 
@@ -35,8 +35,8 @@ class Lockstep:
     def __init__(self, vehicles: Iterable[MavlinkVehicle] = ()) -> None:
         self._vehicles: list[MavlinkVehicle] = list(vehicles)
         self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._clock = ClockThread("swarm-clock")
+        self._stop = self._clock.stop_event
         self.errors: list[str] = []
         """What the pace raised, and the vehicles that dropped out (closed) and when."""
         self.rounds = 0
@@ -59,7 +59,7 @@ class Lockstep:
 
     def add(self, vehicle: MavlinkVehicle) -> None:
         """Tick ``vehicle`` from the next round on (its clock must be the others': a fresh one is, at 0)."""
-        if self._thread is not None:
+        if self._clock.thread is not None:
             vehicle.link_on_wall_clock()
         with self._lock:
             self._vehicles.append(vehicle)
@@ -122,22 +122,11 @@ class Lockstep:
 
     def start(self, speed: Speed = None) -> threading.Thread:
         """Run :meth:`run` on the ``swarm-clock`` daemon thread."""
-        if self._thread is not None and self._thread.is_alive():
-            raise RuntimeError("already running")
-        if not callable(speed):
-            Pacer(speed, [])  # a bad speed raises here, in the caller's thread
-        self._stop.clear()
-        self._thread = threading.Thread(target=self.run, args=(speed,), name="swarm-clock", daemon=True)
-        self._thread.start()
-        return self._thread
+        return self._clock.start(self.run, speed)
 
     def stop(self) -> None:
         """Stop the thread started by :meth:`start` (the vehicles stay open: their owners close them)."""
-        self._stop.set()
-        thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout=5.0)
-        self._thread = None
+        self._clock.stop()
 
 
 __all__ = ["Lockstep"]

@@ -18,6 +18,7 @@ ValueError: speed must be positive or None
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable, MutableSequence
 
 Pace = Callable[[], float | None]
@@ -68,3 +69,31 @@ class Pacer:
                     f"pace {getattr(self.pace, '__qualname__', self.pace)}: {type(exc).__name__}: {exc}"
                 )
             return self.speed
+
+
+class ClockThread:
+    """The daemon thread a clock loop (a vehicle's, or the swarm's lockstep) runs on, and the event that stops it."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.stop_event = threading.Event()
+        self.thread: threading.Thread | None = None
+
+    def start(self, run: Callable[[Speed], None], speed: Speed) -> threading.Thread:
+        """Run ``run(speed)`` on the thread; a bad speed raises here, in the caller's thread."""
+        if self.thread is not None and self.thread.is_alive():
+            raise RuntimeError("already running")
+        if not callable(speed):
+            Pacer(speed, [])
+        self.stop_event.clear()
+        self.thread = threading.Thread(target=run, args=(speed,), name=self.name, daemon=True)
+        self.thread.start()
+        return self.thread
+
+    def stop(self) -> None:
+        """Ask the loop to stop and wait for it (up to 5 s; not when called from the loop itself)."""
+        self.stop_event.set()
+        thread = self.thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
+        self.thread = None

@@ -92,7 +92,7 @@ from flight.mavlink.mission_service import MESSAGES as MISSION_MESSAGES
 from flight.mavlink.mission_service import MISSION_COMMANDS, MissionService
 from flight.mavlink.navigator import CommandDenied, Navigator
 from flight.mavlink.offboard import SetpointRejected, decode_global_int, decode_local_ned
-from flight.mavlink.pacing import Pacer, Speed
+from flight.mavlink.pacing import ClockThread, Pacer, Speed
 from flight.mavlink.params import ParamStore, decode_value, encode_value
 from flight.mavlink.sending import STATUSTEXT_LEN, Sender
 from flight.mavlink.snapshot import VehicleSnapshot
@@ -264,8 +264,8 @@ class MavlinkVehicle(TelemetryBuilders, Sender):
         )
         """Signing and the armed-vehicle rules (:mod:`flight.mavlink.guard`)."""
         self.guard.signer.attach(self._mav)
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._clock = ClockThread("mavlink-vehicle")
+        self._stop = self._clock.stop_event
         self.missions = MissionService(
             self.navigator,
             self._mav,
@@ -449,22 +449,11 @@ class MavlinkVehicle(TelemetryBuilders, Sender):
 
     def start(self, speed: Speed = 1.0) -> threading.Thread:
         """Run :meth:`run` on a daemon thread (``speed``: a multiple of real time, None, or a pace)."""
-        if self._thread is not None and self._thread.is_alive():
-            raise RuntimeError("already running")
-        if not callable(speed):
-            Pacer(speed, [])  # a bad speed raises here, in the caller's thread
-        self._stop.clear()
-        self._thread = threading.Thread(target=self.run, args=(speed,), name="mavlink-vehicle", daemon=True)
-        self._thread.start()
-        return self._thread
+        return self._clock.start(self.run, speed)
 
     def stop(self) -> None:
         """Stop the pacer thread started by :meth:`start` (no-op when none runs)."""
-        self._stop.set()
-        thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout=5.0)
-        self._thread = None
+        self._clock.stop()
 
     # -- receiving --------------------------------------------------------------------------------------------
 
