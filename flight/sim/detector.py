@@ -76,7 +76,6 @@ from flight.camera import (
     Detection,
     Frame,
     SensorHealth,
-    footprint,
     ground_points,
     pose_of,
     project_points,
@@ -202,7 +201,7 @@ class SimulatedDetector:
         """The deterministic half of the model: which actors the frame sees, their boxes and ``p``."""
         state, model, spec, pose = self.state, self.model, frame.spec, frame.pose
         state.advance_to(frame.time_s)
-        rows = self._candidates(spec, pose)
+        rows = self.state.in_sight(spec, pose)
         corners = state.corners(rows)
         pixels, _ = project_points(spec, pose, corners.reshape(-1, 3))
         pixels = pixels.reshape(len(rows), 8, 2)
@@ -278,17 +277,6 @@ class SimulatedDetector:
         out += self._false_positives(frame, k)
         out.sort(key=lambda d: -d.confidence)
         return out
-
-    def _candidates(self, spec: CameraSpec, pose: CameraPose) -> IntArray:
-        """Rows near the frame's ground footprint (all rows when the camera sees the horizon)."""
-        corners = footprint(spec, pose)
-        if corners is None:
-            return np.arange(len(self.state), dtype=np.int64)
-        margin = 5.0 + float(self.state.sizes[:, 2].max(initial=0.0))
-        lo, hi = corners.min(axis=0) - margin, corners.max(axis=0) + margin
-        pos = self.state.positions
-        near = (pos[:, 0] >= lo[0]) & (pos[:, 0] <= hi[0]) & (pos[:, 1] >= lo[1]) & (pos[:, 1] <= hi[1])
-        return np.flatnonzero(near).astype(np.int64)
 
     def _density(self, rows: IntArray) -> FloatArray:
         """Persons per m² within ``density_radius_m`` of each row's actor (not counting itself)."""

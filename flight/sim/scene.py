@@ -33,6 +33,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from agentic_core.contracts.camera import CameraPose, CameraSpec
+from agentic_core.contracts.pinhole import footprint
 from flight.sim.scene_model import BEHAVIOURS, NE, Actor, BodySize, Scene, Zone, default_size
 
 FloatArray = NDArray[np.float64]
@@ -172,6 +174,18 @@ class SceneState:
             self.step(min(max_dt, time_s - self.time_s))
         if abs(self.time_s - time_s) <= 1e-9:
             self.time_s = time_s
+
+    def in_sight(self, spec: CameraSpec, pose: CameraPose) -> IntArray:
+        """Rows near a camera's ground footprint, with a margin for the tallest body (all rows when the camera sees
+        the horizon): what a camera may see, for the detector and the renderer to look at closer."""
+        corners = footprint(spec, pose)
+        if corners is None:
+            return np.arange(len(self), dtype=np.int64)
+        margin = 5.0 + float(self.sizes[:, 2].max(initial=0.0))
+        lo, hi = corners.min(axis=0) - margin, corners.max(axis=0) + margin
+        pos = self.positions
+        near = (pos[:, 0] >= lo[0]) & (pos[:, 0] <= hi[0]) & (pos[:, 1] >= lo[1]) & (pos[:, 1] <= hi[1])
+        return np.flatnonzero(near).astype(np.int64)
 
     def corners(self, rows: IntArray | None = None) -> FloatArray:
         """The 8 corners (M×8×3 north/east/down, the ground at down 0) of the body boxes of ``rows`` (all): the

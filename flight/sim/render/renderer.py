@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agentic_core.contracts.camera import CameraPose, CameraSpec, Frame
-from agentic_core.contracts.pinhole import footprint, ground_points, project_points, rotation_world_from_camera
+from agentic_core.contracts.pinhole import ground_points, project_points, rotation_world_from_camera
 from flight.sim.scene import SceneState
 from flight.sim.scene_model import Scene
 
@@ -95,7 +95,7 @@ class SceneRenderer:
         if pose.down_m > -MIN_HEIGHT_M:
             pose = pose.model_copy(update={"down_m": -MIN_HEIGHT_M})
         image = self.ground.view(spec, pose)
-        rows = self._candidates(spec, pose)
+        rows = self.state.in_sight(spec, pose)
         camera = _Camera(spec, pose)
         vehicles = rows[self._poses[rows] < 0]
         if len(vehicles):
@@ -103,16 +103,6 @@ class SceneRenderer:
         persons = self._draw_people(image, camera, rows[self._poses[rows] >= 0])
         blur = _blur_px(spec, pose, velocity_ned, self.sensor.exposure_s)
         return Rendered(self.sensor.expose(image, frame_index, blur), persons)
-
-    def _candidates(self, spec: CameraSpec, pose: CameraPose) -> IntArray:
-        corners = footprint(spec, pose)
-        if corners is None:
-            return np.arange(len(self.state), dtype=np.int64)
-        margin = 5.0 + float(self.state.sizes[:, 2].max(initial=0.0))
-        lo, hi = corners.min(axis=0) - margin, corners.max(axis=0) + margin
-        pos = self.state.positions
-        near = (pos[:, 0] >= lo[0]) & (pos[:, 0] <= hi[0]) & (pos[:, 1] >= lo[1]) & (pos[:, 1] <= hi[1])
-        return np.flatnonzero(near).astype(np.int64)
 
     def _draw_vehicles(self, image: NDArray[np.uint8], camera: _Camera, rows: IntArray) -> None:
         shadow, shadow_far, roof, screen, paint = vehicle_quads(self.state, rows, self.looks, self.sun)
