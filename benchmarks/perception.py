@@ -128,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="a fast smoke run: 30 frames, 1 repeat")
     parser.add_argument("--strict", action="store_true", help="exit 1 when the target is missed")
+    parser.add_argument("--detect", type=int, default=0, metavar="N", help="also time our detector on N frames")
     args = parser.parse_args(argv)
     if args.quick:
         args.frames, args.warmup, args.repeats = 30, 10, 1
@@ -172,6 +173,10 @@ def main(argv: list[str] | None = None) -> int:
         )
     else:
         print(f"target: median < {TARGET_MS:g} ms at {TARGET_SIZE} persons -> n/a (size not run)")
+    if args.detect:
+        from detect_timing import detect_section
+
+        print(detect_section(args.detect))
     return 1 if args.strict and verdict == "MISS" else 0
 
 

@@ -17,6 +17,7 @@ True
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,7 +51,7 @@ class Calibration(BaseModel):
         return cls(method="identity", scores=[0.0, 1.0], probs=[0.0, 1.0])
 
     @classmethod
-    def fit(cls, scores: NDArray[np.floating], labels: NDArray[np.integer] | NDArray[np.bool_]) -> Calibration:
+    def fit(cls, scores: NDArray[np.floating], labels: NDArray[Any]) -> Calibration:
         """Isotonic regression of ``labels`` (1: a true person) on ``scores``, with tied scores pooled first."""
         from scipy.optimize import isotonic_regression
 
@@ -77,9 +78,7 @@ class Reliability:
     count: NDArray[np.int64]
 
 
-def reliability(
-    conf: NDArray[np.floating], labels: NDArray[np.integer] | NDArray[np.bool_], bins: int = 10
-) -> Reliability:
+def reliability(conf: NDArray[np.floating], labels: NDArray[Any], bins: int = 10) -> Reliability:
     """Confidences put in ``bins`` equal-width bins over 0–1: each bin's mean confidence and share of true ones."""
     c = np.asarray(conf, dtype=np.float64)
     y = np.asarray(labels, dtype=np.float64)
@@ -91,9 +90,7 @@ def reliability(
     return Reliability(confidence=sums / count[present], frequency=hits / count[present], count=count[present])
 
 
-def expected_calibration_error(
-    conf: NDArray[np.floating], labels: NDArray[np.integer] | NDArray[np.bool_], bins: int = 10
-) -> float:
+def expected_calibration_error(conf: NDArray[np.floating], labels: NDArray[Any], bins: int = 10) -> float:
     """The bins' gaps between mean confidence and observed frequency, weighted by their share of detections."""
     if len(conf) == 0:
         return 0.0

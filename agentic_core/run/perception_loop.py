@@ -33,6 +33,7 @@ from ..contracts import TelemetrySample
 from ..perception.pipeline import Perception, PerceptionConfig
 from ..perception.tracker import TrackerState
 from ..perception.world_model import WorldModel
+from .detector_choice import pixel_detector
 
 REID_RADIUS_M = 8.0
 """How far from where a dropped track was last seen a new track may be taken for the same object."""
@@ -48,12 +49,15 @@ class PerceptionLoop:
         seed: int = 0,
         camera: SimulatedCamera | None = None,
         config: PerceptionConfig | None = None,
+        detector: str = "sim",
     ) -> None:
         self.scene = scene
         home = scene.home
         self.home = (home.lat_deg, home.lon_deg, home.alt_msl_m)
         self.camera = camera or SimulatedCamera()
         self.detector = SimulatedDetector(scene, seed=seed)
+        self.pixels = pixel_detector(detector, self.detector.state, seed=seed)
+        """A real detector on rendered frames (``--detector ours|onnx:PATH``), else None: the simulated one."""
         self.perception = Perception(home=self.home, config=config, landmarks=[*scene.landmarks, *scene.zones])
         self.frames = 0
         self.busy_s = 0.0
@@ -148,7 +152,10 @@ class PerceptionLoop:
         date with it; returns the new model."""
         start = time.perf_counter()
         frame = self.camera.capture(source, time_s)
-        detections = self.detector.detect(frame)
+        if self.pixels is not None:
+            frame, detections = self.pixels.see(frame)
+        else:
+            detections = self.detector.detect(frame)
         sensed = time.perf_counter()
         world = self.perception.update(frame, detections)
         done = time.perf_counter()

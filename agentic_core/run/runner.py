@@ -18,7 +18,6 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from flight.camera import CameraSpec
 from flight.sim.detector import SimulatedCamera
 from flight.sim.scene_model import Scene
 from flight.tools import register_flight_tools
@@ -46,6 +45,7 @@ from ..reasoning.reasoners import make_reasoner
 from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
+from .detector_choice import camera_spec
 from .faults import SCHEDULE, FaultSchedule
 from .link_key import keep_signing_key, run_signing_key
 from .model_check import require_model
@@ -112,8 +112,12 @@ class MissionRun:
 
     def _assemble(self, snapshot: Snapshot | None) -> None:
         settings = self.settings
-        camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
-        self.loop = PerceptionLoop(self.scene, seed=settings.seed, camera=camera) if self.scene else None
+        camera = SimulatedCamera(camera_spec(settings.detector, settings.camera_hz))
+        self.loop = (
+            PerceptionLoop(self.scene, seed=settings.seed, camera=camera, detector=settings.detector)
+            if self.scene
+            else None
+        )
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
             self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen, snapshot.tracks)
         self.last_sample: TelemetrySample | None = None

@@ -46,7 +46,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from agentic_core.perception.metrics import TrackingScore
 from agentic_core.perception.pipeline import Perception
@@ -54,6 +54,7 @@ from agentic_core.perception.world_model import WorldModel
 from agentic_core.reasoning.assessment import Decision
 from agentic_core.reasoning.reasoners import Reasoner
 from agentic_core.reasoning.rules import RuleSettings
+from agentic_core.run.detector_choice import parse_detector, pixel_detector
 from flight.camera import CameraPose, CameraSpec, Frame, project_points
 from flight.sim.detector import SimulatedCamera, SimulatedDetector
 from flight.sim.scene import SceneState
@@ -78,6 +79,12 @@ class EpisodeSettings(BaseModel):
     landmarks: bool = Field(default=True, description="perception knows the scene's landmarks")
     goal: str = Field(default=DEFAULT_GOAL, description="the mission goal a model is told")
     camera: CameraSpec = Field(default_factory=CameraSpec)
+    detector: str = Field(default="sim", description="sim, ours or onnx:PATH (the last two render the camera)")
+
+    @field_validator("detector")
+    @classmethod
+    def _known_detector(cls, value: str) -> str:
+        return parse_detector(value)
 
     @property
     def duration_s(self) -> float:
@@ -176,6 +183,7 @@ def run_episode(
     state = SceneState(scene)
     detector = SimulatedDetector(state, seed=seed)
     camera = SimulatedCamera(cfg.camera)
+    pixels = pixel_detector(cfg.detector, state, seed=seed)
     north, east, _ = point_of_interest(scene)
     pose = CameraPose(north_m=north, east_m=east, down_m=-cfg.altitude_m)
     home = scene.home
@@ -192,7 +200,7 @@ def run_episode(
         for k in range(cfg.frames):
             t = k / cfg.camera.rate_hz
             frame = camera.capture(pose, t)
-            detections = detector.detect(frame)
+            frame, detections = pixels.see(frame) if pixels is not None else (frame, detector.detect(frame))
             start = time.perf_counter()
             world = perception.update(frame, detections)
             perception_time += time.perf_counter() - start

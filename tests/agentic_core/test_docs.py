@@ -128,6 +128,10 @@ MODULES = [
     "agentic_core.perception.calibration",
     "agentic_core.perception.detectors.yolo_decode",
     "agentic_core.perception.detectors.onnx",
+    "agentic_core.run.detector_choice",
+    "evaluation.detector.crops",
+    "evaluation.detector.scoring",
+    "evaluation.detector.evaluate",
 ]
 
 

@@ -57,7 +57,7 @@ def test_reliability_bins_count_everything() -> None:
     ],
 )
 def test_maps_that_are_not_probabilities_are_refused(fields) -> None:
-    with pytest.raises(ValidationError, match="calibration|at least 1"):
+    with pytest.raises(ValidationError, match=r"calibration|at least 1"):
         Calibration.model_validate(fields)
 
 
