@@ -1,11 +1,12 @@
 """An annotated picture of one frame, as PNG: for alerts ("annotated imagery") and mission reports.
 
-Drawn in the image plane of the frame: the frame's pixels when it has some (a real camera), else a plain ground
-(the simulated camera has none); every detection's box; each tracked object's box (the one its last detection
-had, else a marker where its position projects) with its id; the casualties highlighted in red with what makes
-them so (by default: the objects both ``stationary`` and ``isolated_from`` the crowd); a scale bar in metres (the
-ground sample distance at the image centre, exact over flat ground for the default straight-down camera); and a
-caption with the time, frame, object count and any degraded sensors.
+Drawn in the image plane of the frame: the frame's pixels when it has some (a real camera, or the simulated one
+rendering: ``--render``), else a plain ground; every detection's box; each tracked object's box (the one its last
+detection had, else a marker where its position projects) with its id; the casualties highlighted in red with
+what makes them so (by default: the objects both ``stationary`` and ``isolated_from`` the crowd) and their
+position (latitude, longitude) under them; a scale bar in metres (the ground sample distance at the image centre,
+exact over flat ground for the default straight-down camera); and a caption with the time, frame, object count
+and any degraded sensors.
 
 The picture is on an alert's critical path (the frame that confirms a casualty to the alert sent), so it is drawn
 straight into a numpy RGB array rather than through matplotlib's figure machinery, which took tens of
@@ -70,6 +71,15 @@ def casualties_of(world: WorldModel) -> list[str]:
     return [o.id for o in world.objects if o.id in still and o.id in isolated]
 
 
+def position_text(lat: float, lon: float) -> str:
+    """A position as the picture writes it: ``21.42250° N, 39.87330° E`` (five decimals: about a metre).
+
+    >>> position_text(21.4225, -39.8733)
+    '21.42250° N, 39.87330° W'
+    """
+    return f"{abs(lat):.5f}° {'N' if lat >= 0 else 'S'}, {abs(lon):.5f}° {'E' if lon >= 0 else 'W'}"
+
+
 def scale_bar_m(metres_per_px: float, image_width_px: float) -> float:
     """A round length (m) whose bar spans about a fifth of the image: 0.5, 1, 2, 5, 10, 20, ... metres."""
     target = metres_per_px * image_width_px / 5.0
@@ -98,7 +108,7 @@ def annotate_frame(
     scale = width_px / spec.width_px
     height_px = max(1, round(spec.height_px * scale))
     canvas = _Canvas(_background(frame.image, height_px, width_px), scale)
-    font = max(6.0, 11.0 * scale * 2.0)
+    font = max(6.0, 11.0 * width_px / 960.0)  # by the picture's width, whatever the camera's resolution
     canvas.outlines([d.box for d in detections], _DETECTION, 0.8)
     marked = set(casualties_of(world) if highlight is None else highlight)
     objects = [o for o in world.objects if o.state != "lost"]
@@ -147,6 +157,13 @@ def annotate_frame(
                 box_alpha=0.5 if casualty else None,
                 pad_pt=1.0,
             )
+            if casualty:  # where to go, under the casualty
+                below = box.y_max if box is not None else y + 8.0
+                canvas.text(
+                    x + (box.width if right and box is not None else 0.0), min(below + 4, spec.height_px - 4 * font),
+                    position_text(o.pose.lat, o.pose.lon), color=color, size_pt=font, bold=True,
+                    ha="right" if right else "left", va="top", box_alpha=0.5, pad_pt=1.0,
+                )  # fmt: skip
     _scale_bar(canvas, frame, scale, font)
     degraded = f" · degraded: {', '.join(world.health.degraded_sensors)}" if world.health.degraded_sensors else ""
     caption = f"t={world.timestamp:.2f} s · frame {world.frame} · {len(objects)} objects{degraded}"
@@ -432,4 +449,4 @@ def _scale_bar(canvas: _Canvas, frame: Frame, scale: float, font: float) -> None
     canvas.text(x0 + length_px / 2, y0 - 4, text, color=_WHITE, size_pt=font, ha="center", va="bottom")
 
 
-__all__ = ["annotate_frame", "casualties_of", "encode_png", "scale_bar_m"]
+__all__ = ["annotate_frame", "casualties_of", "encode_png", "position_text", "scale_bar_m"]

@@ -91,6 +91,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--camera-hz", type=float, default=30.0, help="frames per second of the camera (30)")
     parser.add_argument(
+        "--render", action="store_true", help="the simulated camera renders pixels (640x480): alerts carry the frame"
+    )
+    parser.add_argument(
         "--fault", action="append", default=[], metavar="FAULT",
         help="inject a failure to rehearse a failsafe, repeatable: KIND[=VALUE]@WHEN, e.g. battery=18%%@S1 (when "
         "step S1 completes), gps_loss@t=40s (mission time); kinds: " + ", ".join(FAULT_KINDS),
@@ -202,6 +205,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=args.seed,
             max_wall_s=args.max_wall_s,
             camera_hz=args.camera_hz,
+            render=args.render,
             faults=faults,
             **({} if args.gcs is None else {"gcs": args.gcs}),
             tools=args.tools,

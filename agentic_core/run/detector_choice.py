@@ -2,9 +2,9 @@
 default: fast, for large campaigns); ``onnx:PATH``, any YOLO-style ONNX model; ``ours``, the person detector trained
 here and shipped with the package. The last two see pixels, so they turn the rendering camera on.
 
-:class:`PixelDetector` is what a real detector runs behind: it renders the frame (when the camera gave no pixels)
-from the scene state the loop moves, runs the model on it, and links each detection to the person it covers
-(``truth_id``, for evaluation only: perception never reads it).
+:class:`PixelDetector` is what a real detector runs behind: it runs the model on the rendering camera's frame (or
+renders one itself from the scene state the loop moves, when the camera gave no pixels), and links each detection
+to the person it covers (``truth_id``, for evaluation only: perception never reads it).
 
 >>> parse_detector("sim"), parse_detector(" ours "), parse_detector("onnx:models/yolo11n.onnx")
 ('sim', 'ours', 'onnx:models/yolo11n.onnx')
@@ -27,8 +27,8 @@ from ..contracts.errors import InputError
 from ..perception.detectors.yolo_decode import iou
 
 if TYPE_CHECKING:
-    from flight.sim.render.renderer import Rendered, SceneRenderer
-    from flight.sim.scene import SceneState
+    from flight.sim.detector import SimulatedDetector
+    from flight.sim.render.renderer import SceneRenderer
 
 PIXEL_SIZE = (640, 480)
 """The rendered frame's size (width, height) for a real detector: what ours was trained on."""
@@ -68,44 +68,45 @@ def load_detector(choice: str) -> Detector | None:
 
 
 class PixelDetector:
-    """A real detector over rendered frames of a moving scene; :meth:`see` gives the frame with its pixels and
-    the detections, each linked to the person whose rendered box it overlaps most (IoU ≥ 0.3)."""
+    """A real detector over the frames of a moving scene; :meth:`see` gives the frame with its pixels (rendered
+    here when the camera gave none) and the detections, each linked to the person whose projected box it overlaps
+    most (IoU ≥ 0.3; the simulated detector's geometry, ``in_view``)."""
 
-    def __init__(self, model: Detector, state: SceneState, *, seed: int = 0) -> None:
-        from flight.sim.render.renderer import SceneRenderer
-
+    def __init__(self, model: Detector, sim: SimulatedDetector, *, seed: int = 0) -> None:
         self.model = model
-        self.state = state
-        self.renderer: SceneRenderer = SceneRenderer(state, seed=seed)
+        self.sim = sim
+        self.seed = seed
+        self._renderer: SceneRenderer | None = None
 
     def see(self, frame: Frame) -> tuple[Frame, list[Detection]]:
-        """Render ``frame`` (unless it has pixels), detect, and link the detections to the scene's persons."""
-        self.state.advance_to(frame.time_s)
-        rendered: Rendered | None = None
+        """Render ``frame`` unless it has pixels, detect, and link the detections to the scene's persons."""
         if frame.image is None:
-            rendered = self.renderer.render_frame(frame)
-            frame = frame.model_copy(update={"image": rendered.image})
+            if self._renderer is None:
+                from flight.sim.render.renderer import SceneRenderer
+
+                self._renderer = SceneRenderer(self.sim.state, seed=self.seed)
+            frame = frame.model_copy(update={"image": self._renderer.render_frame(frame).image})
         found = self.model.detect(frame)
-        return frame, found if rendered is None else _link(found, rendered)
+        return frame, _link(found, self.sim, frame) if found else found
 
 
-def _link(found: list[Detection], rendered: Rendered) -> list[Detection]:
-    persons = rendered.persons
-    if not len(persons.ids):
+def _link(found: list[Detection], sim: SimulatedDetector, frame: Frame) -> list[Detection]:
+    view = sim.in_view(frame)
+    if not len(view.rows):
         return found
+    ids = [sim.state.ids[int(r)] for r in view.rows]
     out = []
     for d in found:
-        box = np.array([d.box.x_min, d.box.y_min, d.box.x_max, d.box.y_max])
-        overlap = iou(box, persons.boxes)
+        overlap = iou(np.array([d.box.x_min, d.box.y_min, d.box.x_max, d.box.y_max]), view.boxes)
         best = int(np.argmax(overlap))
-        out.append(d.model_copy(update={"truth_id": persons.ids[best]}) if overlap[best] >= 0.3 else d)
+        out.append(d.model_copy(update={"truth_id": ids[best]}) if overlap[best] >= 0.3 else d)
     return out
 
 
-def pixel_detector(choice: str, state: SceneState, *, seed: int = 0) -> PixelDetector | None:
-    """The :class:`PixelDetector` for ``choice`` over ``state`` (None for ``sim``)."""
+def pixel_detector(choice: str, sim: SimulatedDetector, *, seed: int = 0) -> PixelDetector | None:
+    """The :class:`PixelDetector` for ``choice`` beside the simulated detector ``sim`` (None for ``sim``)."""
     model = load_detector(choice)
-    return None if model is None else PixelDetector(model, state, seed=seed)
+    return None if model is None else PixelDetector(model, sim, seed=seed)
 
 
 __all__ = [

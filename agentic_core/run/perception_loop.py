@@ -5,7 +5,9 @@ The camera's pose is the one the vehicle reports in its telemetry (:class:`~agen
 not simulator truth, so the same loop serves the in-process simulator (samples in lockstep, in the vehicle's
 thread: frames at the camera's rate in *simulated* time whatever the speed) and a vehicle over a MAVLink link
 (samples as they arrive, in the client's thread). The mission reads :attr:`PerceptionLoop.world`, the latest
-model, from its own thread. The scene moves with the frames (the detector advances it).
+model, from its own thread. The scene moves with the frames (the detector advances it). With ``render=True`` the
+frames carry rendered pixels (:func:`~flight.sim.render.camera.rendering_camera`, 640×480), so an alert's picture
+is the view.
 
 >>> from flight.sim.scene_file import load_scene
 >>> loop = PerceptionLoop(load_scene("scenes/hajj_normal.yaml"), seed=1)
@@ -26,6 +28,7 @@ from pathlib import Path
 from agentic_core.contracts.geodesy import local_offset
 from flight.camera import CameraPose, Frame
 from flight.sim.detector import SimulatedCamera, SimulatedDetector
+from flight.sim.render.camera import rendering_camera
 from flight.sim.scene_model import Scene
 from flight.sim.simulator import VehicleState
 
@@ -33,7 +36,7 @@ from ..contracts import TelemetrySample
 from ..perception.pipeline import Perception, PerceptionConfig
 from ..perception.tracker import TrackerState
 from ..perception.world_model import WorldModel
-from .detector_choice import pixel_detector
+from .detector_choice import needs_pixels, pixel_detector
 
 REID_RADIUS_M = 8.0
 """How far from where a dropped track was last seen a new track may be taken for the same object."""
@@ -49,6 +52,7 @@ class PerceptionLoop:
         seed: int = 0,
         camera: SimulatedCamera | None = None,
         config: PerceptionConfig | None = None,
+        render: bool = False,
         detector: str = "sim",
     ) -> None:
         self.scene = scene
@@ -56,8 +60,10 @@ class PerceptionLoop:
         self.home = (home.lat_deg, home.lon_deg, home.alt_msl_m)
         self.camera = camera or SimulatedCamera()
         self.detector = SimulatedDetector(scene, seed=seed)
-        self.pixels = pixel_detector(detector, self.detector.state, seed=seed)
-        """A real detector on rendered frames (``--detector ours|onnx:PATH``), else None: the simulated one."""
+        if render or needs_pixels(detector):  # pixels, of the scene the detector moves (flight.sim.render)
+            self.camera = rendering_camera(self.detector.state, seed, like=self.camera)
+        self.pixels = pixel_detector(detector, self.detector, seed=seed)
+        """A real detector on the rendered frames (``--detector ours|onnx:PATH``), else None: the simulated one."""
         self.perception = Perception(home=self.home, config=config, landmarks=[*scene.landmarks, *scene.zones])
         self.frames = 0
         self.busy_s = 0.0

@@ -114,7 +114,9 @@ class MissionRun:
         settings = self.settings
         camera = SimulatedCamera(camera_spec(settings.detector, settings.camera_hz))
         self.loop = (
-            PerceptionLoop(self.scene, seed=settings.seed, camera=camera, detector=settings.detector)
+            PerceptionLoop(
+                self.scene, seed=settings.seed, camera=camera, render=settings.render, detector=settings.detector
+            )
             if self.scene
             else None
         )

@@ -70,6 +70,7 @@ class RunSettings(BaseModel):
     params: dict[str, str] = Field(default_factory=dict)
     seed: int = 0
     camera_hz: float = Field(default=30.0, gt=0, le=120, description="frames per second of the simulated camera")
+    render: bool = Field(default=False, description="the simulated camera renders 640×480 pixels (flight.sim.render)")
     max_wall_s: float = Field(default=900.0, gt=0, description="give up (and land) after this much wall time")
     connect: str | None = Field(
         default=None, description="fly the vehicle at this MAVLink address (udp://HOST:PORT) instead of the simulator"

@@ -8,7 +8,9 @@ populated crowd zone (the mean of its corners), else the mean position of the sc
 moves in 30 Hz steps (:class:`~flight.sim.scene.SceneState`); each frame goes through the simulated detector
 (:class:`~flight.sim.detector.SimulatedDetector`) and perception
 (:class:`~agentic_core.perception.pipeline.Perception`, which knows the scene's landmarks — shade, tents, the
-medical post — as a map would tell it).
+medical post — as a map would tell it). With ``render`` on, the camera is the rendering one
+(:func:`~flight.sim.render.camera.rendering_camera`: 640×480, same field of view and rate) and every frame carries
+its pixels for a detector that reads them.
 
 **Assessments.** Every system assesses the World Model every ``assess_every`` frames (30: once a simulated second;
 0: only at the end) and at the final frame; the final decision is the record's. Every system reads the same World
@@ -54,9 +56,10 @@ from agentic_core.perception.world_model import WorldModel
 from agentic_core.reasoning.assessment import Decision
 from agentic_core.reasoning.reasoners import Reasoner
 from agentic_core.reasoning.rules import RuleSettings
-from agentic_core.run.detector_choice import parse_detector, pixel_detector
+from agentic_core.run.detector_choice import needs_pixels, parse_detector, pixel_detector
 from flight.camera import CameraPose, CameraSpec, Frame, project_points
 from flight.sim.detector import SimulatedCamera, SimulatedDetector
+from flight.sim.render.camera import rendering_camera
 from flight.sim.scene import SceneState
 from flight.sim.scene_model import Scene
 
@@ -79,7 +82,16 @@ class EpisodeSettings(BaseModel):
     landmarks: bool = Field(default=True, description="perception knows the scene's landmarks")
     goal: str = Field(default=DEFAULT_GOAL, description="the mission goal a model is told")
     camera: CameraSpec = Field(default_factory=CameraSpec)
-    detector: str = Field(default="sim", description="sim, ours or onnx:PATH (the last two render the camera)")
+    render: bool = Field(
+        default=False,
+        exclude_if=lambda on: not on,  # off: the settings, and so every job's id, are as before rendering existed
+        description="the camera renders 640×480 pixels (flight.sim.render) instead of the camera above",
+    )
+    detector: str = Field(
+        default="sim",
+        exclude_if=lambda choice: choice == "sim",  # as for render: job ids of sim campaigns unchanged
+        description="sim, ours or onnx:PATH (the last two render the camera)",
+    )
 
     @field_validator("detector")
     @classmethod
@@ -182,8 +194,11 @@ def run_episode(
     seed = perception_seed(campaign_seed, scene.id)
     state = SceneState(scene)
     detector = SimulatedDetector(state, seed=seed)
-    camera = SimulatedCamera(cfg.camera)
-    pixels = pixel_detector(cfg.detector, state, seed=seed)
+    rendered = cfg.render or needs_pixels(cfg.detector)
+    camera = (
+        rendering_camera(state, seed, like=SimulatedCamera(cfg.camera)) if rendered else SimulatedCamera(cfg.camera)
+    )
+    pixels = pixel_detector(cfg.detector, detector, seed=seed)
     north, east, _ = point_of_interest(scene)
     pose = CameraPose(north_m=north, east_m=east, down_m=-cfg.altitude_m)
     home = scene.home
@@ -205,7 +220,7 @@ def run_episode(
             world = perception.update(frame, detections)
             perception_time += time.perf_counter() - start
             truth = _casualty_positions(state, casualties)
-            for ident in _in_image(cfg.camera, pose, truth):
+            for ident in _in_image(camera.spec, pose, truth):
                 first_in_view.setdefault(ident, t)
             final = k == cfg.frames - 1
             if final or (cfg.assess_every and (k + 1) % cfg.assess_every == 0):

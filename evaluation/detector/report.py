@@ -34,11 +34,23 @@ from .evaluate import (
     pose_masks,
     scores_at,
 )
-from .train import RECIPE_NAME, WEIGHTS_NAME, TrainConfig, render_frames
+from .train import RECIPE_NAME, WEIGHTS_NAME, Labelled, TrainConfig, load_frames, render_frames, save_frames
 
 ALTITUDES_M = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
 FLOOR = 0.02
 """Raw scores kept for the precision-recall curve (far below any operating threshold)."""
+
+
+def frames_for(seed: int, count: int, altitudes_m: tuple[float, ...], cache: Path | None) -> list[Labelled]:
+    """Held-out or calibration renders, read from (or kept in) ``cache`` when one is given."""
+    name = f"frames-{seed}-{count}-{'_'.join(f'{a:g}' for a in altitudes_m)}.npz"
+    if cache is not None and (cache / name).is_file():
+        return load_frames(cache / name)
+    frames = render_frames(TrainConfig(altitudes_m=altitudes_m), seed=seed, count=count)
+    if cache is not None:
+        cache.mkdir(parents=True, exist_ok=True)
+        save_frames(cache / name, frames)
+    return frames
 
 
 def raw_detector(weights: Path) -> OnnxDetector:
@@ -46,10 +58,9 @@ def raw_detector(weights: Path) -> OnnxDetector:
     return OnnxDetector(weights / WEIGHTS_NAME, layout="v8", class_names=["person"], score_threshold=FLOOR)
 
 
-def calibrate(weights: Path, frames: int) -> tuple[Calibration, float, dict[str, Any]]:
+def calibrate(weights: Path, frames: int, cache: Path | None = None) -> tuple[Calibration, float, dict[str, Any]]:
     """Fit the calibration and the threshold on calibration renders; store them in the recipe."""
-    config = TrainConfig()
-    data = render_frames(config, seed=CALIBRATION_SEED, count=frames)
+    data = frames_for(CALIBRATION_SEED, frames, ALTITUDES_M, cache)
     m = evaluate(raw_detector(weights), data)
     threshold = best_threshold(m)
     calibration = Calibration.fit(m.scores, m.hit)
@@ -70,7 +81,14 @@ def _row(label: str, s: Scores) -> str:
     return f"| {label} | {s.truth} | {_fmt(s.precision)} | {_fmt(s.recall)} | {_fmt(s.ap50)} |"
 
 
-def write_report(weights: Path, docs: Path, calibration: Calibration, threshold: float, recipe: dict[str, Any]) -> str:
+def write_report(
+    weights: Path,
+    docs: Path,
+    calibration: Calibration,
+    threshold: float,
+    recipe: dict[str, Any],
+    cache: Path | None = None,
+) -> str:
     """Score the detector on held-out renders and write the Markdown report and the reliability diagram."""
     import matplotlib
 
@@ -84,7 +102,7 @@ def write_report(weights: Path, docs: Path, calibration: Calibration, threshold:
     all_hits: list[np.ndarray] = []
     timings: list[float] = []
     for altitude in ALTITUDES_M:
-        frames = render_frames(TrainConfig(altitudes_m=(altitude,)), seed=TEST_SEED, count=TEST_FRAMES)
+        frames = frames_for(TEST_SEED, TEST_FRAMES, (altitude,), cache)
         start = time.perf_counter()
         m = evaluate(detector, frames)
         timings.append((time.perf_counter() - start) / len(frames))
@@ -174,10 +192,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--weights", type=Path, required=True, help="the folder of person.onnx and person.json")
     parser.add_argument("--docs", type=Path, default=Path("docs"))
     parser.add_argument("--calibration-frames", type=int, default=120)
+    parser.add_argument("--cache", type=Path, help="a folder to keep the rendered frames in (read when there)")
     args = parser.parse_args(argv)
-    calibration, threshold, recipe = calibrate(args.weights, args.calibration_frames)
+    calibration, threshold, recipe = calibrate(args.weights, args.calibration_frames, args.cache)
     print(f"threshold {threshold:.3f}; calibration with {len(calibration.scores)} knots", flush=True)
-    print(write_report(args.weights, args.docs, calibration, threshold, recipe))
+    print(write_report(args.weights, args.docs, calibration, threshold, recipe, args.cache))
     return 0
 
 

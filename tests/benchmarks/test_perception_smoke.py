@@ -8,8 +8,9 @@ SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "perception.py"
 
 
 def test_small_run_prints_the_table() -> None:
+    args = ["--sizes", "20", "200", "--frames", "5", "--warmup", "5", "--repeats", "1", "--render-sizes", "0", "200"]
     proc = subprocess.run(
-        [sys.executable, str(SCRIPT), "--sizes", "20", "200", "--frames", "5", "--warmup", "5", "--repeats", "1"],
+        [sys.executable, str(SCRIPT), *args],
         capture_output=True,
         text=True,
         timeout=300,
@@ -24,8 +25,15 @@ def test_small_run_prints_the_table() -> None:
     assert [row[0] for row in rows] == ["20", "200"]
     assert all(float(value) >= 0.0 for row in rows for value in row[1:6])
     assert lines[5].startswith("growth: 20->200 persons:")
-    assert lines[-1].startswith("target: median < 5 ms at 200 persons -> ")
-    assert lines[-1].split(" -> ")[1].split()[0] in ("PASS", "MISS")
+    (target,) = [line for line in lines if line.startswith("target: median < 5 ms at 200 persons -> ")]
+    assert target.split(" -> ")[1].split()[0] in ("PASS", "MISS")
+    start = lines.index("render benchmark (flight.sim.render: 640x480, 84 deg, straight down, 30 m)")
+    assert lines[start + 2].split() == ["persons", "shown", "mean", "p95", "cpu"]
+    rendered = [line.split() for line in lines[start + 3 : start + 5]]
+    assert [row[0] for row in rendered] == ["0", "200"] and rendered[0][1] == "0"
+    assert int(rendered[1][1]) >= 190  # the crowd is in view (a walker may step over the image's edge)
+    assert all(float(value) > 0.0 for row in rendered for value in row[2:])
+    assert lines[-1].startswith("render target: mean <= 15 ms at 200 persons -> ")
 
 
 def test_bad_arguments_are_a_usage_error() -> None:

@@ -4,14 +4,15 @@ takes the colour of the texel there from a map rasterised once per scene, tile b
 Two levels of detail: fine tiles (:data:`FINE_M` per texel) where a pixel covers less than :data:`COARSE_FROM_M`
 of ground, coarse ones (:data:`COARSE_M`) farther out; rays that miss the ground, or meet it beyond
 :data:`MAX_RANGE_M`, see sky; distant ground fades into haze. Straight-down views at survey heights take the fast
-path: fine tiles only, assembled into one mosaic reused while the view stays inside it.
+path: fine tiles only, assembled into one mosaic reused while the view stays inside it, and each pixel's texel
+found by a few array operations.
 
 >>> from flight.sim.scene_file import load_scene
 >>> from agentic_core.contracts.camera import CameraPose, CameraSpec
 >>> ground = GroundMap(load_scene("scenes/hajj_emergency.yaml"))
->>> image, distance = ground.view(CameraSpec(width_px=64, height_px=48), CameraPose(north_m=0, east_m=0, down_m=-30))
->>> image.shape, image.dtype.name, bool((distance > 29).all())
-((48, 64, 3), 'uint8', True)
+>>> image = ground.view(CameraSpec(width_px=64, height_px=48), CameraPose(north_m=0, east_m=0, down_m=-30))
+>>> image.shape, image.dtype.name
+((48, 64, 3), 'uint8')
 """
 
 from __future__ import annotations
@@ -50,12 +51,14 @@ class GroundMap:
         self._mosaic: tuple[float, int, int, int, int, NDArray[np.uint8]] | None = None
         self._rays: dict[tuple[int, int, float], tuple[F32, F32]] = {}
 
-    def view(self, spec: CameraSpec, pose: CameraPose) -> tuple[NDArray[np.uint8], F32]:
-        """The ground (and sky) as ``spec`` sees it from ``pose``: H×W×3 uint8, and each pixel's distance (m) to
-        the ground along its ray (``inf`` for sky)."""
+    def view(self, spec: CameraSpec, pose: CameraPose) -> NDArray[np.uint8]:
+        """The ground (and sky) as ``spec`` sees it from ``pose``: H×W×3 uint8."""
         dx, dy = self._camera_rays(spec)
         rot = rotation_world_from_camera(spec, pose).astype(np.float32)
         height = np.float32(max(-pose.down_m, MIN_HEIGHT_M))
+        fast = self._straight_down(spec, pose, rot, height)
+        if fast is not None:
+            return fast
         down = rot[2, 0] * dx[None, :] + (rot[2, 1] * dy[:, None] + rot[2, 2])
         hit = down > 1e-4
         t = height / np.where(hit, down, np.float32(1.0))
@@ -66,8 +69,6 @@ class GroundMap:
         f = np.float32(spec.focal_px)
         fine = hit & (distance / f <= COARSE_FROM_M)
         sky = ~hit | (distance > MAX_RANGE_M)
-        if bool(fine.all()):
-            return self._sample(FINE_M, north, east), distance
         image = np.empty((spec.height_px, spec.width_px, 3), dtype=np.uint8)
         image[...] = SKY
         coarse = ~fine & ~sky
@@ -77,7 +78,53 @@ class GroundMap:
         if coarse.any():
             fade = np.exp(-distance[coarse] / np.float32(HAZE_M))[:, None]
             image[coarse] = (image[coarse] * fade + np.array(HAZE, np.float32) * (1.0 - fade)).astype(np.uint8)
-        return image, distance
+        return image
+
+    def _straight_down(
+        self, spec: CameraSpec, pose: CameraPose, rot: F32, height: np.float32
+    ) -> NDArray[np.uint8] | None:
+        """The fast path, when every pixel sees fine ground: the image's corners bound the ground it sees (a
+        pixel's range on a plane is largest at a corner), so one mosaic serves, and each pixel's texel index is
+        a ratio of two affine functions of its column and row, evaluated with the constants folded in."""
+        dx, dy = self._camera_rays(spec)
+        cx = np.array([dx[0], dx[-1], dx[-1], dx[0]], dtype=np.float32)
+        cy = np.array([dy[0], dy[0], dy[-1], dy[-1]], dtype=np.float32)
+        down = rot[2, 0] * cx + rot[2, 1] * cy + rot[2, 2]
+        if not bool((down > 1e-3).all()):
+            return None
+        t = height / down
+        if float((t * np.sqrt(1.0 + cx * cx + cy * cy)).max()) / spec.focal_px > COARSE_FROM_M:
+            return None
+        inv = np.float32(1.0 / FINE_M)
+        north = (np.float32(pose.north_m) + t * (rot[0, 0] * cx + rot[0, 1] * cy + rot[0, 2])) * inv
+        east = (np.float32(pose.east_m) + t * (rot[1, 0] * cx + rot[1, 1] * cy + rot[1, 2])) * inv
+        _, mr0, _, mc0, _, mosaic = self._mosaic_for(
+            int(np.floor(north.min())), int(np.floor(north.max())), int(np.floor(east.min())), int(np.floor(east.max()))
+        )
+        k = height * inv
+        row0, col0 = np.float32(pose.north_m * inv - mr0 * TILE), np.float32(pose.east_m * inv - mc0 * TILE)
+        den = rot[2, 0] * dx[None, :] + (rot[2, 1] * dy[:, None] + rot[2, 2])
+        scale = k / den
+        rows = (rot[0, 0] * dx[None, :] + (rot[0, 1] * dy[:, None] + rot[0, 2])) * scale
+        rows += row0
+        cols = (rot[1, 0] * dx[None, :] + (rot[1, 1] * dy[:, None] + rot[1, 2])) * scale
+        cols += col0
+        flat = rows.astype(np.int32)
+        flat *= np.int32(mosaic.shape[1])
+        flat += cols.astype(np.int32)
+        np.clip(flat, 0, mosaic.shape[0] * mosaic.shape[1] - 1, out=flat)
+        image: NDArray[np.uint8] = np.take(mosaic.reshape(-1, 3), flat, axis=0)
+        return image
+
+    def _mosaic_for(self, r0: int, r1: int, c0: int, c1: int) -> tuple[float, int, int, int, int, NDArray[np.uint8]]:
+        """A fine mosaic covering texel rows ``r0``–``r1`` and columns ``c0``–``c1``: the last one if it does, else
+        a new one with a tile's margin all round."""
+        t0, t1, u0, u1 = r0 // TILE, r1 // TILE, c0 // TILE, c1 // TILE
+        m = self._mosaic
+        if m is None or t0 < m[1] or t1 > m[2] or u0 < m[3] or u1 > m[4]:
+            m = self._assemble(FINE_M, t0 - 1, t1 + 1, u0 - 1, u1 + 1)
+            self._mosaic = m
+        return m
 
     def _camera_rays(self, spec: CameraSpec) -> tuple[F32, F32]:
         key = (spec.width_px, spec.height_px, spec.hfov_deg)
@@ -96,11 +143,7 @@ class GroundMap:
         cols = np.floor(east * inv).astype(np.int64)
         r0, r1 = int(rows.min()) // TILE, int(rows.max()) // TILE
         c0, c1 = int(cols.min()) // TILE, int(cols.max()) // TILE
-        m = self._mosaic
-        if m is None or m[0] != res or r0 < m[1] or r1 > m[2] or c0 < m[3] or c1 > m[4]:
-            m = self._assemble(res, r0 - (res == FINE_M), r1 + (res == FINE_M), c0, c1)
-            if res == FINE_M:
-                self._mosaic = m
+        m = self._assemble(res, r0, r1, c0, c1)
         _, mr0, _, mc0, _, mosaic = m
         flat = (rows - mr0 * TILE) * mosaic.shape[1] + (cols - mc0 * TILE)
         rgb: NDArray[np.uint8] = np.take(mosaic.reshape(-1, 3), flat, axis=0)

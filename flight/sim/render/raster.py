@@ -86,33 +86,40 @@ class _Shapes:
 
 
 def _draw_group(image: Image, k: IntArray, w: int, h: int, s: _Shapes) -> None:
+    """Draw the capsules ``k`` over patches of ``w``×``h`` pixels from their boxes' corners. Works on squared
+    distances: the edge's coverage is ``(r² - d²) / 2r + ½``, first order in ``r - d``, with no square root."""
     f = np.float32
-    x0, y0 = s.x0[k, None, None], s.y0[k, None, None]
-    px = (x0 + np.arange(w)[None, None, :]).astype(f) + f(0.5)
-    py = (y0 + np.arange(h)[None, :, None]).astype(f) + f(0.5)
-    rx = np.broadcast_to(px - s.a[k, 0, None, None], (len(k), h, w)).copy()
-    ry = np.broadcast_to(py - s.a[k, 1, None, None], (len(k), h, w)).copy()
+    px = (s.x0[k, None, None] + np.arange(w)[None, None, :]).astype(f) + f(0.5)
+    py = (s.y0[k, None, None] + np.arange(h)[None, :, None]).astype(f) + f(0.5)
+    rx = px - s.a[k, 0, None, None]
+    ry = py - s.a[k, 1, None, None]
     abx, aby = s.ab[k, 0, None, None], s.ab[k, 1, None, None]
-    t = np.clip((rx * abx + ry * aby) / np.maximum(abx * abx + aby * aby, f(1e-9)), f(0.0), f(1.0))
-    rx -= t * abx
-    ry -= t * aby
-    d = np.sqrt(rx * rx + ry * ry)
+    length2 = np.maximum(abx * abx + aby * aby, f(1e-9))
+    t = rx * (abx / length2) + ry * (aby / length2)
+    np.clip(t, f(0.0), f(1.0), out=t)
+    qx = rx - t * abx
+    qy = ry - t * aby
+    qx *= qx
+    qy *= qy
+    qx += qy
     rad = s.r[k, None, None]
-    alpha = rad - d + f(0.5)
-    inside = (alpha > 0) & (px < s.x1[k, None, None]) & (py < s.y1[k, None, None])
-    which, yy, xx = np.nonzero(inside)
-    if len(which) == 0:
-        return
-    al = np.minimum(alpha[which, yy, xx], f(1.0))[:, None]
+    alpha = (rad * rad + f(1e-6) - qx) * (f(0.5) / np.maximum(rad, f(0.25))) + f(0.5)
+    which, yy, xx = np.nonzero(alpha > 0)
     kk = k[which]
     ys = s.y0[kk] + yy
     xs = s.x0[kk] + xx
+    keep = (ys < s.y1[kk]) & (xs < s.x1[kk])
+    if not keep.all():
+        which, yy, xx, kk, ys, xs = which[keep], yy[keep], xx[keep], kk[keep], ys[keep], xs[keep]
+    if len(which) == 0:
+        return
+    al = np.minimum(alpha[which, yy, xx], f(1.0))[:, None]
     under = image[ys, xs].astype(f)
     if s.mode == SHADOW:
         colour = under * f(SHADE_FACTOR)
     elif s.mode == BODY:
-        rim = np.minimum(d[which, yy, xx] / np.maximum(s.r[kk], f(1e-3)), f(1.0))
-        colour = s.rgb[kk] * (f(1.0) - f(0.35) * rim * rim)[:, None]
+        rim2 = np.minimum(qx[which, yy, xx] / np.maximum(s.r[kk] * s.r[kk], f(1e-6)), f(1.0))
+        colour = s.rgb[kk] * (f(1.0) - f(0.35) * rim2)[:, None]
     else:
         colour = s.rgb[kk]
     image[ys, xs] = (under + (colour - under) * al).astype(np.uint8)

@@ -94,7 +94,7 @@ class SceneRenderer:
             self.state.advance_to(time_s)
         if pose.down_m > -MIN_HEIGHT_M:
             pose = pose.model_copy(update={"down_m": -MIN_HEIGHT_M})
-        image, _ = self.ground.view(spec, pose)
+        image = self.ground.view(spec, pose)
         rows = self._candidates(spec, pose)
         camera = _Camera(spec, pose)
         vehicles = rows[self._poses[rows] < 0]

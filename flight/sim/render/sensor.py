@@ -41,7 +41,8 @@ class Sensor:
         out: NDArray[np.int16] = levels[work]
         if self.noise_std > 0.0:
             out += self._noise(image.shape)[pick]
-        return np.clip(out, 0, 255).astype(np.uint8)
+        np.clip(out, 0, 255, out=out)
+        return out.astype(np.uint8)
 
     def _noise(self, shape: tuple[int, ...]) -> list[NDArray[np.int16]]:
         if shape not in self._bank:

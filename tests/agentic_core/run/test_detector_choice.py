@@ -13,7 +13,8 @@ from agentic_core.contracts.camera import BoundingBox, CameraPose, Detection, Fr
 from agentic_core.contracts.errors import InputError
 from agentic_core.run.detector_choice import PixelDetector, camera_spec, needs_pixels, parse_detector
 from agentic_core.run.perception_loop import PerceptionLoop
-from flight.sim.detector import SimulatedCamera
+from flight.sim.detector import SimulatedCamera, SimulatedDetector
+from flight.sim.render.renderer import SceneRenderer
 from flight.sim.scene import SceneState
 from flight.sim.scene_file import load_scene
 
@@ -50,15 +51,13 @@ def test_pixels_and_the_camera_follow_the_choice() -> None:
 
 def test_a_real_detector_sees_the_rendered_frame_and_its_hits_are_linked_to_persons() -> None:
     scene = load_scene(EMERGENCY)
-    state = SceneState(scene)
     pose = CameraPose(north_m=150.0, east_m=10.0, down_m=-30.0)
     frame = SimulatedCamera(camera_spec("ours")).capture(pose, 0.0)
-    probe = PixelDetector(Recording([]), state, seed=1)
-    rendered = probe.renderer.render_frame(frame)
+    rendered = SceneRenderer(SceneState(scene), seed=1).render_frame(frame)
     casualty = rendered.persons.ids.index("P-12")
     x0, y0, x1, y1 = (float(v) for v in rendered.persons.boxes[casualty])
     model = Recording([(x0, y0, x1, y1), (1.0, 1.0, 2.0, 2.0)])
-    seen, found = PixelDetector(model, SceneState(scene), seed=1).see(frame)
+    seen, found = PixelDetector(model, SimulatedDetector(scene, seed=1), seed=1).see(frame)
     image = model.frames[0].image
     assert seen.image is image and image.shape == (480, 640, 3) and image.dtype == np.uint8
     assert np.array_equal(image, rendered.image)  # the same scene, seed and frame: the same pixels
@@ -66,11 +65,11 @@ def test_a_real_detector_sees_the_rendered_frame_and_its_hits_are_linked_to_pers
 
 
 def test_a_frame_with_pixels_is_not_rendered_again() -> None:
-    state = SceneState(load_scene(EMERGENCY))
+    sim = SimulatedDetector(load_scene(EMERGENCY), seed=1)
     frame = SimulatedCamera(camera_spec("ours")).capture(CameraPose(north_m=0, east_m=0, down_m=-30), 0.0)
     mine = np.full((480, 640, 3), 7, np.uint8)
     model = Recording([])
-    seen, _ = PixelDetector(model, state).see(frame.model_copy(update={"image": mine}))
+    seen, _ = PixelDetector(model, sim).see(frame.model_copy(update={"image": mine}))
     assert model.frames[0].image is mine and seen.image is mine
 
 
@@ -82,7 +81,7 @@ def test_the_loop_with_an_onnx_model_runs_it_on_pixels(tmp_path: Path) -> None:
                            input_shape=(1, 3, 480, 640))  # fmt: skip
     scene = load_scene(EMERGENCY)
     loop = PerceptionLoop(scene, seed=1, camera=SimulatedCamera(camera_spec("ours")), detector=f"onnx:{model}")
-    assert loop.pixels is not None
+    assert loop.pixels is not None and type(loop.camera).__name__ == "RenderingCamera"
     for k in range(3):
         loop.observe(CameraPose(north_m=150.0, east_m=10.0, down_m=-30.0), k / 30.0)
     assert loop.frames == 3 and loop.detector.state.time_s == pytest.approx(2 / 30.0)

@@ -124,3 +124,15 @@ def test_motion_blur_smooths_the_picture() -> None:
     still = SceneRenderer(scene, seed=1).render(SMALL, pose, velocity_ned=(0.0, 0.0, 0.0)).image.astype(float)
     fast = SceneRenderer(scene, seed=1).render(SMALL, pose, velocity_ned=(0.0, 60.0, 0.0)).image.astype(float)
     assert np.abs(np.diff(fast, axis=1)).mean() < 0.8 * np.abs(np.diff(still, axis=1)).mean()
+
+
+def test_rendering_camera_fills_frames_and_blurs_with_the_vehicles_velocity() -> None:
+    from flight.sim.render.camera import RenderingCamera, render_spec, rendering_camera
+    from flight.sim.scene import SceneState
+
+    state = SceneState(load_scene("scenes/hajj_emergency.yaml"))
+    camera = rendering_camera(state, seed=2)
+    frame = camera.capture(CameraPose(north_m=150.0, east_m=0.0, down_m=-30.0), time_s=0.5)
+    assert isinstance(camera, RenderingCamera) and frame.spec == render_spec()
+    assert frame.image is not None and frame.image.shape == (480, 640, 3) and state.time_s == 0.5
+    assert "image" not in frame.model_dump()  # pixels stay out of the JSON form
