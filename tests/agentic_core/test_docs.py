@@ -129,6 +129,7 @@ MODULES = [
     "agentic_core.perception.detectors.yolo_decode",
     "agentic_core.perception.detectors.onnx",
     "agentic_core.run.detector_choice",
+    "agentic_core.perception.detectors.ours",
     "evaluation.detector.crops",
     "evaluation.detector.scoring",
     "evaluation.detector.evaluate",
