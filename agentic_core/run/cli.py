@@ -33,6 +33,7 @@ from ..console.cli import add_run_options, console_check, live_console, operator
 from ..contracts.errors import AgenticUAVError, report_error
 from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
 from ..examples import resolve_mission, resolve_scene
+from .detector_choice import parse_detector
 from .responses import DEGRADED_EXIT
 
 if TYPE_CHECKING:
@@ -107,6 +108,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE",
         help="the fleet's memory: recall what earlier runs found near here, record what this one finds",
     )
+    parser.add_argument(
+        "--detector", type=str, default="sim", metavar="sim|ours|onnx:PATH",
+        help="the camera's detector: sim (statistical, default), ours (the shipped person detector) or a YOLO-style "
+        "ONNX model; ours and onnx: render the camera's pixels",
+    )  # fmt: skip
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
     add_run_options(parser)
     return parser
@@ -189,6 +195,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         scene = None if args.scene is None else resolve_scene(args.scene)
         if args.gains is not None:
             load_gains(args.gains)  # a bad file is refused before anything starts
+        parse_detector(args.detector)
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)
     try:
@@ -213,6 +220,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             **({} if args.gcs is None else {"gcs": args.gcs}),
             tools=args.tools,
             memory=args.memory,
+            detector=args.detector,
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
         first = exc.errors()[0]

@@ -36,6 +36,7 @@ from ..contracts import TelemetrySample
 from ..perception.pipeline import Perception, PerceptionConfig
 from ..perception.tracker import TrackerState
 from ..perception.world_model import WorldModel
+from .detector_choice import needs_pixels, pixel_detector
 
 REID_RADIUS_M = 8.0
 """How far from where a dropped track was last seen a new track may be taken for the same object."""
@@ -52,14 +53,17 @@ class PerceptionLoop:
         camera: SimulatedCamera | None = None,
         config: PerceptionConfig | None = None,
         render: bool = False,
+        detector: str = "sim",
     ) -> None:
         self.scene = scene
         home = scene.home
         self.home = (home.lat_deg, home.lon_deg, home.alt_msl_m)
         self.camera = camera or SimulatedCamera()
         self.detector = SimulatedDetector(scene, seed=seed)
-        if render:  # pixels, of the scene the detector moves (flight.sim.render)
+        if render or needs_pixels(detector):  # pixels, of the scene the detector moves (flight.sim.render)
             self.camera = rendering_camera(self.detector.state, seed, like=self.camera)
+        self.pixels = pixel_detector(detector, self.detector, seed=seed)
+        """A real detector on the rendered frames (``--detector ours|onnx:PATH``), else None: the simulated one."""
         self.perception = Perception(home=self.home, config=config, landmarks=[*scene.landmarks, *scene.zones])
         self.frames = 0
         self.busy_s = 0.0
@@ -154,7 +158,10 @@ class PerceptionLoop:
         date with it; returns the new model."""
         start = time.perf_counter()
         frame = self.camera.capture(source, time_s)
-        detections = self.detector.detect(frame)
+        if self.pixels is not None:
+            frame, detections = self.pixels.see(frame)
+        else:
+            detections = self.detector.detect(frame)
         sensed = time.perf_counter()
         world = self.perception.update(frame, detections)
         done = time.perf_counter()

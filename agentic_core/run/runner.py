@@ -18,7 +18,6 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from flight.camera import CameraSpec
 from flight.sim.detector import SimulatedCamera
 from flight.sim.gains_file import load_gains
 from flight.sim.scene_model import Scene
@@ -47,6 +46,7 @@ from ..reasoning.reasoners import make_reasoner
 from .assembly import NoWorld, load_run_mission, load_run_scene, setup_frozen
 from .attachments import materialize
 from .backends import Backend, LinkBackend, SimBackend
+from .detector_choice import camera_spec
 from .faults import SCHEDULE, FaultSchedule
 from .fleet_seat import FleetSeat
 from .link_key import keep_signing_key, run_signing_key
@@ -116,9 +116,11 @@ class MissionRun:
 
     def _assemble(self, snapshot: Snapshot | None) -> None:
         settings = self.settings
-        camera = SimulatedCamera(CameraSpec(rate_hz=settings.camera_hz))
+        camera = SimulatedCamera(camera_spec(settings.detector, settings.camera_hz))
         self.loop = (
-            PerceptionLoop(self.scene, seed=settings.seed, camera=camera, render=settings.render)
+            PerceptionLoop(
+                self.scene, seed=settings.seed, camera=camera, render=settings.render, detector=settings.detector
+            )
             if self.scene
             else None
         )

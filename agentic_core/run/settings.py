@@ -14,6 +14,7 @@ from tools import Caller
 
 from ..contracts import InputError
 from ..contracts.faults import FaultText
+from .detector_choice import parse_detector
 from .report import RunSummary, TrackPoint
 
 AGENT = Caller(
@@ -90,6 +91,7 @@ class RunSettings(BaseModel):
     memory: Path | None = Field(
         default=None, description="the fleet's memory (a SQLite file): recall what earlier runs found, record this one"
     )
+    detector: str = Field(default="sim", description="sim, ours or onnx:PATH (the last two render the camera)")
     gcs: str = Field(
         default_factory=default_gcs,
         validate_default=True,
@@ -104,6 +106,11 @@ class RunSettings(BaseModel):
         except ValueError as exc:
             raise ValueError(f"{exc} (from --gcs or ${GCS_ENV})") from None
         return value
+
+    @field_validator("detector")
+    @classmethod
+    def _known_detector(cls, value: str) -> str:
+        return parse_detector(value)
 
     @property
     def gcs_address(self) -> tuple[str, int] | None:

@@ -67,6 +67,10 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
         "--assess-every", type=int, default=30, metavar="N", help="frames between assessments; 0: final only (30)"
     )
     parser.add_argument("--altitude", type=float, default=30.0, metavar="M", help="hover height, metres (default 30)")
+    parser.add_argument(
+        "--detector", default="sim", metavar="sim|ours|onnx:PATH",
+        help="sim: the statistical detector (default, fast); ours or onnx:PATH: a real detector on rendered frames",
+    )  # fmt: skip
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="the campaign directory")
     parser.add_argument("--no-stats", action="store_true", help="skip the statistics report")
     stop = parser.add_argument_group("stopping when the answer is known")
@@ -118,6 +122,9 @@ class _UsageError(InputError):
 def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pydantic import ValidationError
 
+    from agentic_core.contracts.errors import InputError
+    from agentic_core.run.detector_choice import camera_spec, parse_detector
+
     from .early_stop import parse_stop_rule
     from .episode import EpisodeSettings
     from .executors import ExecutorSpecError, parse_executor
@@ -152,7 +159,14 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         args.stop_at_width, args.stop_compare, args.stop_metric, args.stop_min_scenes, [s.name for s in systems]
     )
     scenes, source = _scenes(args)
-    settings = EpisodeSettings(frames=args.frames, assess_every=args.assess_every, altitude_m=args.altitude)
+    try:
+        detector = parse_detector(args.detector)
+    except InputError as exc:
+        raise _UsageError(str(exc)) from None
+    settings = EpisodeSettings(
+        frames=args.frames, assess_every=args.assess_every, altitude_m=args.altitude, detector=detector,
+        camera=camera_spec(detector),
+    )  # fmt: skip
     try:
         plan = CampaignPlan(scenes=scenes, systems=systems, settings=settings, seed=args.seed, scene_source=source)
     except ValidationError as exc:

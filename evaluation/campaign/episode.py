@@ -48,7 +48,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from agentic_core.perception.metrics import TrackingScore
 from agentic_core.perception.pipeline import Perception
@@ -56,6 +56,7 @@ from agentic_core.perception.world_model import WorldModel
 from agentic_core.reasoning.assessment import Decision
 from agentic_core.reasoning.reasoners import Reasoner
 from agentic_core.reasoning.rules import RuleSettings
+from agentic_core.run.detector_choice import needs_pixels, parse_detector, pixel_detector
 from flight.camera import CameraPose, CameraSpec, Frame, project_points
 from flight.sim.detector import SimulatedCamera, SimulatedDetector
 from flight.sim.render.camera import rendering_camera
@@ -86,6 +87,16 @@ class EpisodeSettings(BaseModel):
         exclude_if=lambda on: not on,  # off: the settings, and so every job's id, are as before rendering existed
         description="the camera renders 640×480 pixels (flight.sim.render) instead of the camera above",
     )
+    detector: str = Field(
+        default="sim",
+        exclude_if=lambda choice: choice == "sim",  # as for render: job ids of sim campaigns unchanged
+        description="sim, ours or onnx:PATH (the last two render the camera)",
+    )
+
+    @field_validator("detector")
+    @classmethod
+    def _known_detector(cls, value: str) -> str:
+        return parse_detector(value)
 
     @property
     def duration_s(self) -> float:
@@ -185,9 +196,11 @@ def run_episode(
     seed = perception_seed(campaign_seed, scene.id)
     state = SceneState(scene)
     detector = SimulatedDetector(state, seed=seed)
+    rendered = cfg.render or needs_pixels(cfg.detector)
     camera = (
-        rendering_camera(state, seed, like=SimulatedCamera(cfg.camera)) if cfg.render else SimulatedCamera(cfg.camera)
+        rendering_camera(state, seed, like=SimulatedCamera(cfg.camera)) if rendered else SimulatedCamera(cfg.camera)
     )
+    pixels = pixel_detector(cfg.detector, detector, seed=seed)
     north, east, _ = point_of_interest(scene)
     pose = CameraPose(north_m=north, east_m=east, down_m=-cfg.altitude_m)
     home = scene.home
@@ -207,7 +220,7 @@ def run_episode(
         for k in range(cfg.frames):
             t = k / cfg.camera.rate_hz
             frame = camera.capture(pose, t)
-            detections = detector.detect(frame)
+            frame, detections = pixels.see(frame) if pixels is not None else (frame, detector.detect(frame))
             start = time.perf_counter()
             world = perception.update(frame, detections)
             perception_time += time.perf_counter() - start

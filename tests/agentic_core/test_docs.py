@@ -137,6 +137,14 @@ MODULES = [
     "flight.signing",
     "flight.sim.snapshot",
     "agentic_core.reasoning.knowledge",
+    "agentic_core.perception.calibration",
+    "agentic_core.perception.detectors.yolo_decode",
+    "agentic_core.perception.detectors.onnx",
+    "agentic_core.run.detector_choice",
+    "agentic_core.perception.detectors.ours",
+    "evaluation.detector.crops",
+    "evaluation.detector.scoring",
+    "evaluation.detector.evaluate",
 ]
 
 

@@ -32,7 +32,7 @@ def test_the_interval_is_the_paired_t_interval(n: int) -> None:
 
 def test_scenes_missing_a_value_or_a_system_are_left_out_and_bools_count_as_numbers() -> None:
     rule = StopRule(width=1.0, treatment="a", baseline="b", metric="person_detected", min_scenes=2)
-    rows = [
+    rows: list[tuple[str, str, dict[str, object]]] = [
         ("s1", "a", {"person_detected": True}),
         ("s1", "b", {"person_detected": False}),
         ("s2", "a", {"person_detected": True}),  # no baseline record

@@ -12,7 +12,8 @@ from agentic_core.cli import main
 from agentic_core.contracts.input_files import InputFileError, check_input_file, max_input_bytes
 from agentic_core.contracts.json_depth import JsonTooDeep, depth_of, loads
 from agentic_core.mission import MissionError, load_mission
-from evaluation.stats.dataset import MAX_GROUPS, load_dataset
+from evaluation.stats.columns import MAX_GROUPS
+from evaluation.stats.dataset import load_dataset
 from evaluation.stats.errors import InputError as StatsInputError
 from flight.sim.scene_file import SceneFileError, load_scene
 from tools.errors import ToolDefinitionError

@@ -87,7 +87,9 @@ def test_the_run_flies_its_simulated_vehicle_with_the_file_s_gains(tmp_path: Pat
         run.close()
 
 
-def test_run_and_sim_refuse_a_bad_gains_file_before_starting(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_run_and_sim_refuse_a_bad_gains_file_before_starting(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     bad = write(tmp_path, {"pos_xy": 9})
     runs = tmp_path / "runs"
     assert agentic_main(["run", str(SQUARE), "--gains", str(bad), "--runs-dir", str(runs)]) == 2

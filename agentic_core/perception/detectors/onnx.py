@@ -1,0 +1,183 @@
+""":class:`OnnxDetector`: any YOLO-style ONNX model behind the :class:`~agentic_core.contracts.camera.Detector`
+protocol, run on the CPU with onnxruntime (the ``vision`` extra).
+
+A frame's pixels are letterboxed into the model's input, its output decoded (the YOLOv8/YOLO11 layout or the
+YOLOv5 one, told apart by shape unless ``layout`` says), overlapping boxes suppressed per class, and the rest mapped
+back to the frame's pixels. The raw score becomes the detection's confidence through a :class:`Calibration`
+(the identity unless one is given), so the World Model's ``conf`` is a probability.
+
+>>> from agentic_core.perception.detectors import OnnxDetector
+>>> OnnxDetector("no/such/model.onnx")
+Traceback (most recent call last):
+...
+agentic_core.contracts.errors.InputError: no/such/model.onnx: no such ONNX model file
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...contracts.camera import BoundingBox, Detection, Frame
+from ...contracts.errors import InputError
+from ...contracts.extras import require
+from ...contracts.input_files import check_input_file
+from ..calibration import Calibration
+from .yolo_decode import Layout, decode, guess_layout, letterbox, nms, to_frame
+
+MAX_MODEL_BYTES = 1 << 30
+"""The largest model file read (1 GiB: a YOLO11x export is about 220 MB)."""
+DEFAULT_INPUT = (640, 640)
+
+
+def _class_names(meta: dict[str, str]) -> list[str] | None:
+    """Class names from an export's metadata ``names`` (``{0: 'person', ...}``), if it has them."""
+    raw = meta.get("names")
+    if not raw:
+        return None
+    try:
+        parsed = ast.literal_eval(raw)
+    except (ValueError, SyntaxError):
+        return None
+    if isinstance(parsed, dict):
+        return [str(parsed[k]) for k in sorted(parsed)]
+    if isinstance(parsed, list | tuple):
+        return [str(n) for n in parsed]
+    return None
+
+
+class OnnxDetector:
+    """A YOLO-style ONNX model as a :class:`Detector`: ``detect(frame)`` on ``frame.image`` (H×W×3 uint8, RGB).
+
+    ``class_names`` default to the model's metadata (an ultralytics export carries them), else ``person`` for a
+    one-class model; ``classes`` keeps only those names (all when None). ``input_size`` (width, height) is needed
+    only when the model's input has no fixed size.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        layout: Literal["auto", "v8", "v5"] = "auto",
+        class_names: Sequence[str] | None = None,
+        classes: Sequence[str] | None = None,
+        score_threshold: float = 0.25,
+        iou_threshold: float = 0.45,
+        input_size: tuple[int, int] | None = None,
+        calibration: Calibration | None = None,
+        max_detections: int = 300,
+        threads: int = 1,
+    ) -> None:
+        self.path = Path(path)
+        if not self.path.exists():
+            raise InputError(f"{path}: no such ONNX model file")
+        check_input_file(self.path, "ONNX model", limit=MAX_MODEL_BYTES)
+        ort: Any = require("onnxruntime", "vision")
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = threads
+        options.inter_op_num_threads = 1
+        options.log_severity_level = 3
+        try:
+            self.session = ort.InferenceSession(str(self.path), options, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own unrelated classes for a bad file
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputError(f"{path}: not a usable ONNX model ({first[:200]})") from exc
+        self.score_threshold = score_threshold
+        self.iou_threshold = iou_threshold
+        self.calibration = calibration or Calibration.identity()
+        self.max_detections = max_detections
+        self.input_name, self.channels, self.input_size = self._input(input_size)
+        outputs = self.session.get_outputs()
+        self.output_name: str = outputs[0].name
+        meta = dict(self.session.get_modelmeta().custom_metadata_map)
+        self.class_names = list(class_names) if class_names is not None else _class_names(meta)
+        self.layout: Layout | None = None if layout == "auto" else layout
+        self.classes = None if classes is None else set(classes)
+
+    def _input(self, size: tuple[int, int] | None) -> tuple[str, int, tuple[int, int]]:
+        """The input's name, channel count and (width, height), from the model or ``size``."""
+        inputs = self.session.get_inputs()
+        if len(inputs) != 1 or len(inputs[0].shape) != 4:
+            shapes = [list(i.shape) for i in inputs]
+            raise InputError(f"{self.path}: a YOLO-style model takes one 1×C×H×W image; this one takes {shapes}")
+        _, channels, height, width = inputs[0].shape
+        fixed = isinstance(height, int) and isinstance(width, int)
+        if size is None:
+            size = (width, height) if fixed else DEFAULT_INPUT
+        elif fixed and size != (width, height):
+            raise InputError(f"{self.path}: input size {size} but the model takes {width}×{height}")
+        if channels not in (1, 3):
+            raise InputError(f"{self.path}: the model's input has {channels} channels; 1 or 3 are supported")
+        return str(inputs[0].name), int(channels), (int(size[0]), int(size[1]))
+
+    def _layout(self, shape: tuple[int, ...]) -> Layout:
+        """The output's layout, checked against its shape and the class count (when the names are known)."""
+        if len(shape) != 3 or shape[0] != 1:
+            raise InputError(
+                f"{self.path}: output shape {list(shape)} is not a YOLO detection head "
+                "(expected (1, 4+nc, N) for YOLOv8/11 or (1, N, 5+nc) for YOLOv5)"
+            )
+        layout = self.layout or guess_layout(shape)
+        channels = shape[1] if layout == "v8" else shape[2]
+        extra = 4 if layout == "v8" else 5
+        if channels - extra < 1:
+            raise InputError(
+                f"{self.path}: output shape {list(shape)} leaves no class scores in layout {layout} "
+                "(the layout is told by shape; set it if the model has fewer candidates than channels)"
+            )
+        if self.class_names is not None and channels - extra != len(self.class_names):
+            raise InputError(
+                f"{self.path}: output shape {list(shape)} in layout {layout} has {channels - extra} classes "
+                f"but {len(self.class_names)} names are known"
+            )
+        return layout
+
+    def detect_array(self, image: NDArray[np.uint8]) -> tuple[NDArray[np.float32], NDArray[np.float32], list[str]]:
+        """Boxes (K×4, frame pixels, clipped), raw scores and class names of what the model finds in ``image``."""
+        if not (isinstance(image, np.ndarray) and image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8):
+            got = f"{image.dtype} {list(image.shape)}" if isinstance(image, np.ndarray) else type(image).__name__
+            raise InputError(f"{self.path}: a frame's image must be H×W×3 uint8 RGB; got {got}")
+        height, width = image.shape[:2]
+        tensor, box = letterbox(image, self.input_size, self.channels)
+        output = np.asarray(self.session.run([self.output_name], {self.input_name: tensor})[0])
+        decoded = decode(output, self._layout(tuple(int(n) for n in output.shape)))
+        names = self.class_names or (["person"] if decoded.classes.max(initial=0) == 0 else None)
+        keep = decoded.scores >= self.score_threshold
+        if self.classes is not None:
+            allowed = [i for i, n in enumerate(names or []) if n in self.classes]
+            keep &= np.isin(decoded.classes, allowed)
+        boxes, scores, classes = decoded.boxes[keep], decoded.scores[keep], decoded.classes[keep]
+        order = nms(boxes, scores, self.iou_threshold, classes, self.max_detections)
+        mapped = to_frame(boxes[order], box)
+        mapped[:, [0, 2]] = np.clip(mapped[:, [0, 2]], 0, width)
+        mapped[:, [1, 3]] = np.clip(mapped[:, [1, 3]], 0, height)
+        labels = [names[c] if names and c < len(names) else str(c) for c in classes[order].tolist()]
+        return mapped, scores[order], labels
+
+    def detect(self, frame: Frame) -> list[Detection]:
+        """The model's detections in ``frame``, confidences calibrated; a frame without pixels is an error."""
+        if frame.image is None:
+            raise InputError(
+                f"{self.path}: frame {frame.index} has no pixels (Frame.image is None); an ONNX detector needs the "
+                "rendering camera (--detector onnx:PATH turns it on)"
+            )
+        boxes, scores, labels = self.detect_array(frame.image)
+        conf = self.calibration.apply(scores)
+        return [
+            Detection(
+                class_name=label,
+                box=BoundingBox(x_min=float(b[0]), y_min=float(b[1]), x_max=float(b[2]), y_max=float(b[3])),
+                confidence=float(np.clip(c, 0.0, 1.0)),
+            )
+            for b, c, label in zip(boxes.tolist(), conf.tolist(), labels, strict=True)
+            if b[2] > b[0] and b[3] > b[1]
+        ]
+
+
+__all__ = ["OnnxDetector"]

@@ -1,0 +1,72 @@
+"""Our person detector, shipped as package data: ``weights/person.onnx`` (trained here on rendered frames,
+``python -m evaluation.detector.train``) and ``weights/person.json``, its recipe (data seed, sizes, epochs, the
+file's SHA-256, the calibration and the operating threshold). :func:`load_ours` checks the SHA-256 before it runs
+anything, so a damaged or swapped file is refused.
+
+>>> recipe = read_recipe()
+>>> sorted(k for k in ("sha256", "calibration", "score_threshold") if k in recipe)
+['calibration', 'score_threshold', 'sha256']
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from ...contracts.errors import InputError
+from ..calibration import Calibration
+from .onnx import OnnxDetector
+
+WEIGHTS = "person.onnx"
+RECIPE = "person.json"
+
+
+def weights_dir() -> Path:
+    """The folder of the shipped weights (inside the installed package)."""
+    return Path(str(resources.files("agentic_core.perception.detectors") / "weights"))
+
+
+def read_recipe(folder: Path | None = None) -> dict[str, Any]:
+    """The recipe beside the weights; :class:`InputError` naming it when it is missing or not JSON."""
+    path = (folder or weights_dir()) / RECIPE
+    try:
+        recipe = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: the detector's recipe is missing (reinstall agentic-uavs)") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: the detector's recipe cannot be read ({exc})") from None
+    if not isinstance(recipe, dict) or not isinstance(recipe.get("sha256"), str):
+        raise InputError(f"{path}: the detector's recipe has no sha256")
+    return recipe
+
+
+def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
+    """The shipped person detector, its confidence calibrated and its threshold the recipe's; the weights' SHA-256
+    must be the recipe's (:class:`InputError` naming both otherwise)."""
+    root = folder or weights_dir()
+    recipe = read_recipe(root)
+    path = root / WEIGHTS
+    try:
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    except FileNotFoundError:
+        raise InputError(f"{path}: the shipped detector's weights are missing (reinstall agentic-uavs)") from None
+    if digest != recipe["sha256"]:
+        raise InputError(
+            f"{path}: SHA-256 {digest} is not the recipe's {recipe['sha256']} ({root / RECIPE}): the weights were "
+            "changed or damaged; reinstall agentic-uavs or retrain (python -m evaluation.detector.train)"
+        )
+    calibration = Calibration.model_validate(recipe["calibration"]) if recipe.get("calibration") else None
+    return OnnxDetector(
+        path,
+        layout="v8",
+        class_names=["person"],
+        score_threshold=float(recipe.get("score_threshold", 0.25)),
+        calibration=calibration,
+        threads=threads,
+    )
+
+
+__all__ = ["RECIPE", "WEIGHTS", "load_ours", "read_recipe", "weights_dir"]

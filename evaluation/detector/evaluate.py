@@ -1,0 +1,100 @@
+"""The person detector on held-out renders: run it on labelled frames, then precision, recall and AP@0.5 over
+all persons and by pose. A detection counts as a hit when it matches any person (IoU ≥ 0.5); a pose's recall is
+the share of that pose's persons found.
+
+>>> import numpy as np
+>>> from evaluation.detector.scoring import match
+>>> boxes = [np.array([[0, 0, 10, 10], [20, 20, 30, 30]], np.float32)]
+>>> m = match([(boxes[0][:1], np.array([0.9], np.float32))], boxes)
+>>> s = scores_at(m, 0.5, [np.array([True, False])])
+>>> s.precision, s.recall, s.truth
+(1.0, 1.0, 1)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agentic_core.perception.detectors import OnnxDetector
+
+from .scoring import Matched, average_precision, match, recall_of
+from .train import Labelled
+
+POSES = ("standing", "walking", "sitting", "lying")
+CALIBRATION_SEED = 2
+"""Renders the calibration and the operating threshold are fitted on (training uses seed 1)."""
+TEST_SEED = 3
+"""Held-out renders for the report and the acceptance test: scenes neither training nor calibration saw."""
+TEST_FRAMES = 30
+"""Held-out frames per altitude."""
+
+
+@dataclass(frozen=True)
+class Scores:
+    """Precision (of every detection at the threshold), recall and AP@0.5 (of the chosen persons), how many."""
+
+    precision: float
+    recall: float
+    ap50: float
+    truth: int
+
+
+def detect_all(
+    detector: OnnxDetector, frames: Sequence[Labelled]
+) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
+    """The detector's boxes and raw scores on each frame."""
+    out = []
+    for frame in frames:
+        boxes, scores, _ = detector.detect_array(frame.image)
+        out.append((boxes, scores))
+    return out
+
+
+def evaluate(detector: OnnxDetector, frames: Sequence[Labelled]) -> Matched:
+    """Run ``detector`` on ``frames`` and match its detections to their labels."""
+    return match(detect_all(detector, frames), [f.boxes for f in frames])
+
+
+def pose_masks(frames: Sequence[Labelled], pose: str | None) -> list[NDArray[np.bool_]]:
+    """Per frame, which labels have ``pose`` (all of them for None)."""
+    return [np.array([p == pose or pose is None for p in f.poses], bool) for f in frames]
+
+
+def scores_at(m: Matched, threshold: float, subset: Sequence[NDArray[np.bool_]]) -> Scores:
+    """Precision of all detections scoring ≥ ``threshold``; recall and AP of the ``subset`` persons."""
+    kept = m.scores >= threshold
+    precision = float(np.mean(m.hit[kept])) if kept.any() else float("nan")
+    truth = int(sum(int(np.sum(s)) for s in subset))
+    return Scores(precision, recall_of(m, threshold, subset), average_precision(m, subset), truth)
+
+
+def best_threshold(m: Matched) -> float:
+    """The raw score threshold with the best F1 over all persons (chosen on calibration renders, never the test)."""
+    order = np.argsort(-m.scores, kind="stable")
+    hits = m.hit[order]
+    positives = sum(len(s) for s in m.truth_score)
+    tp = np.cumsum(hits)
+    precision = tp / np.arange(1, len(hits) + 1)
+    recall = tp / max(positives, 1)
+    f1 = 2 * precision * recall / np.maximum(precision + recall, 1e-12)
+    if not len(f1):
+        return 0.5
+    return float(m.scores[order][int(np.argmax(f1))])
+
+
+__all__ = [
+    "CALIBRATION_SEED",
+    "POSES",
+    "TEST_FRAMES",
+    "TEST_SEED",
+    "Scores",
+    "best_threshold",
+    "detect_all",
+    "evaluate",
+    "pose_masks",
+    "scores_at",
+]

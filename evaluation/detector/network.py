@@ -1,0 +1,86 @@
+"""The person detector's network (torch): a small single-class anchor-free detector, stride 4, and the wrapper that
+exports it in the YOLOv8 layout ``(1, 5, N)`` (``cx, cy, w, h, score``) so :class:`OnnxDetector` runs it.
+
+Each cell of the stride-4 grid predicts a score logit (is a person's centre here?), the centre's offset in the cell
+and the box's log size. The export keeps only local maxima of the score (a 3×3 max-pool), the usual way a
+centre-point detector avoids a crowd of neighbours each claiming one person.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from agentic_core.contracts.extras import require
+
+torch: Any = require("torch", "train")
+nn: Any = torch.nn
+
+STRIDE = 4
+OUTPUTS = 5
+"""score logit, x and y offset, log width and log height."""
+
+
+def _conv(cin: int, cout: int, stride: int = 1, dilation: int = 1) -> Any:
+    return nn.Sequential(
+        nn.Conv2d(cin, cout, 3, stride, padding=dilation, dilation=dilation, bias=False),
+        nn.BatchNorm2d(cout),
+        nn.ReLU(inplace=True),
+    )
+
+
+class PersonNet(nn.Module):  # type: ignore[misc]
+    """Stem to stride 4, a stride-8 context branch added back, and a head at stride 4."""
+
+    def __init__(self, width: int = 32) -> None:
+        super().__init__()
+        w = width
+        self.stem = nn.Sequential(
+            nn.Conv2d(3, w, 4, 4, bias=False), nn.BatchNorm2d(w), nn.ReLU(inplace=True), _conv(w, w)
+        )
+        self.body = nn.Sequential(_conv(w, w), _conv(w, w))
+        self.down = nn.Sequential(_conv(w, 2 * w, 2), _conv(2 * w, 2 * w, dilation=2))
+        self.up = nn.Conv2d(2 * w, w, 1)
+        self.head = nn.Sequential(_conv(w, w), nn.Conv2d(w, OUTPUTS, 1))
+        nn.init.constant_(self.head[-1].bias, 0.0)
+        with torch.no_grad():
+            self.head[-1].bias[0] = -4.6  # a prior of 1% persons per cell, so early training is not swamped
+
+    def forward(self, images: Any) -> Any:
+        """``images`` N×3×H×W in 0–1 → N×5×(H/4)×(W/4) raw outputs."""
+        x = self.stem(images - 0.5)
+        x = x + self.body(x)
+        context = self.down(x)
+        x = x + nn.functional.interpolate(self.up(context), size=x.shape[-2:], mode="nearest")
+        return self.head(x)
+
+
+def decode_grid(raw: Any) -> tuple[Any, Any, Any, Any, Any]:
+    """Raw outputs → score (sigmoid), centre x, y and size w, h in input pixels, each N×(H/4)×(W/4)."""
+    _, _, gh, gw = raw.shape
+    gy = torch.arange(gh, dtype=raw.dtype).view(1, gh, 1)
+    gx = torch.arange(gw, dtype=raw.dtype).view(1, 1, gw)
+    score = torch.sigmoid(raw[:, 0])
+    cx = (gx + torch.sigmoid(raw[:, 1]) * 2.0 - 0.5) * STRIDE
+    cy = (gy + torch.sigmoid(raw[:, 2]) * 2.0 - 0.5) * STRIDE
+    w = torch.exp(raw[:, 3].clamp(-4.0, 5.0)) * STRIDE
+    h = torch.exp(raw[:, 4].clamp(-4.0, 5.0)) * STRIDE
+    return score, cx, cy, w, h
+
+
+class YoloV8Export(nn.Module):  # type: ignore[misc]
+    """The network with its decoding, as one graph whose output is the YOLOv8 layout (1, 5, N)."""
+
+    def __init__(self, net: Any) -> None:
+        super().__init__()
+        self.net = net
+
+    def forward(self, images: Any) -> Any:
+        raw = self.net(images)
+        score, cx, cy, w, h = decode_grid(raw)
+        peak = nn.functional.max_pool2d(score.unsqueeze(1), 3, 1, 1).squeeze(1)
+        score = score * (score >= peak).to(score.dtype)
+        n = raw.shape[0]
+        return torch.stack([cx, cy, w, h, score], dim=1).reshape(n, 5, -1)
+
+
+__all__ = ["OUTPUTS", "STRIDE", "PersonNet", "YoloV8Export", "decode_grid"]

@@ -1,0 +1,285 @@
+"""Train our person detector on rendered frames and export it to ONNX in the YOLOv8 layout, with its recipe.
+
+``python -m evaluation.detector.train --out DIR`` renders ``--frames`` labelled frames from ``--seed``
+(:func:`flight.sim.render.dataset.labelled_frames`), trains :class:`PersonNet` on square crops of them (torch on
+the CPU, the ``train`` extra) for ``--epochs`` or until ``--max-minutes``, whichever comes first, and writes
+``person.onnx`` and ``person.json`` (the recipe: data seed, counts, sizes, epochs done, the file's SHA-256).
+Calibration is added to the recipe afterwards (``python -m evaluation.detector.calibrate``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import sys
+import time
+import warnings
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agentic_core.contracts.extras import require
+
+from .crops import sample_crops, targets, turn
+
+WEIGHTS_NAME = "person.onnx"
+RECIPE_NAME = "person.json"
+
+
+class Labelled(Protocol):
+    """What training reads of a rendered frame (:class:`flight.sim.render.dataset.LabelledFrame`)."""
+
+    @property
+    def image(self) -> NDArray[np.uint8]: ...
+    @property
+    def boxes(self) -> NDArray[np.float32]: ...
+    @property
+    def poses(self) -> tuple[str, ...]: ...
+    @property
+    def altitude_m(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that decides the weights; written into the recipe."""
+
+    data_seed: int = 1
+    frames: int = 900
+    width_px: int = 640
+    height_px: int = 480
+    altitudes_m: tuple[float, ...] = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+    crop_px: int = 160
+    crops_per_frame: int = 4
+    batch: int = 32
+    epochs: int = 8
+    max_minutes: float = 20.0
+    net_width: int = 24
+    learning_rate: float = 2e-3
+    torch_seed: int = 0
+    threads: int = 1
+
+
+@dataclass
+class TrainStats:
+    """What training did: epochs and steps done, the loss by epoch, the wall time."""
+
+    epochs_done: int = 0
+    steps: int = 0
+    seconds: float = 0.0
+    loss_by_epoch: list[float] = field(default_factory=list)
+
+
+def render_frames(config: TrainConfig, *, seed: int | None = None, count: int | None = None) -> list[Labelled]:
+    """The labelled frames of ``seed`` (the config's data seed by default)."""
+    from flight.sim.render.dataset import labelled_frames
+
+    frames = labelled_frames(
+        config.data_seed if seed is None else seed,
+        config.frames if count is None else count,
+        altitudes_m=config.altitudes_m,
+        width=config.width_px,
+        height=config.height_px,
+    )
+    return list(frames)
+
+
+@dataclass(frozen=True)
+class CachedFrame:
+    """A labelled frame read back from a cache file."""
+
+    image: NDArray[np.uint8]
+    boxes: NDArray[np.float32]
+    poses: tuple[str, ...]
+    altitude_m: float
+
+
+def save_frames(path: Path, frames: Sequence[Labelled]) -> None:
+    """Keep rendered frames in one ``.npz``, so a second training run need not render them again."""
+    counts = np.array([len(f.boxes) for f in frames], np.int64)
+    boxes = np.concatenate([f.boxes for f in frames] or [np.zeros((0, 4), np.float32)])
+    poses = np.array([p for f in frames for p in f.poses], dtype="U8")
+    altitudes = np.array([f.altitude_m for f in frames])
+    images = np.stack([f.image for f in frames])
+    np.savez(path, images=images, boxes=boxes, counts=counts, poses=poses, altitudes=altitudes)
+
+
+def load_frames(path: Path) -> list[Labelled]:
+    """The frames :func:`save_frames` kept."""
+    data = np.load(path)
+    ends = np.cumsum(data["counts"])
+    starts = ends - data["counts"]
+    poses = [str(p) for p in data["poses"]]
+    return [
+        CachedFrame(data["images"][k], data["boxes"][a:b], tuple(poses[a:b]), float(data["altitudes"][k]))
+        for k, (a, b) in enumerate(zip(starts.tolist(), ends.tolist(), strict=True))
+    ]
+
+
+def focal_loss(torch: Any, logits: Any, heat: Any) -> Any:
+    """The centre-point focal loss: positives where the target is 1, negatives down-weighted near a centre."""
+    p = torch.sigmoid(logits).clamp(1e-4, 1 - 1e-4)
+    pos = heat.eq(1.0).float()
+    pos_loss = -torch.log(p) * (1 - p) ** 2 * pos
+    neg_loss = -torch.log(1 - p) * p**2 * (1 - heat) ** 4 * (1 - pos)
+    return (pos_loss.sum() + neg_loss.sum()) / pos.sum().clamp(min=1.0)
+
+
+def _batches(frames: Sequence[Labelled], config: TrainConfig, rng: np.random.Generator) -> Iterable[tuple[Any, ...]]:
+    """One epoch's batches: crops of every frame, turned, shuffled; images N×3×S×S in 0–1 and the targets."""
+    samples: list[tuple[NDArray[np.uint8], NDArray[np.float32]]] = []
+    for frame in frames:
+        for crop, boxes in sample_crops(
+            frame.image, frame.boxes, rng, size=config.crop_px, count=config.crops_per_frame
+        ):
+            samples.append(turn(crop, boxes, int(rng.integers(8))))
+    order = rng.permutation(len(samples))
+    for start in range(0, len(order) - config.batch + 1, config.batch):
+        chosen = [samples[i] for i in order[start : start + config.batch]]
+        images = np.stack([c for c, _ in chosen]).astype(np.float32).transpose(0, 3, 1, 2) / 255.0
+        gain = rng.uniform(0.85, 1.15, (len(chosen), 1, 1, 1)).astype(np.float32)
+        images = np.clip(images * gain, 0.0, 1.0)
+        made = [targets(b, size=config.crop_px, stride=4) for _, b in chosen]
+        yield images, np.stack([m[0] for m in made]), np.stack([m[1] for m in made]), np.stack([m[2] for m in made])
+
+
+def learning_rate(peak: float, progress: float) -> float:
+    """A short warm-up, then a cosine down to 1 % of ``peak``; ``progress`` (0–1) is the larger of the steps' and
+    the time budget's share used, so a run cut short by ``max_minutes`` still ends on a low rate.
+
+    >>> [round(learning_rate(1.0, p), 3) for p in (0.0, 0.05, 0.5, 1.0)]
+    [0.1, 1.0, 0.546, 0.01]
+    """
+    if progress < 0.05:
+        return peak * (0.1 + 0.9 * progress / 0.05)
+    t = min(1.0, (progress - 0.05) / 0.95)
+    return peak * (0.01 + 0.99 * 0.5 * (1.0 + math.cos(math.pi * t)))
+
+
+def train(
+    frames: Sequence[Labelled], config: TrainConfig, *, log: Callable[[str], None] = print, max_steps: int | None = None
+) -> tuple[Any, TrainStats]:
+    """Train a :class:`PersonNet` on ``frames``; returns it (in eval mode) and what was done."""
+    torch: Any = require("torch", "train")
+    from .network import PersonNet
+
+    torch.manual_seed(config.torch_seed)
+    torch.set_num_threads(config.threads)
+    rng = np.random.default_rng(config.torch_seed)
+    net = PersonNet(config.net_width)
+    per_epoch = max(1, len(frames) * config.crops_per_frame // config.batch)
+    total = per_epoch * config.epochs if max_steps is None else min(max_steps, per_epoch * config.epochs)
+    optimiser = torch.optim.AdamW(net.parameters(), lr=config.learning_rate, weight_decay=1e-4)
+    stats = TrainStats()
+    start = time.monotonic()
+    deadline = start + config.max_minutes * 60.0
+    net.train()
+    while stats.steps < total and time.monotonic() < deadline:
+        losses: list[float] = []
+        for images, heat, reg, mask in _batches(frames, config, rng):
+            raw = net(torch.from_numpy(images))
+            heat_t, reg_t, mask_t = torch.from_numpy(heat), torch.from_numpy(reg), torch.from_numpy(mask).bool()
+            loss = focal_loss(torch, raw[:, 0], heat_t)
+            if mask_t.any():
+                offsets = torch.sigmoid(raw[:, 1:3]) * 2.0 - 0.5
+                sizes = raw[:, 3:5]
+                pred = torch.cat([offsets, sizes], 1).permute(0, 2, 3, 1)[mask_t]
+                loss = loss + torch.nn.functional.l1_loss(pred, reg_t.permute(0, 2, 3, 1)[mask_t])
+            progress = max(stats.steps / total, (time.monotonic() - start) / (deadline - start))
+            for group in optimiser.param_groups:
+                group["lr"] = learning_rate(config.learning_rate, progress)
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+            losses.append(float(loss.detach()))
+            stats.steps += 1
+            if stats.steps >= total or time.monotonic() >= deadline:
+                break
+        stats.epochs_done += 1
+        stats.loss_by_epoch.append(round(float(np.mean(losses)) if losses else math.nan, 4))
+        log(f"epoch {stats.epochs_done}: {stats.steps}/{total} steps, loss {stats.loss_by_epoch[-1]}, "
+            f"{time.monotonic() - start:.0f} s")  # fmt: skip
+    stats.seconds = round(time.monotonic() - start, 1)
+    net.eval()
+    return net, stats
+
+
+def export_onnx(net: Any, path: Path, *, width: int = 640, height: int = 480) -> str:
+    """Write ``net`` as an ONNX model in the YOLOv8 layout for a ``width``×``height`` input; returns its SHA-256."""
+    torch: Any = require("torch", "train")
+    from .network import YoloV8Export
+
+    model = YoloV8Export(net).eval()
+    example = torch.zeros(1, 3, height, width)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        torch.onnx.export(
+            model, (example,), str(path), input_names=["images"], output_names=["output0"], opset_version=17,
+            dynamo=False,
+        )  # fmt: skip
+    onnx: Any = require("onnx", "train")
+    saved = onnx.load(str(path))
+    for key, value in (("names", "{0: 'person'}"), ("stride", "4"), ("producer", "agentic-uavs evaluation.detector")):
+        entry = saved.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.save(saved, str(path))
+    return sha256_of(path)
+
+
+def sha256_of(path: Path) -> str:
+    """The file's SHA-256, hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def write_recipe(path: Path, config: TrainConfig, stats: TrainStats, sha256: str, **extra: Any) -> None:
+    """The recipe beside the weights: how they were made, and the SHA-256 that ties the two."""
+    recipe = {
+        "weights": WEIGHTS_NAME,
+        "sha256": sha256,
+        "licence": "Apache-2.0 (the project's); trained here on frames rendered by flight.sim.render",
+        "config": asdict(config),
+        "training": asdict(stats),
+        **extra,
+    }
+    path.write_text(json.dumps(recipe, indent=2) + "\n")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The training command line."""
+    parser = argparse.ArgumentParser(prog="python -m evaluation.detector.train", description=__doc__)
+    parser.add_argument("--out", type=Path, required=True, help="folder for person.onnx and person.json")
+    defaults = TrainConfig()
+    for name in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width", "threads"):
+        parser.add_argument(f"--{name.replace('_', '-')}", type=int, default=getattr(defaults, name))
+    parser.add_argument("--max-minutes", type=float, default=defaults.max_minutes)
+    parser.add_argument("--cache", type=Path, help="an .npz of the rendered frames: read if it exists, else written")
+    args = parser.parse_args(argv)
+    config = TrainConfig(
+        **{k: getattr(args, k) for k in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width")},
+        threads=args.threads,
+        max_minutes=args.max_minutes,
+    )
+    started = time.monotonic()
+    if args.cache is not None and args.cache.is_file():
+        frames = load_frames(args.cache)
+    else:
+        frames = render_frames(config)
+        if args.cache is not None:
+            save_frames(args.cache, frames)
+    print(f"rendered {len(frames)} frames in {time.monotonic() - started:.0f} s", flush=True)
+    net, stats = train(frames, config, log=lambda line: print(line, flush=True))
+    weights = args.out / WEIGHTS_NAME
+    digest = export_onnx(net, weights, width=config.width_px, height=config.height_px)
+    write_recipe(args.out / RECIPE_NAME, config, stats, digest)
+    print(f"wrote {weights} ({digest})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

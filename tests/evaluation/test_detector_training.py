@@ -1,0 +1,70 @@
+"""Training smoke test: a few steps on a few rendered frames, exported to ONNX in a temporary folder, loads and runs
+through the same path as the shipped detector, and a changed byte in the weights is refused by their SHA-256."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+pytest.importorskip("onnx")
+pytest.importorskip("onnxruntime")
+
+from agentic_core.contracts.errors import InputError
+from agentic_core.perception.detectors import OnnxDetector
+from agentic_core.perception.detectors.ours import load_ours
+from evaluation.detector.train import TrainConfig, export_onnx, main, render_frames, train, write_recipe
+
+
+def test_a_few_steps_export_a_model_that_loads_and_runs(tmp_path: Path) -> None:
+    config = TrainConfig(frames=3, width_px=320, height_px=240, crop_px=96, batch=4, crops_per_frame=2, epochs=1)
+    frames = render_frames(config)
+    assert len(frames) == 3 and frames[0].image.shape == (240, 320, 3)
+    net, stats = train(frames, config, log=lambda _: None, max_steps=2)
+    assert stats.steps == 1 or stats.steps == 2
+    assert all(np.isfinite(stats.loss_by_epoch))
+    digest = export_onnx(net, tmp_path / "person.onnx", width=320, height=240)
+    write_recipe(tmp_path / "person.json", config, stats, digest)
+    detector = OnnxDetector(tmp_path / "person.onnx", score_threshold=0.0)
+    assert detector.input_size == (320, 240) and detector.class_names == ["person"]
+    boxes, scores, labels = detector.detect_array(frames[0].image)
+    assert boxes.shape[1] == 4 and len(scores) == len(labels) and set(labels) <= {"person"}
+    assert np.all((boxes[:, 0] >= 0) & (boxes[:, 2] <= 320) & (boxes[:, 1] >= 0) & (boxes[:, 3] <= 240))
+    ours = load_ours(tmp_path)
+    assert ours.path == tmp_path / "person.onnx"
+    recipe = json.loads((tmp_path / "person.json").read_text())
+    assert recipe["sha256"] == digest and recipe["config"]["frames"] == 3 and recipe["training"]["steps"] >= 1
+
+
+def test_changed_weights_are_refused(tmp_path: Path) -> None:
+    config = TrainConfig(frames=2, width_px=320, height_px=240, crop_px=96, batch=2, crops_per_frame=1, epochs=1)
+    net, stats = train(render_frames(config), config, log=lambda _: None, max_steps=1)
+    digest = export_onnx(net, tmp_path / "person.onnx", width=320, height=240)
+    write_recipe(tmp_path / "person.json", config, stats, digest)
+    data = bytearray((tmp_path / "person.onnx").read_bytes())
+    data[-10] ^= 0xFF
+    (tmp_path / "person.onnx").write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"person\.onnx: SHA-256 [0-9a-f]{64} is not the recipe's " + digest):
+        load_ours(tmp_path)
+    (tmp_path / "person.onnx").unlink()
+    with pytest.raises(InputError, match=r"person\.onnx: the shipped detector's weights are missing"):
+        load_ours(tmp_path)
+    (tmp_path / "person.json").write_text("{not json")
+    with pytest.raises(InputError, match=r"person\.json: the detector's recipe cannot be read"):
+        load_ours(tmp_path)
+    (tmp_path / "person.json").write_text("{}")
+    with pytest.raises(InputError, match=r"person\.json: the detector's recipe has no sha256"):
+        load_ours(tmp_path)
+    (tmp_path / "person.json").unlink()
+    with pytest.raises(InputError, match=r"person\.json: the detector's recipe is missing"):
+        load_ours(tmp_path)
+
+
+def test_the_command_line_writes_weights_and_recipe(tmp_path: Path) -> None:
+    args = ["--out", str(tmp_path), "--frames", "2", "--epochs", "1", "--batch", "2", "--crops-per-frame", "1"]
+    assert main([*args, "--max-minutes", "0.05"]) == 0
+    recipe = json.loads((tmp_path / "person.json").read_text())
+    assert recipe["config"]["frames"] == 2 and (tmp_path / "person.onnx").is_file()
