@@ -49,10 +49,11 @@ class WorldMapLog:
         t = float(world.timestamp)
         if self.written >= self.most or (self._last_t is not None and 0.0 <= t - self._last_t < self.period_s):
             return
+        self._last_t = t  # looked at: the next look is a period on, changed or not (a still scene costs nothing)
         shape = _shape(world)
         if shape == self._last:
             return
-        self._last, self._last_t = shape, t
+        self._last = shape
         with self.path.open("a", encoding="utf-8") as out:
             out.write(json.dumps(map_view(world), separators=(",", ":")) + "\n")
         self.written += 1

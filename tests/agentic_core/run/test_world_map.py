@@ -7,7 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from agentic_core.contracts.world_model import WorldModel
+from agentic_core.run import world_map
 from agentic_core.run.state_files import read_jsonl
 from agentic_core.run.world_map import WorldMapLog
 
@@ -50,3 +53,20 @@ def test_the_record_is_bounded_and_a_resumed_run_counts_what_it_wrote(tmp_path: 
     for k in range(50, 60):
         again(world(float(k), ("P-1", float(k * 2))))
     assert len(read_jsonl(path)) == 12
+
+
+def test_a_still_scene_is_looked_at_once_a_period_not_every_frame(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    looks: list[float] = []
+    real = world_map._shape
+
+    def counted(w: WorldModel) -> tuple[Any, ...]:
+        looks.append(w.timestamp)
+        return real(w)
+
+    monkeypatch.setattr(world_map, "_shape", counted)
+    log = world_map.WorldMapLog(tmp_path / "world_map.jsonl", period_s=1.0)
+    for frame in range(90):  # three seconds at 30 frames a second, nobody moving
+        log(world(frame / 30.0, ("P-1", 0.0)))
+    assert len(looks) == 3 and len(read_jsonl(log.path)) == 1
