@@ -9,6 +9,7 @@ a Content-Security-Policy of ``'self'`` holds the browser to that.
 
 from __future__ import annotations
 
+import inspect
 import json
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
@@ -74,6 +75,7 @@ def build_app(
     routing = require("starlette.routing", "console")
     staticfiles = require("starlette.staticfiles", "console")
     sse = require("sse_starlette.sse", "console")
+    concurrency = require("starlette.concurrency", "console")
     JSONResponse = responses.JSONResponse
 
     def refused(why: str) -> Any:
@@ -99,7 +101,8 @@ def build_app(
                 return JSONResponse({"error": "the body is not a JSON object"}, status_code=400)
             if steers and live is None:
                 return JSONResponse({"error": "no live run to steer: this console replays runs"}, status_code=409)
-            return handler(request, body)
+            answer = handler(request, body)
+            return await answer if inspect.isawaitable(answer) else answer
 
         return checked
 
@@ -176,7 +179,11 @@ def build_app(
             return JSONResponse({"error": f"no question {qid!r} is waiting"}, status_code=404)
         return JSONResponse({"ok": True})
 
-    def relaunch(request: Any, body: dict[str, Any]) -> Any:
+    async def relaunch(request: Any, body: dict[str, Any]) -> Any:
+        """Resume or fork a run (files copied, a process started): off the event loop, so streams flow on."""
+        return await concurrency.run_in_threadpool(start_run, request, body)
+
+    def start_run(request: Any, body: dict[str, Any]) -> Any:
         run_id, action = request.path_params["run_id"], request.url.path.rsplit("/", 1)[-1]
         checkpoint = body.get("checkpoint")
         if launcher is None:
