@@ -56,6 +56,8 @@ class Progress:
         self._drawn = False
         self._systems: Counter[str] = Counter()
         self._failed: Counter[str] = Counter()
+        self._before: Counter[str] = Counter()
+        self._failed_before: Counter[str] = Counter()
         self.file = file
         self._wall0 = time.time()
         self._last_file = -float("inf")
@@ -67,6 +69,13 @@ class Progress:
         if not self.quiet:
             self._clear()
             print(f"campaign: {text}", file=self.stream, flush=True)
+
+    def earlier(self, systems: Sequence[str], failed: Sequence[str] = ()) -> None:
+        """The records an earlier run of the campaign finished (``already`` of them), by system, and the system of
+        each that has an error: counted in ``progress.json``'s totals, not in this run's rates."""
+        self._before.update(systems)
+        self._failed_before.update(failed)
+        self._save(force=True)
 
     def advance(self, records: int, label: str = "", systems: Sequence[str] = (), failed: Sequence[str] = ()) -> None:
         """``records`` more records are finished (the last of them about ``label``; ``systems`` names each
@@ -114,11 +123,17 @@ class Progress:
         now = self.clock()
         elapsed = max(now - self.started, 1e-9)
         rate = (self.done - self.already) / elapsed
-        systems = {name: SystemProgress(done=count, failed=self._failed[name], rate_per_s=count / elapsed)
-                   for name, count in self._systems.items()}  # fmt: skip
+        names = [*self._before, *(n for n in self._systems if n not in self._before)]
+        systems = {
+            name: SystemProgress(done=self._before[name] + self._systems[name],
+                                 failed=self._failed_before[name] + self._failed[name],
+                                 rate_per_s=self._systems[name] / elapsed)
+            for name in names
+        }  # fmt: skip
+        failed = sum(self._failed.values()) + sum(self._failed_before.values())
         return CampaignProgress(
             campaign=self.file.parent.name, state="ended" if state == "ended" else "running", total=self.total,
-            done=self.done, failed=sum(self._failed.values()), rate_per_s=rate,
+            done=self.done, failed=failed, rate_per_s=rate,
             eta_s=(self.total - self.done) / rate if rate > 0 else None, systems=systems, last=self._label,
             started_at=self._wall0, updated_at=time.time(),
         )  # fmt: skip

@@ -163,6 +163,8 @@ def run_campaign(
         total = len(expected)
         progress = Progress(total, len(finished), stream=stream, quiet=quiet, file=out_dir / PROGRESS_FILE)
         if finished:
+            kept = [r for r in done if r.job_id in finished]
+            progress.earlier([r.system for r in kept], [r.system for r in kept if r.error])
             progress.note(f"resuming in {out_dir}: {len(finished)} of {total} records already done")
         jobs = [
             SceneJob(

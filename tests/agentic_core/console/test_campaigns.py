@@ -51,6 +51,18 @@ def test_progress_counts_each_system_and_its_failures_and_says_when_it_ended(tmp
     assert CampaignProgress.model_validate_json((tmp_path / PROGRESS_FILE).read_bytes()).state == "ended"
 
 
+def test_a_resumed_campaign_counts_what_its_earlier_runs_finished_but_not_in_its_rates(tmp_path: Path) -> None:
+    now = [0.0]
+    progress = Progress(6, already=3, quiet=True, clock=lambda: now[0], file=tmp_path / PROGRESS_FILE)
+    progress.earlier(["yolo", "yolo", "rules"], failed=["rules"])
+    now[0] = 2.0
+    progress.advance(1, "gen-3", ["rules"])
+    written = CampaignProgress.model_validate_json((tmp_path / PROGRESS_FILE).read_bytes())
+    assert (written.done, written.failed, written.rate_per_s) == (4, 1, 0.5)
+    assert written.systems == {"yolo": SystemProgress(done=2, failed=0, rate_per_s=0.0),
+                               "rules": SystemProgress(done=2, failed=1, rate_per_s=0.5)}  # fmt: skip
+
+
 def test_the_console_lists_campaigns_their_state_and_a_broken_file_as_an_error(tmp_path: Path) -> None:
     progress_file(tmp_path / "c-running")
     progress_file(tmp_path / "c-done", state="ended", done=8, updated_at=time.time() - 5)
