@@ -1,7 +1,8 @@
 """``world_map.jsonl``: the World Model as the console's replay draws it (each object's class, confidence, state,
 position and covariance; the ``near`` and ``isolated_from`` relations), written whenever what it shows changes, at
-most once per :data:`PERIOD_S` of the vehicle's clock and :data:`MOST` times a run. ``world_models.jsonl`` keeps
-the whole World Model of each decision only: whole models on every change would be megabytes a minute.
+most once per :data:`PERIOD_S` of the vehicle's clock, :data:`MOST` times and :data:`MOST_BYTES` a run.
+``world_models.jsonl`` keeps the whole World Model of each decision only: whole models on every change would be
+megabytes a minute.
 
 >>> import tempfile
 >>> from agentic_core.contracts.world_model import WorldModel
@@ -28,6 +29,8 @@ PERIOD_S = 1.0
 """At most one record per this many seconds of the vehicle's clock."""
 MOST = 3000
 """Records a run keeps at most (a resumed run counts what it wrote before)."""
+MOST_BYTES = 20_000_000
+"""Bytes a run's file may reach at most (a crowd of a thousand is about 130 KB a record)."""
 MOVED_M = 1.0
 """An object that moved less than about this far has not changed on the map."""
 SHOWN = ("near", "isolated_from")
@@ -36,27 +39,37 @@ SHOWN = ("near", "isolated_from")
 class WorldMapLog:
     """A perception hook (``PerceptionLoop.on_world``): appends the map's view of a World Model that changed."""
 
-    def __init__(self, path: Path, *, period_s: float = PERIOD_S, most: int = MOST) -> None:
+    def __init__(
+        self, path: Path, *, period_s: float = PERIOD_S, most: int = MOST, most_bytes: int = MOST_BYTES
+    ) -> None:
         self.path = path
         self.period_s = period_s
         self.most = most
+        self.most_bytes = most_bytes
         kept = read_jsonl(path)
         self.written = len(kept)
+        self.bytes = path.stat().st_size if path.is_file() else 0
         self._last_t = float(kept[-1].get("t") or 0.0) if kept else None
         self._last: tuple[Any, ...] | None = None
 
     def __call__(self, world: WorldModel) -> None:
         t = float(world.timestamp)
-        if self.written >= self.most or (self._last_t is not None and 0.0 <= t - self._last_t < self.period_s):
+        if (
+            self.written >= self.most
+            or self.bytes >= self.most_bytes
+            or (self._last_t is not None and 0.0 <= t - self._last_t < self.period_s)
+        ):
             return
         self._last_t = t  # looked at: the next look is a period on, changed or not (a still scene costs nothing)
         shape = _shape(world)
         if shape == self._last:
             return
         self._last = shape
+        line = json.dumps(map_view(world), separators=(",", ":")) + "\n"
         with self.path.open("a", encoding="utf-8") as out:
-            out.write(json.dumps(map_view(world), separators=(",", ":")) + "\n")
+            out.write(line)
         self.written += 1
+        self.bytes += len(line.encode("utf-8"))
 
 
 def map_view(world: WorldModel) -> dict[str, Any]:
@@ -81,4 +94,4 @@ def _shape(world: WorldModel) -> tuple[Any, ...]:
     return objects, relations
 
 
-__all__ = ["MOST", "PERIOD_S", "WORLD_MAP_FILE", "WorldMapLog", "map_view"]
+__all__ = ["MOST", "MOST_BYTES", "PERIOD_S", "WORLD_MAP_FILE", "WorldMapLog", "map_view"]

@@ -43,7 +43,7 @@ def test_only_changes_are_recorded_at_most_once_a_period(tmp_path: Path) -> None
     assert records[0]["objects"][0]["cov"] == [[4.0, 0.5], [0.5, 2.0]] and records[-1]["objects"] == []
 
 
-def test_the_record_is_bounded_and_a_resumed_run_counts_what_it_wrote(tmp_path: Path) -> None:
+def test_the_record_is_bounded_in_records_and_bytes_and_a_resumed_run_counts_what_it_wrote(tmp_path: Path) -> None:
     path = tmp_path / "world_map.jsonl"
     log = WorldMapLog(path, period_s=0.0, most=10)
     for k in range(50):
@@ -53,6 +53,11 @@ def test_the_record_is_bounded_and_a_resumed_run_counts_what_it_wrote(tmp_path: 
     for k in range(50, 60):
         again(world(float(k), ("P-1", float(k * 2))))
     assert len(read_jsonl(path)) == 12
+    size = path.stat().st_size
+    by_bytes = WorldMapLog(path, period_s=0.0, most=1000, most_bytes=size + 1)  # one more record, then full
+    for k in range(60, 70):
+        by_bytes(world(float(k), ("P-1", float(k * 2))))
+    assert len(read_jsonl(path)) == 13 and by_bytes.bytes == path.stat().st_size
 
 
 def test_a_still_scene_is_looked_at_once_a_period_not_every_frame(
