@@ -192,6 +192,11 @@ SCHEMAS = {
     "run-event": ("agentic_core.contracts.events", "run_event_json_schema", "one line of a run's trace.jsonl"),
     "telemetry": ("agentic_core.contracts.telemetry", "telemetry_json_schema", "one telemetry sample"),
     "scene": ("flight.sim.scene_file", "scene_json_schema", "simulated scene files (scenes/*.yaml)"),
+    "campaign-progress": (
+        "agentic_core.contracts.campaign_progress",
+        "campaign_progress_json_schema",
+        "a campaign's progress.json",
+    ),
 }
 """``agentic-uav schema NAME``: the module and function exporting each contract's JSON Schema."""
 

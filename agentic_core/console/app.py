@@ -2,13 +2,14 @@
 with a live run its stream (server-sent events) and its controls.
 
 Reads of the API need the token (``Authorization: Bearer``, or ``?token=`` for the event stream); every change
-(a control command, an answer) is a POST with the token in its header and the console's own Origin
-(:mod:`~agentic_core.console.access`). The page itself loads nothing from anywhere else: a Content-Security-Policy
-of ``'self'`` holds the browser to that.
+(a control command, an answer, resuming or forking a run) is a POST with the token in its header and the
+console's own Origin (:mod:`~agentic_core.console.access`). The page itself loads nothing from anywhere else:
+a Content-Security-Policy of ``'self'`` holds the browser to that.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
@@ -19,7 +20,9 @@ from typing import Any, Protocol
 from ..contracts.errors import InputError
 from ..contracts.extras import require
 from .access import Guard
+from .campaigns import list_campaigns
 from .feed import LiveFeed
+from .launch import Launcher, RunBusy
 from .runs import list_runs, replay
 
 STATIC = Path(str(files("agentic_core.console") / "static"))
@@ -58,13 +61,21 @@ class Live:
     control: Steering
 
 
-def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
-    """The ASGI application (needs the ``console`` extra)."""
+def build_app(
+    runs_dir: Path,
+    guard: Guard,
+    live: Live | None = None,
+    launcher: Launcher | None = None,
+    campaigns_dir: Path | None = None,
+) -> Any:
+    """The ASGI application (needs the ``console`` extra); ``launcher`` resumes and forks runs; the campaigns
+    shown are those under ``campaigns_dir`` (by default ``runs_dir``)."""
     applications = require("starlette.applications", "console")
     responses = require("starlette.responses", "console")
     routing = require("starlette.routing", "console")
     staticfiles = require("starlette.staticfiles", "console")
     sse = require("sse_starlette.sse", "console")
+    concurrency = require("starlette.concurrency", "console")
     JSONResponse = responses.JSONResponse
 
     def refused(why: str) -> Any:
@@ -77,7 +88,7 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
 
         return checked
 
-    def changing(handler: Callable[[Any, Any], Any]) -> Callable[[Any], Any]:
+    def changing(handler: Callable[[Any, Any], Any], *, steers: bool = True) -> Callable[[Any], Any]:
         async def checked(request: Any) -> Any:
             why = guard.refuse_change(request.headers)
             if why:
@@ -88,9 +99,10 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
                 return JSONResponse({"error": "the body is not JSON"}, status_code=400)
             if not isinstance(body, dict):
                 return JSONResponse({"error": "the body is not a JSON object"}, status_code=400)
-            if live is None:
+            if steers and live is None:
                 return JSONResponse({"error": "no live run to steer: this console replays runs"}, status_code=409)
-            return handler(request, body)
+            answer = handler(request, body)
+            return await answer if inspect.isawaitable(answer) else answer
 
         return checked
 
@@ -99,6 +111,9 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
 
     async def runs(request: Any) -> Any:
         return JSONResponse({"runs": list_runs(runs_dir), "live": live is not None})
+
+    async def campaigns(request: Any) -> Any:
+        return JSONResponse({"campaigns": list_campaigns(campaigns_dir or runs_dir)})
 
     async def one_run(request: Any) -> Any:
         try:
@@ -150,6 +165,12 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
         if edits is not None and (not approve or not isinstance(edits, dict) or not edits or len(edits) > MAX_EDITS):
             problem = f"args: an object of up to {MAX_EDITS} edited arguments, with an approval"
             return JSONResponse({"error": problem}, status_code=400)
+        asked = live.feed.asked(qid)
+        own = sorted((asked or {}).get("args") or {})
+        unknown = sorted(set(edits or {}) - set(own)) if isinstance((asked or {}).get("args"), dict) else []
+        if unknown:  # the step would refuse them once answered: say so now, the question still waiting
+            problem = f"args: {', '.join(unknown)}: not an argument of this step ({', '.join(own)})"
+            return JSONResponse({"error": problem}, status_code=400)
         if approve:
             done = live.control.approve(qid, reason, by="console", args=edits)
         else:
@@ -157,6 +178,25 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
         if not done:
             return JSONResponse({"error": f"no question {qid!r} is waiting"}, status_code=404)
         return JSONResponse({"ok": True})
+
+    async def relaunch(request: Any, body: dict[str, Any]) -> Any:
+        """Resume or fork a run (files copied, a process started): off the event loop, so streams flow on."""
+        return await concurrency.run_in_threadpool(start_run, request, body)
+
+    def start_run(request: Any, body: dict[str, Any]) -> Any:
+        run_id, action = request.path_params["run_id"], request.url.path.rsplit("/", 1)[-1]
+        checkpoint = body.get("checkpoint")
+        if launcher is None:
+            return JSONResponse({"error": "this console starts no runs"}, status_code=404)
+        if action == "fork" and not isinstance(checkpoint, str):
+            return JSONResponse({"error": "fork: say which checkpoint (a string)"}, status_code=400)
+        try:
+            started = launcher.resume(run_id) if action == "resume" else launcher.fork(run_id, str(checkpoint))
+        except RunBusy as exc:
+            return JSONResponse({"error": str(exc)}, status_code=409)
+        except InputError as exc:
+            return JSONResponse({"error": str(exc)}, status_code=404)
+        return JSONResponse({"ok": True, "run_id": started})
 
     async def security_headers(scope: Any, receive: Any, send: Any) -> None:
         async def send_with(message: Any) -> None:
@@ -174,10 +214,13 @@ def build_app(runs_dir: Path, guard: Guard, live: Live | None = None) -> Any:
         routes=[
             route("/", index),
             route("/api/runs", reading(runs)),
+            route("/api/campaigns", reading(campaigns)),
             route("/api/runs/{run_id}", reading(one_run)),
             route("/api/live/stream", reading(stream)),
             route("/api/control/{command}", changing(command), methods=["POST"]),
             route("/api/questions/{question_id}", changing(answer), methods=["POST"]),
+            route("/api/runs/{run_id}/resume", changing(relaunch, steers=False), methods=["POST"]),
+            route("/api/runs/{run_id}/fork", changing(relaunch, steers=False), methods=["POST"]),
             mount("/static", staticfiles.StaticFiles(directory=STATIC)),
         ]
     )

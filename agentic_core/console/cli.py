@@ -33,6 +33,8 @@ DEFAULT_PORT = 8765
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description="The operator console in the browser: replay runs.")
     parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where run folders are (default runs)")
+    parser.add_argument("--campaigns-dir", type=Path, help="where campaign folders are, shown with their progress "
+                        "(default: --runs-dir)")  # fmt: skip
     parser.add_argument("--host", default="127.0.0.1", help="the address to listen on (default 127.0.0.1; any "
                         f"other needs a token: --token or ${TOKEN_ENV})")  # fmt: skip
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"the port (default {DEFAULT_PORT}; 0: any)")
@@ -43,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        server = ConsoleServer(args.runs_dir, host=args.host, port=args.port,
+        server = ConsoleServer(args.runs_dir, host=args.host, port=args.port, campaigns_dir=args.campaigns_dir,
                                token=args.token or os.environ.get(TOKEN_ENV) or None).start()  # fmt: skip
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)

@@ -80,6 +80,12 @@ class LiveFeed:
             self._questions[question_id] = {"id": question_id, "request": request}
             self._send_locked("question", self._questions[question_id])
 
+    def asked(self, question_id: str) -> dict[str, Any] | None:
+        """What the pending question ``question_id`` asks (its request), or None when none waits."""
+        with self._lock:
+            pending = self._questions.get(question_id)
+            return dict(pending["request"]) if pending else None
+
     def telemetry(self, sample: dict[str, Any]) -> None:
         """A telemetry sample: kept; sent at most ``telemetry_hz`` times a second of wall time; a trail point
         every :data:`TRAIL_STEP_S` of the vehicle's clock."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import re
+import sqlite3
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +36,9 @@ def list_runs(runs_dir: Path) -> list[dict[str, Any]]:
     for folder in sorted((p for p in runs_dir.iterdir() if (p / "trace.jsonl").is_file()), reverse=True):
         records = _jsonl(folder / "trace.jsonl")
         start = next((r for r in records if r.get("kind") == "run"), {})
-        end = next((r for r in reversed(records) if r.get("kind") == "run" and r.get("event") == "end"), None)
+        runs = [r for r in records if r.get("kind") == "run"]
+        last = runs[-1] if runs else {}  # a run resumed after its end speaks again
+        end = last if last.get("event") == "end" else None
         found.append({
             "id": folder.name, "mission": start.get("mission"), "reasoner": start.get("reasoner"),
             "outcome": end.get("outcome") if end else "running", "events": len(records),
@@ -53,10 +56,13 @@ def run_folder(runs_dir: Path, run_id: str) -> Path:
 
 def replay(runs_dir: Path, run_id: str) -> dict[str, Any]:
     """One run for the time slider: its map (scene and mission, when their files still load), events,
-    telemetry (thinned to :data:`TELEMETRY_POINTS`) and World Models (thinned to :data:`WORLDS`)."""
+    telemetry (thinned to :data:`TELEMETRY_POINTS`) and World Models (those of its decisions and of every change
+    the map shows, thinned to :data:`WORLDS`), and the checkpoints a fork may start from."""
     folder = run_folder(runs_dir, run_id)
     telemetry = _jsonl(folder / "telemetry.jsonl")
-    worlds = [world_view(w) for w in _thin(_jsonl(folder / "world_models.jsonl"), WORLDS)]
+    decided = [world_view(w) for w in _jsonl(folder / "world_models.jsonl")]  # the World Model of each decision
+    changes = _jsonl(folder / "world_map.jsonl")  # and whenever what the map shows changed (already cut)
+    worlds = _thin(sorted([*decided, *changes], key=lambda w: float(w.get("t") or 0.0)), WORLDS)
     return {
         "run_id": run_id,
         "live": False,
@@ -64,6 +70,8 @@ def replay(runs_dir: Path, run_id: str) -> dict[str, Any]:
         "events": _jsonl(folder / "trace.jsonl"),
         "telemetry": _thin(telemetry, TELEMETRY_POINTS),
         "worlds": worlds,
+        "checkpoints": _checkpoints(folder),
+        "forked_from": _origin(folder),
     }
 
 
@@ -84,6 +92,24 @@ def _map(folder: Path) -> dict[str, Any]:
         return out
     except (OSError, KeyError, TypeError, ValueError, AgenticUAVError):
         return {}
+
+
+def _checkpoints(folder: Path) -> list[dict[str, Any]]:
+    """The graph's checkpoints, each with the vehicle's clock at the time: where a fork may start."""
+    from ..run.fork import checkpoints, marks_json
+
+    try:
+        return marks_json(checkpoints(folder, folder.name))
+    except (AgenticUAVError, OSError, sqlite3.Error):
+        return []
+
+
+def _origin(folder: Path) -> dict[str, Any] | None:
+    try:
+        origin = json.loads((folder / "run.json").read_text(encoding="utf-8")).get("forked_from")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return origin if isinstance(origin, dict) else None
 
 
 def _jsonl(path: Path) -> list[dict[str, Any]]:

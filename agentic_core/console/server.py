@@ -18,6 +18,7 @@ from ..contracts.extras import require
 from .access import Guard, check_bind, is_loopback, make_token
 from .app import Live, build_app
 from .feed import LiveFeed
+from .launch import Launcher
 from .views import mission_view, scene_view, world_view
 
 if TYPE_CHECKING:
@@ -31,13 +32,15 @@ class ConsoleServer:
     """The console on ``host:port`` (port 0: any free one), on a background thread; :attr:`url` opens it."""
 
     def __init__(self, runs_dir: Path, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None,
-                 live: Live | None = None) -> None:  # fmt: skip
+                 live: Live | None = None, campaigns_dir: Path | None = None) -> None:  # fmt: skip
         check_bind(host, token)
         self.token = token or make_token()
         self.host = host
         self.live = live
         uvicorn = require("uvicorn", "console")
-        app = build_app(runs_dir, Guard(self.token, loopback_only=is_loopback(host)), live)
+        self.launcher = Launcher(runs_dir)
+        guard = Guard(self.token, loopback_only=is_loopback(host))
+        app = build_app(runs_dir, guard, live, self.launcher, campaigns_dir)
         config = uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="off",
                                 timeout_graceful_shutdown=2, access_log=False)  # fmt: skip
         self._server = uvicorn.Server(config)
@@ -77,12 +80,13 @@ class ConsoleServer:
         return self._thread is not None and self._thread.is_alive()
 
     def stop(self) -> None:
-        """End every page's stream and stop serving."""
+        """End every page's stream, stop the runs it resumed or forked, and stop serving."""
         if self.live is not None:
             self.live.feed.close()
         self._server.should_exit = True
         if self._thread is not None and self._thread.is_alive():
             self._thread.join(timeout=5.0)
+        self.launcher.stop()
 
     def __enter__(self) -> ConsoleServer:
         return self.start()

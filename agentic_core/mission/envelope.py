@@ -67,7 +67,11 @@ class Envelope:
                 problems.append(("radius_m", f"the orbit of radius {radius:g} m leaves the geofence"))
             self._altitude(args.get("alt_m"), "alt_m", problems)
         elif tool == "flight.land" and (args.get("lat") is not None or args.get("target_id") is not None):
-            self._place(args, self._destination(args, problems), "the landing place", problems)
+            place = self._destination(args, problems)
+            self._place(args, place, "the landing place", problems)
+            offset = _number(args.get("offset_m")) if args.get("target_id") is not None else None
+            if place is not None and offset and self._outside_by(place) == 0 and self._circle_leaves(place, offset):
+                problems.append(("offset_m", f"landing {offset:g} m from the target may leave the geofence"))
         return problems
 
     # ---- places, as north/east metres from home ----

@@ -65,6 +65,7 @@ from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .stops import STOP_OUTCOMES, carry_out, go_back, where_it_ended
 from .trace import TelemetryLog, TraceWriter
+from .world_map import WORLD_MAP_FILE, WorldMapLog
 
 DEFAULT_CEILING_M = 120.0
 """The ceiling handed to the vehicle with a fence when the mission names none (a common legal limit)."""
@@ -187,6 +188,7 @@ class MissionRun:
             hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target),
         )  # fmt: skip
         if self.loop is not None:  # the watch looks at every frame, in lockstep with the camera
+            self.loop.on_world.append(WorldMapLog(self.run_dir / WORLD_MAP_FILE))  # what the replay's map draws
             self.loop.on_world.append(self.dispatch.spot)
             self.dispatch.frame_driven = True
         self.env = Environment(

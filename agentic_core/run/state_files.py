@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,20 @@ from .settings import RunSettings
 
 RUN_FILE = "run.json"
 SNAPSHOT_FILE = "snapshot.json"
+VEHICLES_FILE = "vehicles.jsonl"
+VEHICLES_KEPT = 1000
+"""The simulated vehicle's states kept in ``vehicles.jsonl`` at most (about 4 KB each): what a fork starts from."""
+
+
+class ForkOrigin(BaseModel):
+    """Where a forked run came from: a run and one of its graph checkpoints, at a time of the vehicle's clock."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    run_id: str
+    checkpoint_id: str
+    step: int
+    sim_t: float | None = None
 
 
 class RunRecord(BaseModel):
@@ -28,6 +43,8 @@ class RunRecord(BaseModel):
 
     run_id: str
     settings: RunSettings
+    forked_from: ForkOrigin | None = None
+    """Set for a fork: the run and checkpoint it started from (the original is never changed)."""
 
 
 class Snapshot(BaseModel):
@@ -74,17 +91,30 @@ def read_snapshot(run_dir: Path) -> Snapshot | None:
 
 
 class SnapshotWriter:
-    """Writes ``snapshot.json`` atomically (a kill mid-write leaves the previous one); thread-safe."""
+    """Writes ``snapshot.json`` atomically (a kill mid-write leaves the previous one); thread-safe. Each new
+    state of the simulated vehicle (a new time on its clock) is also appended to ``vehicles.jsonl``, up to
+    :data:`VEHICLES_KEPT`, stamped with the wall time, so a fork from an earlier checkpoint finds the vehicle
+    as it was then."""
 
     def __init__(self, run_dir: Path) -> None:
         self.path = run_dir / SNAPSHOT_FILE
+        self.history = run_dir / VEHICLES_FILE
         self._lock = threading.Lock()
         self.written = 0
+        kept = read_jsonl(self.history)
+        self._kept = len(kept)
+        self._last_sim_t = kept[-1].get("sim_t") if kept else None
 
     def write(self, snapshot: Snapshot) -> None:
         with self._lock:
             atomic_write(self.path, snapshot.model_dump_json())
             self.written += 1
+            if snapshot.vehicle is not None and snapshot.sim_t != self._last_sim_t and self._kept < VEHICLES_KEPT:
+                line = {"t": round(time.time(), 6), "sim_t": snapshot.sim_t, "vehicle": snapshot.vehicle}
+                with self.history.open("a", encoding="utf-8") as out:
+                    out.write(json.dumps(line, separators=(",", ":")) + "\n")
+                self._kept += 1
+                self._last_sim_t = snapshot.sim_t
 
 
 def atomic_write(path: Path, text: str) -> None:
@@ -114,6 +144,8 @@ def read_jsonl(path: Path) -> list[dict[str, Any]]:
 
 
 __all__ = [
+    "VEHICLES_FILE",
+    "ForkOrigin",
     "RunRecord",
     "Snapshot",
     "SnapshotWriter",

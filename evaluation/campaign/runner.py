@@ -17,7 +17,8 @@ Files in the campaign directory:
   timings aside;
 * ``model_cache.jsonl`` — every model answer, keyed by its request (:mod:`evaluation.campaign.model_calls`), so
   ``--replay`` can re-score the campaign with no model; only when a system calls a model;
-* ``results.csv`` (flat columns), ``metrics.md`` and ``metrics.json`` — written when the campaign completes.
+* ``results.csv`` (flat columns), ``metrics.md`` and ``metrics.json`` — written when the campaign completes;
+* ``progress.json`` — records done, failed and in all, rates and time left, rewritten as it goes (for the console).
 
 >>> import tempfile
 >>> from flight.sim.scene_gen import generate_scene
@@ -30,7 +31,7 @@ Files in the campaign directory:
 ...     print([(r.scene_id, r.system) for r in result.records])
 ...     print(sorted(p.name for p in Path(out).iterdir()))
 [('gen-1', 'yolo'), ('gen-1', 'rules')]
-['manifest.json', 'metrics.json', 'metrics.md', 'results.csv', 'results.jsonl']
+['manifest.json', 'metrics.json', 'metrics.md', 'progress.json', 'results.csv', 'results.jsonl']
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from typing import TextIO
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from agentic_core.contracts.campaign_progress import PROGRESS_FILE
 from flight.sim.scene_model import Scene
 
 from .budget import Budget, Spend
@@ -164,8 +166,10 @@ def run_campaign(
         expected = {i for per_scene in ids.values() for i in per_scene.values()}
         finished = {r.job_id for r in done} & expected
         total = len(expected)
-        progress = Progress(total, len(finished), stream=stream, quiet=quiet)
+        progress = Progress(total, len(finished), stream=stream, quiet=quiet, file=out_dir / PROGRESS_FILE)
         if finished:
+            kept = [r for r in done if r.job_id in finished]
+            progress.earlier([r.system for r in kept], [r.system for r in kept if r.error])
             progress.note(f"resuming in {out_dir}: {len(finished)} of {total} records already done")
         jobs = [
             SceneJob(
@@ -231,7 +235,8 @@ def _keep(
         append_record(out_dir / RESULTS_JSONL, kept[-1])
     append_responses(out_dir / MODEL_CACHE, output.responses)
     label = output.records[0].scene_id if output.records else ""
-    progress.advance(len(output.records), label, [r.system for r in output.records])
+    failed = [r.system for r in output.records if r.error]
+    progress.advance(len(output.records), label, [r.system for r in output.records], failed)
     return kept
 
 

@@ -60,7 +60,7 @@ def test_every_scene_through_every_system_in_balanced_order(campaign: tuple[Path
     ]
     assert stripped(read_records(out / "results.jsonl")) == stripped(records)
     assert {p.name for p in out.iterdir()} == {
-        "manifest.json", "results.jsonl", "results.csv", "metrics.md", "metrics.json",
+        "manifest.json", "results.jsonl", "results.csv", "metrics.md", "metrics.json", "progress.json",
     }  # fmt: skip
     header = (out / "results.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
     assert tuple(header) == CSV_COLUMNS and "assessment" not in header

@@ -104,6 +104,7 @@ function ellipse(lat, lon, cov) {
 }
 
 function drawWorld(world) {
+  state.shownWorld = world;
   layers.world.clearLayers();
   if (!world) return;
   const isolated = new Set(world.relations.filter((r) => r.pred === "isolated_from").map((r) => r.subj));
@@ -217,7 +218,7 @@ function addQuestion(q) {
         ([k, v]) => JSON.stringify(v) !== JSON.stringify((r.args || {})[k])));
       if (Object.keys(changed).length) body.args = changed;
     }
-    post(`/api/questions/${q.id}`, body);
+    post(`/api/questions/${q.id}`, body).then((a) => { if (a.error) problem.textContent = "refused: " + a.error; });
   });
   no.addEventListener("click", () => post(`/api/questions/${q.id}`, { approve: false, reason: reason.value || null }));
   card.append(reason, yes, el("span", "", " "), no, edit);
@@ -285,12 +286,15 @@ function live() {
 // ---- replay (a run still flying in another process is re-read every 2 s, the slider kept at its end) ----
 let following = null;
 
-async function openRun(id, keepView) {
+async function openRun(id, keepView, waitFor) {  // waitFor: re-reads to wait for a resumed run to speak
   const run = await api(`/api/runs/${encodeURIComponent(id)}`);
   const slider = document.getElementById("slider");
-  const atEnd = !keepView || Number(slider.value) >= Number(slider.max);
+  const atEnd = !keepView || Number(slider.value) >= Number(slider.max) - Number(slider.step);  // a value snaps to a step
+  const still = keepView && state.replayed === id && run.events.length === state.replayedEvents &&
+    run.telemetry.length === state.replayedSamples;  // no news since the last read: stopped, not flying
   state.live = false; state.runId = id; state.casualty = null; state.events = [];
-  state.telemetry = run.telemetry; state.worlds = run.worlds;
+  state.telemetry = run.telemetry; state.worlds = run.worlds; state.checkpoints = run.checkpoints || [];
+  state.replayed = id; state.replayedEvents = run.events.length; state.replayedSamples = run.telemetry.length;
   document.getElementById("controls").hidden = true;
   document.getElementById("approvals").replaceChildren();
   if (!keepView) { drawScene(run.scene); drawMission(run.mission, run.scene && run.scene.home); }
@@ -300,11 +304,22 @@ async function openRun(id, keepView) {
   if (atEnd) slider.value = slider.max;
   document.getElementById("replay").hidden = false;
   slider.oninput = () => replayAt(run, Number(slider.value));
+  const runEvents = run.events.filter((e) => e.kind === "run");  // a resumed run speaks again after its end
+  const ended = runEvents.length > 0 && runEvents[runEvents.length - 1].event === "end";
+  document.getElementById("resume-run").hidden = !(ended || still);
+  document.getElementById("fork-run").hidden = !(ended || still) || !state.checkpoints.length;
   replayAt(run, Number(slider.value));
-  const ended = run.events.some((e) => e.kind === "run" && e.event === "end");
-  setStatus(`${id}: ${ended ? "replay" : "running elsewhere: following its files"}`);
+  const origin = run.forked_from ? ` (fork of ${run.forked_from.run_id} at ${num(run.forked_from.sim_t, 1)} s)` : "";
+  setStatus(`${id}${origin}: ${ended ? "replay" : "running elsewhere: following its files"}`);
   clearTimeout(following);
-  if (!ended) following = setTimeout(() => { if (state.runId === id && !state.live) openRun(id, true); }, 2000);
+  const waiting = ended && waitFor > 0 ? waitFor - 1 : 0;
+  if (!ended || waiting) following = setTimeout(() => { if (state.runId === id && !state.live) openRun(id, true, waiting); }, 2000);
+}
+
+function checkpointAt(t) {  // the last checkpoint taken at or before t on the vehicle's clock
+  let best = null;
+  for (const c of state.checkpoints || []) if (c.sim_t != null && c.sim_t <= t + 1e-6) best = c;
+  return best;
 }
 
 function replayAt(run, t) {
@@ -318,6 +333,52 @@ function replayAt(run, t) {
   for (const e of run.events) if (e.sim_t == null || e.sim_t <= t + 1e-6) addEvent(e);
   drawWorld(worldAt(t));
   document.getElementById("clock").textContent = `${num(t, 1)} s`;
+  const c = checkpointAt(t), fork = document.getElementById("fork-run");
+  state.forkAt = c;
+  fork.disabled = !c;
+  fork.textContent = c ? `Fork from here (step ${c.step}, ${num(c.sim_t, 1)} s)` : "Fork from here";
+}
+
+async function relaunch(action, body) {
+  const answer = await post(`/api/runs/${encodeURIComponent(state.runId)}/${action}`, body);
+  if (!answer.ok) return;
+  const select = document.getElementById("runs");
+  if (![...select.options].some((o) => o.value === answer.run_id)) select.add(new Option(`${answer.run_id} · running`, answer.run_id), 1);
+  select.value = answer.run_id;
+  openRun(answer.run_id, false, 15);
+}
+document.getElementById("resume-run").addEventListener("click", () => relaunch("resume", {}));
+document.getElementById("fork-run").addEventListener("click", () => { if (state.forkAt) relaunch("fork", { checkpoint: state.forkAt.id }); });
+
+// ---- campaigns (each in its own process: their progress.json, re-read every 2 s) ----
+function clockText(s) {
+  if (typeof s !== "number") return "?";
+  const t = Math.round(s), h = Math.floor(t / 3600), m = Math.floor((t % 3600) / 60), sec = t % 60;
+  return `${h}:${String(m).padStart(2, "0")}:${String(sec).padStart(2, "0")}`;
+}
+function campaignNode(c) {
+  const node = el("div", "campaign " + (c.state || "error"));
+  node.dataset.campaign = c.campaign;
+  if (c.error) { node.append(el("b", "", c.campaign), el("div", "why", c.error)); return node; }
+  const head = el("div", "");
+  head.append(el("b", "", c.campaign), el("span", "", ` · ${c.state} · ${c.done}/${c.total} records` +
+    `${c.failed ? ", " + c.failed + " failed" : ""} · ${num(c.rate_per_s, 2)}/s · ETA ${c.state === "running" ? clockText(c.eta_s) : "–"}`));
+  const bar = el("div", "bar"), fill = el("div", "fill");
+  fill.style.width = `${c.total ? (100 * c.done) / c.total : 100}%`;
+  bar.append(fill);
+  const per = Object.entries(c.systems || {}).map(([name, v]) => `${name} ${v.done}${v.failed ? " (" + v.failed + " failed)" : ""}, ${num(v.rate_per_s, 2)}/s`);
+  node.append(head, bar, el("div", "why", per.join(" · ")));
+  return node;
+}
+async function pollCampaigns() {
+  try {
+    const { campaigns } = await api("/api/campaigns");
+    state.campaigns = campaigns;
+    const box = document.getElementById("campaigns");
+    box.replaceChildren(...campaigns.map(campaignNode));
+    box.hidden = campaigns.length === 0;
+  } catch (err) { /* the next poll tries again */ }
+  setTimeout(pollCampaigns, 2000);
 }
 
 async function start() {
@@ -327,6 +388,7 @@ async function start() {
   if (listing.live) select.append(new Option("live run", "__live__"));
   for (const r of listing.runs) select.append(new Option(`${r.id} · ${r.outcome}`, r.id));
   select.addEventListener("change", () => (select.value === "__live__" ? location.reload() : openRun(select.value, false)));
+  pollCampaigns();
   if (listing.live) live();
   else if (listing.runs.length) openRun(listing.runs[0].id, false);
   else setStatus("no runs yet");

@@ -71,6 +71,17 @@ def test_a_landing_place_outside_is_refused() -> None:
     assert env.check("flight.land", {}) == []  # here: wherever the aircraft is, inside (the vehicle's fence says)
 
 
+@pytest.mark.parametrize("limits", [CIRCLE, SQUARE], ids=["circle", "polygon"])
+def test_a_landing_offset_that_may_take_it_past_the_fence_is_refused_though_the_target_is_inside(
+    limits: Limits,
+) -> None:
+    env = envelope(limits, {"P-1": tuple(at(50.0, 20.0).values())})  # type: ignore[dict-item]
+    assert env.check("flight.land", {"target_id": "P-1", "offset_m": 2000.0}) == [
+        "landing 2000 m from the target may leave the geofence"
+    ]  # the landing place lies offset_m from the target, on the side the aircraft comes from
+    assert env.check("flight.land", {"target_id": "P-1", "offset_m": 8.0}) == []
+
+
 def test_heights_the_ceiling_and_the_floor() -> None:
     env = envelope(CIRCLE)
     assert env.check("flight.takeoff", {"altitude_m": 30.0}) == [

@@ -6,6 +6,7 @@ writes the one the README shows, docs/console.png, which a plain test run leaves
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from pathlib import Path
@@ -103,3 +104,61 @@ def _sample_at(run_dir: Path, sim_t: float) -> dict[str, Any]:
     from ..platform.conftest import telemetry
 
     return min(telemetry(run_dir), key=lambda t: abs(t["time_s"] - sim_t))
+
+
+def edit_and_approve(page: Any, edits: dict[str, Any], drop: tuple[str, ...] = ()) -> Any:
+    """Open the first card's "edit arguments", change ``edits`` (and take out ``drop``) in its JSON, and click
+    Approve."""
+    card = page.locator(".card").first
+    card.wait_for(timeout=60_000)
+    if not card.locator("details").evaluate("details => details.open"):
+        card.locator("summary").click()
+    box = card.locator("textarea")
+    edited = {k: v for k, v in json.loads(box.input_value()).items() if k not in drop}
+    box.fill(json.dumps({**edited, **edits}))
+    card.locator("button.approve").click()
+    return card
+
+
+@pytest.mark.timeout(150)
+def test_an_edited_argument_within_the_envelope_is_what_the_mission_flies(browser: Any, live_run: LiveRun) -> None:
+    page, requested = open_page(browser, live_run)
+    edit_and_approve(page, {"offset_m": 8}).wait_for(state="detached", timeout=30_000)
+    page.wait_for_function(
+        "() => window.consoleState.events.some(e => e.kind === 'tool' && e.name === 'flight.land' && e.status == 'ok')",
+        timeout=60_000,
+    )
+    shown = page.evaluate("() => window.consoleState.events.find(e => e.kind === 'tool' && e.name === 'flight.land')")
+    assert shown["args"]["offset_m"] == 8  # the page saw the mission act with the edited value
+    answer(page, "approve")  # release the kit
+    result = live_run.finish()
+    assert_stays_home(requested, live_run)
+    records = trace(result.run_dir)
+    (edited,) = [r for r in of_kind(records, "approval") if r.get("edited")]
+    assert edited["edited"] == {"offset_m": 8} and edited["request"]["args"]["offset_m"] == 5
+    (landing,) = tools_ok(records, "flight.land")
+    assert landing["args"]["offset_m"] == 8
+    at = _sample_at(result.run_dir, landing["sim_t"])
+    assert 5.0 < distance_to_casualty(at) < 12.0  # beside them, farther than the mission's own 5 m
+
+
+@pytest.mark.timeout(150)
+def test_an_unknown_argument_or_an_edit_outside_the_envelope_is_refused_in_the_page(
+    browser: Any, live_run: LiveRun
+) -> None:
+    page, requested = open_page(browser, live_run)
+    card = edit_and_approve(page, {"offset_x": 3})
+    card.locator(".why", has_text="refused").wait_for(timeout=10_000)
+    assert "offset_x: not an argument of this step" in card.inner_text() and card.is_visible()  # still asked
+    edit_and_approve(page, {"offset_m": 2000}, drop=("offset_x",)).wait_for(state="detached", timeout=30_000)
+    page.wait_for_function(
+        "() => window.consoleState.events.some(e => e.kind === 'tool' && e.name === 'flight.land' && e.status != 'ok')",
+        timeout=60_000,
+    )
+    assert "geofence" in page.locator("#timeline").inner_text()  # 2 km off: the refusal, its reason, in the timeline
+    result = live_run.finish()
+    assert_stays_home(requested, live_run)
+    records = trace(result.run_dir)
+    assert not tools_ok(records, "flight.land") and not tools_ok(records, "flight.deploy_payload")
+    (refused,) = [r for r in of_kind(records, "tool") if r.get("name") == "flight.land"]
+    assert refused["status"] == "denied" and refused["args"]["offset_m"] == 2000

@@ -84,14 +84,15 @@ def test_an_answered_question_leaves_the_snapshot_and_a_timed_out_one_too() -> N
 class Asked:
     """A console over a control port whose run waits on one question (``land_near``), asked from its own thread."""
 
-    def __init__(self, tmp_path: Path, timeout_s: float = 30.0) -> None:
+    def __init__(self, tmp_path: Path, timeout_s: float = 30.0, request: dict[str, Any] | None = None) -> None:
         self.commands: list[tuple[str, dict[str, Any]]] = []
         self.port = ControlPort(on_command=lambda name, detail: self.commands.append((name, detail)))
         feed = LiveFeed()
         self.port.on_question(lambda q: feed.question(q.id, q.request))
         self.client = TestClient(build_app(tmp_path, Guard(TOKEN), Live(feed, self.port)), base_url=BASE)
         self.answers: list[Any] = []
-        ask = lambda: self.answers.append(self.port.ask({"step": "land_near"}, timeout_s=timeout_s))  # noqa: E731
+        request = request or {"step": "land_near"}
+        ask = lambda: self.answers.append(self.port.ask(request, timeout_s=timeout_s))  # noqa: E731
         self.asking = threading.Thread(target=ask)
         self.asking.start()
         (self.question,) = wait_for(lambda: feed.snapshot()["questions"], timeout_s=10.0, what="the question")
@@ -135,3 +136,11 @@ def test_an_approval_may_carry_edited_arguments_and_nothing_else_does(
     answer = asked.answer()
     assert answer.approved is (status == 200)
     assert answer.args == (body["args"] if status == 200 else None)
+
+
+def test_an_edit_of_an_argument_the_step_has_not_is_refused_and_the_question_still_waits(tmp_path: Path) -> None:
+    asked = Asked(tmp_path, timeout_s=5.0, request={"step": "land_near", "args": {"target_id": "P-1", "offset_m": 5}})
+    refused = asked.post({"approve": True, "args": {"offset_m": 8, "lat": 0.0}})
+    assert refused.status_code == 400 and "lat: not an argument of this step (offset_m, target_id)" in refused.text
+    assert asked.commands == [] and asked.post({"approve": True, "args": {"offset_m": 8}}).status_code == 200
+    assert asked.answer().args == {"offset_m": 8}
