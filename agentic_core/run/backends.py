@@ -67,6 +67,9 @@ class Backend(Protocol):
     def flush(self) -> None:
         """Hand the hooks what has been heard since the last sample, before the run says where the aircraft ended."""
 
+    def link_clock(self) -> float:
+        """The seconds a silent link is judged on (the agent's link failsafe)."""
+
     def close(self) -> None: ...
 
 
@@ -90,6 +93,7 @@ class SimBackend:
         gains: Gains | None = None,
     ) -> None:
         self.pace = pace
+        self._clock_at = (time.monotonic(), 0.0)
         self.tlog_path = tlog
         self.tlog: TlogWriter | None = None
         self.signing_key = signing_key
@@ -139,6 +143,17 @@ class SimBackend:
 
     def flush(self) -> None:
         """Nothing: the simulator's samples are its state itself, in lockstep."""
+
+    def link_clock(self) -> float:
+        """The simulation's clock: in lockstep a process short of CPU runs the simulation slowly but never silences
+        its samples, so only simulated seconds without a sample (an injected link loss) are a silent link. A closed
+        vehicle (a killed UAV) keeps time on the wall clock from where it stopped."""
+        now = time.monotonic()
+        if self.vehicle.fileno() >= 0:
+            self._clock_at = (now, self.sim.time_s)
+            return self._clock_at[1]
+        wall, sim = self._clock_at
+        return sim + (now - wall)
 
     def close(self) -> None:
         self.vehicle.close()
@@ -207,6 +222,10 @@ class LinkBackend:
             for hook in self._hooks:
                 hook(sample)
             self._fed = sample
+
+    def link_clock(self) -> float:
+        """The wall clock: a real link's silence is wall seconds without a sample."""
+        return time.monotonic()
 
     def flush(self, timeout_s: float = 2.0) -> None:
         """One last sample of all the client has heard, fed to the hooks before this returns (or ``timeout_s``): a

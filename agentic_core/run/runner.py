@@ -163,7 +163,8 @@ class MissionRun:
         self.links = TruthLinks(self.scene, self.bus.publish)
         self.control = ControlPort(on_command=self._on_command)
         self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish,
-                                            texts=VehicleTexts(lambda: self._client))  # fmt: skip
+                                            texts=VehicleTexts(lambda: self._client),
+                                            wall=self.backend.link_clock)  # fmt: skip
         self.backend.on_sample(self.failsafes)
         if settings.approval == "ask":
             ask: Operator = self._operator or TerminalOperator(

@@ -4,9 +4,13 @@ the vehicle's own, both in the trace and the report), and a mission's flight-tim
 from __future__ import annotations
 
 import math
+import threading
+import time
 from pathlib import Path
 
+from agentic_core.agent.pacing import Pace
 from agentic_core.contracts.faults import parse_fault
+from agentic_core.contracts.telemetry import TelemetrySample
 from agentic_core.run.backends import SimBackend
 from agentic_core.run.runner import MissionRun, RunSettings
 from flight.sim.environment import WindSettings
@@ -50,15 +54,15 @@ def test_the_mission_flight_time_limit_brings_the_aircraft_home(tmp_path: Path) 
 
 
 def test_a_lost_link_fires_the_agent_link_failsafe_and_the_vehicle_comes_home_on_its_own(tmp_path: Path) -> None:
-    """The MAVLink signal cut mid-mission: the agent hears nothing for ``link_loss_s`` (wall seconds) and ends the
-    mission by its link failsafe; the vehicle, hearing nobody, returns by its own (``NAV_DLL_ACT``)."""
+    """The MAVLink signal cut mid-mission: the agent hears nothing for ``link_loss_s`` (seconds of the simulation)
+    and ends the mission by its link failsafe; the vehicle, hearing nobody, returns by its own (``NAV_DLL_ACT``)."""
     text = (EXAMPLES / "square_15m.yaml").read_text(encoding="utf-8")
     mission = tmp_path / "link.yaml"
     mission.write_text(text.replace("  max_altitude_m: 20\n", "  max_altitude_m: 20\n  link_loss_s: 2\n"))
-    # Both ends judge link loss on the wall clock while the simulation runs free. At full speed the vehicle could
-    # hover away its battery in the seconds it waits (its battery failsafe then acts first), and the run ends about
-    # 6.5 wall seconds after the cut (2 s to its own failsafe, 4.5 s of RTL retries): so 40x real time, and the
-    # vehicle's data-link timeout at its minimum, 5 s, as PX4 allows.
+    # The vehicle judges its data link on the wall clock while the simulation runs free. At full speed it could
+    # hover away its battery in the seconds it waits (its battery failsafe then acts first), and the run ends a few
+    # wall seconds after the cut (its own failsafe, RTL retries): so 40x real time, and the vehicle's data-link
+    # timeout at its minimum, 5 s, as PX4 allows.
     settings = RunSettings(
         mission=mission, runs_dir=tmp_path / "runs", faults=[parse_fault("link_loss@c1")], speed=40.0
     )
@@ -91,3 +95,39 @@ def test_wind_above_the_mission_limit_brings_the_aircraft_home(tmp_path: Path) -
     assert failsafe["failsafe"] == "wind" and failsafe["wind_mps"] == 6.0 and failsafe["action"] == "rtl"
     assert result.summary.outcome == "returned"
     assert_safe_and_home(judge(result.run_dir, mission))
+
+
+def test_a_starved_process_is_not_a_lost_link(tmp_path: Path) -> None:
+    """In lockstep a process short of CPU runs the simulation slowly, it does not silence it: the vehicle thread held
+    up for three wall seconds in the air (thrice the mission's ``link_loss_s``) fires no link failsafe."""
+    text = (EXAMPLES / "square_15m.yaml").read_text(encoding="utf-8")
+    mission = tmp_path / "starved.yaml"
+    mission.write_text(text.replace("  max_altitude_m: 20\n", "  max_altitude_m: 20\n  link_loss_s: 1\n"))
+    run = MissionRun(RunSettings(mission=mission, runs_dir=tmp_path / "runs", camera_hz=5.0), progress=None)
+    held = threading.Event()
+
+    def starve(sample: TelemetrySample) -> None:
+        if sample.alt_m > 8.0 and not held.is_set():
+            held.set()
+            time.sleep(3.0)  # the fault under test: the vehicle thread gets no CPU for 3 s
+
+    run.backend.on_sample(starve)
+    result = run.execute()
+    assert held.is_set()
+    trace = records(result.run_dir, "trace.jsonl")
+    assert of_kind(trace, "failsafe") == []
+    assert result.summary.outcome == "completed"
+
+
+def test_the_link_clock_is_the_simulation_s_and_the_wall_s_once_the_vehicle_is_gone() -> None:
+    backend = SimBackend(home=None, seed=0, pace=Pace(None))
+    try:
+        assert backend.link_clock() == backend.sim.time_s == 0.0
+        backend.vehicle.run_for(1.0)
+        assert backend.link_clock() == backend.sim.time_s == 1.0
+    finally:
+        backend.close()
+    start = backend.link_clock()
+    later = threading.Event()
+    later.wait(0.05)
+    assert start >= 1.0 and backend.link_clock() > start  # a killed UAV's silence still grows
