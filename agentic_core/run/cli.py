@@ -33,6 +33,7 @@ from ..contracts.errors import AgenticUAVError, report_error
 from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
 from ..examples import resolve_mission, resolve_scene
 from .responses import DEGRADED_EXIT
+from .swarm_cli import refuse_swarm_mission
 
 if TYPE_CHECKING:
     from ..agent.control import Operator
@@ -176,6 +177,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         mission = resolve_mission(args.mission)
+        refuse_swarm_mission(mission)
         scene = None if args.scene is None else resolve_scene(args.scene)
     except AgenticUAVError as exc:
         return report_error(PROG, exc, sys.stderr)

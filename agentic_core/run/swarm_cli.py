@@ -17,6 +17,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import yaml
+
 from flight.cli import parse_speed
 
 from ..contracts.errors import AgenticUAVError, InputError, report_error
@@ -54,6 +56,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def refuse_swarm_mission(mission: Path) -> None:
+    """For ``agentic-uav run``: an :class:`InputError` naming the file and line when ``mission`` is a swarm mission
+    (one drone cannot fly it: its steps call the ``swarm.*`` tools of a swarm run). A file that does not parse is
+    left to the mission loader, which says why.
+
+    >>> try:
+    ...     refuse_swarm_mission(Path("missions/hajj_swarm.yaml"))
+    ... except InputError as exc:
+    ...     str(exc).split(": ")[0], "agentic-uav swarm run missions/hajj_swarm.yaml" in str(exc)
+    ('missions/hajj_swarm.yaml:23', True)
+    """
+    try:
+        root = yaml.compose(mission.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return
+    if not isinstance(root, yaml.MappingNode):
+        return
+    for key, _ in root.value:
+        if isinstance(key, yaml.ScalarNode) and key.value == "swarm":
+            raise InputError(
+                f"{mission}:{key.start_mark.line + 1}: a swarm mission (its swarm: block): fly it with "
+                f"`agentic-uav swarm run {mission} --vehicles N`, not `agentic-uav run`"
+            )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse, fly, print the summary's outcome; the exit status says what happened."""
     args = build_parser().parse_args(list(sys.argv[1:] if argv is None else argv))
@@ -75,4 +102,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return code
 
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "refuse_swarm_mission"]

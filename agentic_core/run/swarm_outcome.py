@@ -97,7 +97,7 @@ def outcome_of(swarm: Any, wall_s: float) -> dict[str, Any]:
         "sectors": coverage, "casualties": casualties, "scene_casualties": scene_casualties,
         "separation": separation, "refusals": dict(refusals), "rounds": coordinator.rounds,
         "verify_k": coordinator.verify_k, "sim_s": round(swarm.clock.time_s, 1), "wall_s": round(wall_s, 1),
-        "allocation": dict(coordinator.manager.allocation.awarded),
+        "allocation": dict(coordinator.manager.allocation.awarded), "a2a": coordinator.a2a_report(),
     }  # fmt: skip
 
 

@@ -6,7 +6,8 @@ Each UAV is a :class:`~agentic_core.run.runner.MissionRun` of its share of the m
 thread ``swarm-clock``) at the pace of all the agents at once (one :class:`~agentic_core.agent.pacing.Pace`), or,
 with ``--connect``, each UAV flies the vehicle at its address. The ground side
 (:class:`~agentic_core.swarm.coordinator.SwarmCoordinator`) auctions the sectors by Contract Net before take-off and
-the casualty work as it comes, over signed messages; the caller's thread watches the members (a dead one's tasks
+the casualty work as it comes, over signed messages posted over HTTP to each UAV's A2A server (127.0.0.1, a free
+port; its signed Agent Card says its live state); the caller's thread watches the members (a dead one's tasks
 move) until every UAV's run has ended.
 
 Files: ``runs/<swarm-id>/`` holds ``swarm.jsonl`` (rounds, awards, claims, verifications, deliveries, failures),
@@ -70,6 +71,8 @@ class SwarmSettings:
     rounds: int | None = None
     camera_hz: float = 10.0
     """Each UAV's camera: fewer frames than one drone's 30, for N perception loops on one machine."""
+    a2a: bool = True
+    """Each UAV an A2A agent on 127.0.0.1, the Contract Net over HTTP; False: in-process (the same guards)."""
 
 
 class _Audit:
@@ -188,6 +191,7 @@ class SwarmRun:
         self.coordinator = SwarmCoordinator(
             SwarmKey.generate(plan.plan_id), [self._member(s) for s in self.seats], sectors, rounds=rounds,
             verify_k=min(plan.swarm.verify_k, n), audit=self.audit, log=self._log, clock=self.time_s,
+            a2a=settings.a2a,
         )  # fmt: skip
         self.sectors = sectors
         try:
@@ -254,6 +258,7 @@ class SwarmRun:
         """Fly the swarm: sectors auctioned, every UAV's run on its thread, the members watched; the summary."""
         wall0 = time.monotonic()
         try:
+            self._log({"event": "a2a", "sim_t": 0.0, "t": time.time(), "agents": self.coordinator.agents()})
             awarded = self.coordinator.allocate_sectors()
             self._log({"event": "sectors", "sim_t": 0.0, "t": time.time(), "awarded": awarded,
                        "sectors": {s.id: s.corners() for s in self.sectors}})  # fmt: skip

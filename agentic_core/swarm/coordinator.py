@@ -5,7 +5,8 @@ are auctioned again among the rest. Everything it decides goes to ``swarm.jsonl`
 
 The manager runs on its own asyncio loop (thread ``swarm-manager``); the tools call it from the UAVs' tool threads
 and wait for the answer (:meth:`SwarmCoordinator.call`). Every message crosses as JSON through the receiver's
-:class:`~agentic_core.swarm.signing.Guard`, as it would over A2A.
+:class:`~agentic_core.swarm.signing.Guard`: with ``a2a=True`` (a swarm run) over HTTP, each UAV an A2A agent on
+127.0.0.1 with its signed Agent Card (:class:`~agentic_core.swarm.a2a_channel.A2AChannel`); else in-process.
 
 >>> from agentic_core.swarm.signing import SwarmKey
 >>> from agentic_core.contracts.swarm import Point, UavState
@@ -28,7 +29,7 @@ import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from agentic_core.contracts.errors import AgenticUAVError
 from agentic_core.contracts.swarm import Point, SwarmMessage, SwarmTask, UavState
@@ -38,6 +39,9 @@ from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
 from agentic_core.swarm.fusion import fuse
 from agentic_core.swarm.sectors import Sector
 from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmKey
+
+if TYPE_CHECKING:
+    from agentic_core.swarm.a2a_channel import A2AChannel
 
 T = TypeVar("T")
 GROUND = "ground"
@@ -101,6 +105,7 @@ class SwarmCoordinator:
         log: Callable[[dict[str, Any]], None] = lambda _: None,
         clock: Callable[[], float] = lambda: 0.0,
         bid_window_s: float = 2.0,
+        a2a: bool = False,
     ) -> None:
         self.key = key
         self.members = {m.uav: m for m in members}
@@ -115,7 +120,7 @@ class SwarmCoordinator:
         self.casualties: dict[str, Casualty] = {}
         self.failed: list[str] = []
         self.participants: dict[str, Participant] = {}
-        self.channels: dict[str, LocalChannel] = {}
+        self.channels: dict[str, LocalChannel | A2AChannel] = {}
         self.guards: dict[str, Guard] = {}
         names = [GROUND, *self.members]
         ground_guard = Guard(key, GROUND, audit=self.audit, members=names)
@@ -123,12 +128,32 @@ class SwarmCoordinator:
             guard = Guard(key, uav, audit=self.audit, members=names)
             agent = FinderRefuses(Sealer(key, uav), member.state, manager=GROUND, guard=guard)
             self.participants[uav], self.guards[uav] = agent, guard
-            self.channels[uav] = LocalChannel(agent, guard, reply_guard=ground_guard)
+            self.channels[uav] = self._channel(agent, guard, ground_guard, a2a)
         self.manager = Manager(Sealer(key, GROUND), ground_guard, self.channels, bid_window_s=bid_window_s)
         self._lock = threading.RLock()
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="swarm-manager", daemon=True)
         self._thread.start()
+
+    def _channel(self, agent: Participant, guard: Guard, ground: Guard, a2a: bool) -> LocalChannel | A2AChannel:
+        if not a2a:
+            return LocalChannel(agent, guard, reply_guard=ground)
+        from agentic_core.swarm.a2a_channel import A2AChannel
+
+        try:
+            return A2AChannel(agent, guard, reply_guard=ground, card_key=self.key)
+        except Exception:
+            self._close_servers()
+            raise
+
+    def agents(self) -> dict[str, str]:
+        """Each UAV's A2A base URL (its signed Agent Card and JSON-RPC endpoint); empty when in-process."""
+        return {uav: ch.url for uav, ch in self.channels.items() if not isinstance(ch, LocalChannel)}
+
+    def a2a_report(self) -> dict[str, dict[str, Any]]:
+        """Per UAV served over A2A: its URL and the swarm messages posted to it."""
+        return {u: {"url": ch.url, "requests": ch.requests} for u, ch in self.channels.items()
+                if not isinstance(ch, LocalChannel)}  # fmt: skip
 
     # ---- the manager's loop ----
 
@@ -137,12 +162,21 @@ class SwarmCoordinator:
         return asyncio.run_coroutine_threadsafe(work, self._loop).result(timeout=timeout_s)
 
     def close(self) -> None:
-        """Stop the manager's loop (idempotent)."""
+        """Stop the manager's loop and the UAVs' A2A servers (idempotent)."""
         if self._loop.is_running():
+            for channel in self.channels.values():
+                if not isinstance(channel, LocalChannel):
+                    self.call(channel.aclose(), timeout_s=5.0)
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join(timeout=5.0)
         if not self._loop.is_running() and not self._loop.is_closed():
             self._loop.close()
+        self._close_servers()
+
+    def _close_servers(self) -> None:
+        for channel in self.channels.values():
+            if not isinstance(channel, LocalChannel):
+                channel.close()
 
     def _record(self, event: str, **fields: Any) -> None:
         self.log({"event": event, "sim_t": round(self.clock(), 2), "t": time.time(), **fields})
