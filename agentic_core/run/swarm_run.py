@@ -8,7 +8,9 @@ with ``--connect``, each UAV flies the vehicle at its address. The ground side
 (:class:`~agentic_core.swarm.coordinator.SwarmCoordinator`) auctions the sectors by Contract Net before take-off and
 the casualty work as it comes, over signed messages posted over HTTP to each UAV's A2A server (127.0.0.1, a free
 port; its signed Agent Card says its live state); the caller's thread watches the members (a dead one's tasks
-move) until every UAV's run has ended.
+move) until every UAV's run has ended. With ``--fault ground_link@t=N`` the ground is lost at N s of the swarm's
+clock: from then on the UAVs allocate among themselves by consensus
+(:meth:`~agentic_core.swarm.coordinator.SwarmCoordinator.lose_ground`).
 
 Files: ``runs/<swarm-id>/`` holds ``swarm.jsonl`` (rounds, awards, claims, verifications, deliveries, failures),
 ``refusals.jsonl`` (swarm messages refused, audited), ``summary.json`` and ``report.md``, ``missions/uav-<n>.yaml``
@@ -71,6 +73,8 @@ class SwarmSettings:
     rounds: int | None = None
     camera_hz: float = 10.0
     """Each UAV's camera: fewer frames than one drone's 30, for N perception loops on one machine."""
+    ground_link_lost_s: float | None = None
+    """``--fault ground_link@t=N``: the swarm's clock time the ground link is lost (then consensus among the UAVs)."""
     a2a: bool = True
     """Each UAV an A2A agent on 127.0.0.1, the Contract Net over HTTP; False: in-process (the same guards)."""
 
@@ -268,6 +272,9 @@ class SwarmRun:
                 seat.thread = threading.Thread(target=seat.fly, name=seat.uav, daemon=True)
                 seat.thread.start()
             while any(s.thread is not None and s.thread.is_alive() for s in self.seats):
+                lost_s = self.settings.ground_link_lost_s
+                if lost_s is not None and self.time_s() >= lost_s:
+                    self.coordinator.lose_ground(f"fault ground_link@t={lost_s:g}s")
                 self.coordinator.watch()
                 if time.monotonic() - wall0 > self.settings.max_wall_s + 60:
                     break

@@ -119,6 +119,9 @@ class SwarmCoordinator:
         """Sector id → the UAVs that finished a survey of it, one entry per survey."""
         self.casualties: dict[str, Casualty] = {}
         self.failed: list[str] = []
+        self.ground_lost = False
+        """The ground link is lost: the UAVs allocate among themselves (:meth:`lose_ground`)."""
+        self.ground_lost_at: float | None = None
         self.participants: dict[str, Participant] = {}
         self.channels: dict[str, LocalChannel | A2AChannel] = {}
         self.guards: dict[str, Guard] = {}
@@ -195,10 +198,19 @@ class SwarmCoordinator:
             SwarmTask(id=f"survey:{s.id}", skill="survey_sector", where=s.centre, work_s=60.0)
             for s in self.sectors.values()
         ]
+        self._allocate(tasks)
+        awarded = self.manager.allocation.awarded
+        return {t.split(":", 1)[1]: uav for t, uav in awarded.items() if t.startswith("survey:")}
+
+    def _allocate(self, tasks: list[SwarmTask], *, exclude: tuple[str, ...] = ()) -> None:
+        """Contract Net from the ground; without the ground, consensus among the live UAVs but ``exclude``."""
+        if self.ground_lost:
+            self.manager.tasks.update({t.id: t for t in tasks})
+            self._agree([t.id for t in tasks], exclude=exclude)
+            return
         before = len(self.manager.allocation.rounds)
-        allocation = self.call(self.manager.allocate(tasks))
+        self.call(self.manager.allocate(tasks))
         self._awards_since(before)
-        return {t.split(":", 1)[1]: uav for t, uav in allocation.awarded.items() if t.startswith("survey:")}
 
     def fail(self, uav: str, why: str) -> list[str]:
         """``uav`` is lost: its undone tasks auctioned again among the rest. The tasks that moved."""
@@ -207,6 +219,12 @@ class SwarmCoordinator:
                 return []
             self.failed.append(uav)
         self.channels[uav].alive = False
+        if self.ground_lost:
+            self.manager.failed.add(uav)
+            moved = self.manager.allocation.tasks_of(uav)
+            self._record("failed", uav=uav, why=why, moved=moved)
+            self._agree(moved)
+            return moved
         before = len(self.manager.allocation.rounds)
         moved = self.call(self.manager.fail(uav))
         self._record("failed", uav=uav, why=why, moved=moved)
@@ -220,14 +238,36 @@ class SwarmCoordinator:
             if uav not in self.failed and holds and not member.alive():
                 self.fail(uav, "its vehicle stopped answering")
 
+    def lose_ground(self, why: str) -> dict[str, str]:
+        """The ground link is lost (``why``): the ground is called no more. What a live UAV holds stays its own (it
+        may be flying it); every other open task, and every task, failure and report from now on, is settled among
+        the live UAVs by consensus. Idempotent; the new holders of the tasks that had none."""
+        with self._lock:
+            if self.ground_lost:
+                return {}
+            self.ground_lost = True
+            self.ground_lost_at = self.clock()
+        for channel in self.channels.values():
+            channel.alive = False
+        allocation = self.manager.allocation
+        holders = {u for u in self.members if u not in self.failed and self.members[u].alive()}
+        orphans = [
+            t for t in self.manager.tasks if t not in allocation.done and allocation.awarded.get(t) not in holders
+        ]
+        kept = {t: u for t, u in allocation.awarded.items() if t not in allocation.done and u in holders}
+        self._record("ground_link_lost", why=why, kept=kept, orphans=orphans)
+        return self._agree(orphans) if orphans else {}
+
     def without_ground(self) -> dict[str, str]:
         """The ground link is gone: the live UAVs share out every task not yet done among themselves by consensus
         (:mod:`~agentic_core.swarm.consensus`, signed messages through their own guards), and each holds what it
         won from then on. Task id → its UAV."""
+        return self._agree([t for t in self.manager.tasks if t not in self.manager.allocation.done])
+
+    def _agree(self, open_ids: list[str], *, exclude: tuple[str, ...] = ()) -> dict[str, str]:
         allocation = self.manager.allocation
-        open_ids = [t for t in self.manager.tasks if t not in allocation.done]
         tasks = [self.manager.tasks[t] for t in open_ids]
-        live = [u for u in self.members if u not in self.failed and self.members[u].alive()]
+        live = [u for u in self.members if u not in (*self.failed, *exclude) and self.members[u].alive()]
         agents = {
             u: ConsensusAgent(Sealer(self.key, u), self.guards[u], self.members[u].state, max_bundle=len(tasks) or 1)
             for u in live
@@ -242,10 +282,11 @@ class SwarmCoordinator:
                 allocation.costs.pop(task_id, None)
             for task_id, uav in result.assignment.items():
                 allocation.awarded[task_id] = uav
+                allocation.costs[task_id] = agents[uav].beliefs[task_id][0]
                 self.participants[uav].tasks[task_id] = self.manager.tasks[task_id]
         self._record(
-            "consensus", agreed=result.agreed, rounds=result.rounds, awarded=result.assignment,
-            unassigned=result.unassigned,
+            "consensus", tasks=open_ids, agreed=result.agreed, rounds=result.rounds, awarded=result.assignment,
+            unassigned=result.unassigned, among=live,
         )  # fmt: skip
         return dict(result.assignment)
 
@@ -288,7 +329,10 @@ class SwarmCoordinator:
         elif task_id.startswith("deliver_kit:"):
             self.casualties[task_id.split(":", 2)[2]].delivered = True
             self._record("delivered", uav=uav, casualty=task_id.split(":", 2)[2])
-        if finished:
+        if finished and self.ground_lost:  # the UAVs keep the books among themselves
+            self.participants[uav].tasks.pop(task_id, None)
+            self.manager.allocation.done.add(task_id)
+        elif finished:
             self.call(self.manager.report(self.participants[uav].report(task_id, done=True)))
         return {"task": task_id, "finished": finished}
 
@@ -327,9 +371,7 @@ class SwarmCoordinator:
             raise AgenticUAVError(f"{casualty_id} was found by {casualty.finder}, not {uav}")
         if self.verify_k > 1:
             task = SwarmTask(id=f"verify_casualty:{uav}:{casualty_id}", skill="verify_casualty", where=casualty.where)
-            before = len(self.manager.allocation.rounds)
-            self.call(self.manager.allocate([task]))
-            self._awards_since(before)
+            self._allocate([task], exclude=(uav,))
         deadline = self.clock() + timeout_s
         seen = self.seen_by(casualty)
         while len(seen) < self.verify_k and self.clock() < deadline:
@@ -374,9 +416,8 @@ class SwarmCoordinator:
         task = SwarmTask(
             id=f"deliver_kit:{uav}:{casualty_id}", skill="deliver_kit", where=casualty.where, needs="medkit"
         )
-        before = len(self.manager.allocation.rounds)
-        allocation = self.call(self.manager.allocate([task]))
-        self._awards_since(before)
+        self._allocate([task])
+        allocation = self.manager.allocation
         casualty.delivery = allocation.awarded.get(task.id)
         return {"awarded": casualty.delivery, "cost": allocation.costs.get(task.id)}
 

@@ -1,7 +1,8 @@
 """``agentic-uav swarm run``: the shipped swarm mission flown by four simulated UAVs on one clock, each with its own
 agent loop — sectors covered, the casualty found, verified by a second UAV, alerted, and served by the medic UAV
 awarded the kit, with the separation kept; and a UAV killed mid-mission whose sector another UAV covers, while
-forged and replayed awards injected on the wire are refused and audited."""
+forged and replayed awards posted to a UAV's A2A endpoint are refused and audited; and the ground link lost
+mid-mission, after which the UAVs agree the verification and the delivery among themselves."""
 
 from __future__ import annotations
 
@@ -134,3 +135,27 @@ def test_a_uav_killed_mid_mission_loses_its_sector_to_another_and_bad_awards_are
     assert {u: a["url"] for u, a in outcome["a2a"].items()} == agents and all(
         a["requests"] > 0 for a in outcome["a2a"].values()
     )  # every round of the run went over HTTP
+
+
+def test_without_the_ground_link_the_uavs_agree_among_themselves_and_finish(tmp_path: Path, smtp: Any) -> None:
+    lost_at = 40.0  # the sectors are being flown; the casualty is not yet found
+    argv = ["swarm", "run", str(MISSION), "--vehicles", "4", "--runs-dir", str(tmp_path), "--speed", "max"]
+    code = main([*argv, "--camera-hz", str(CAMERA_HZ), "--fault", f"ground_link@t={lost_at:g}s"])
+    (swarm_dir,) = tmp_path.iterdir()
+    summary = json.loads((swarm_dir / "summary.json").read_text(encoding="utf-8"))
+    assert code == 0, summary["problems"]
+    assert summary["ground_link_lost_s"] >= lost_at and all(summary["sectors"].values())
+    (casualty,) = [c for c in summary["casualties"] if c["truth"] == "P-12"]
+    assert casualty["verified"] and casualty["alerted"] and casualty["delivered"]
+    records = _lines(swarm_dir / "swarm.jsonl")
+    (lost,) = [i for i, r in enumerate(records) if r["event"] == "ground_link_lost"]
+    assert records[lost]["sim_t"] >= lost_at and sorted(records[lost]["kept"]) == [f"survey:S{n}" for n in range(1, 5)]
+    after = records[lost + 1 :]
+    assert not [r for r in after if r["event"] == "round"]  # no Contract Net round from the ground after the loss
+    agreed = {task: r["awarded"][task] for r in after if r["event"] == "consensus" for task in r["tasks"]}
+    verify = next(t for t in agreed if t.startswith("verify_casualty:"))
+    kit = next(t for t in agreed if t.startswith("deliver_kit:"))
+    assert agreed[verify] != casualty["found_by"] and agreed[verify] in casualty["verified_by"]
+    assert agreed[kit] == casualty["delivery_awarded"] and summary["uavs"][agreed[kit]]["role"] == "medic"
+    assert all(r["agreed"] for r in after if r["event"] == "consensus")
+    assert any(r["event"] == "delivered" and r["uav"] == agreed[kit] for r in after)
