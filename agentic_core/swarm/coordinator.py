@@ -42,6 +42,7 @@ from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmK
 
 if TYPE_CHECKING:
     from agentic_core.swarm.a2a_channel import A2AChannel
+    from agentic_core.swarm.a2a_client import A2APeer
 
 T = TypeVar("T")
 GROUND = "ground"
@@ -63,9 +64,15 @@ class Member:
 
 
 class FinderRefuses(Participant):
-    """A participant that does not bid to verify its own find (a verification is another UAV's eyes)."""
+    """A participant that does not bid to verify its own find (a verification is another UAV's eyes), and, without
+    the ground, hears the other UAVs' consensus bids (``consensus``: its side of the consensus under way)."""
+
+    consensus: ConsensusAgent | None = None
 
     async def handle(self, message: SwarmMessage) -> SwarmMessage | None:
+        if message.kind == "bid" and message.conversation == "consensus":
+            changed = self.consensus.take(message) if self.consensus is not None else False
+            return self.sealer.seal("inform", {"changed": changed}, recipient=message.sender, conversation="consensus")
         task = message.body.get("task")
         parts = str(task.get("id", "")).split(":") if isinstance(task, dict) else []
         if message.kind == "cfp" and parts[:2] == ["verify_casualty", self.sealer.sender]:
@@ -122,7 +129,8 @@ class SwarmCoordinator:
         self.ground_lost = False
         """The ground link is lost: the UAVs allocate among themselves (:meth:`lose_ground`)."""
         self.ground_lost_at: float | None = None
-        self.participants: dict[str, Participant] = {}
+        self._peers: dict[tuple[str, str], A2APeer] = {}
+        self.participants: dict[str, FinderRefuses] = {}
         self.channels: dict[str, LocalChannel | A2AChannel] = {}
         self.guards: dict[str, Guard] = {}
         names = [GROUND, *self.members]
@@ -170,6 +178,8 @@ class SwarmCoordinator:
             for channel in self.channels.values():
                 if not isinstance(channel, LocalChannel):
                     self.call(channel.aclose(), timeout_s=5.0)
+            for peer in self._peers.values():
+                self.call(peer.aclose(), timeout_s=5.0)
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join(timeout=5.0)
         if not self._loop.is_running() and not self._loop.is_closed():
@@ -272,7 +282,10 @@ class SwarmCoordinator:
             u: ConsensusAgent(Sealer(self.key, u), self.guards[u], self.members[u].state, max_bundle=len(tasks) or 1)
             for u in live
         }
-        result = agree(agents, tasks, links={u: [v for v in live if v != u] for u in live})
+        for uav, agent in agents.items():
+            self.participants[uav].consensus = agent
+        over_a2a = self._post_bid if self.agents() else None
+        result = agree(agents, tasks, links={u: [v for v in live if v != u] for u in live}, send=over_a2a)
         with self._lock:
             for uav in self.members:
                 for task_id in open_ids:
@@ -289,6 +302,24 @@ class SwarmCoordinator:
             unassigned=result.unassigned, among=live,
         )  # fmt: skip
         return dict(result.assignment)
+
+    def _post_bid(self, to: str, message: SwarmMessage) -> bool:
+        """One UAV's consensus bids posted to another's A2A endpoint (our client, the sender's guard on the reply);
+        whether the receiver's beliefs changed (an unreachable one's did not)."""
+        channel = self.channels[to]
+        if isinstance(channel, LocalChannel):
+            return False
+        from agentic_core.swarm.a2a_client import A2APeer
+
+        key = (message.sender, to)
+        if key not in self._peers:
+            self._peers[key] = A2APeer(channel.url, guard=self.guards[message.sender], card_key=self.key)
+        channel.requests += 1
+        try:
+            reply = self.call(self._peers[key].send(message), timeout_s=10.0)
+        except (AgenticUAVError, TimeoutError):
+            return False
+        return bool(reply is not None and reply.body.get("changed"))
 
     # ---- what the tools ask ----
 

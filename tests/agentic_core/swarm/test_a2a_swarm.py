@@ -137,3 +137,31 @@ def test_a_lost_uav_is_not_called_and_its_sector_moves_over_a2a(swarm: SwarmCoor
     assert isinstance(channel, A2AChannel) and not channel.alive
     swarm.allocate_sectors()
     assert swarm.a2a_report()[victim]["requests"] == before
+
+
+def test_without_the_ground_the_uavs_agree_over_their_a2a_endpoints(swarm: SwarmCoordinator, uavs: list[Uav]) -> None:
+    awarded = swarm.allocate_sectors()
+    sent = _tap(swarm)  # what the ground sends from now on: nothing
+    swarm.lose_ground("fault ground_link@t=60s")
+    before = {u: a["requests"] for u, a in swarm.a2a_report().items()}
+    victim = awarded["S2"]
+    next(u for u in uavs if u.name == victim).alive = False
+    swarm.watch()
+    heir = swarm.manager.allocation.awarded["survey:S2"]
+    assert heir != victim and victim in swarm.failed and sent == []
+    after = swarm.a2a_report()
+    live = [u for u in after if u != victim]
+    assert after[victim]["requests"] == before[victim]  # the lost UAV hears nothing
+    assert all(after[u]["requests"] > before[u] for u in live)  # each live UAV heard the other's bids over HTTP
+    agent = swarm.participants[heir].consensus
+    assert agent is not None and "survey:S2" in swarm.participants[heir].tasks
+
+    other = next(u for u in live if u != heir)
+    beliefs = dict(agent.beliefs)
+    outbid = {"bids": {"survey:S2": 0.0}}  # a bid that would take the sector, from a stranger to the swarm
+    forged = Sealer(SwarmKey.generate("mina"), other).seal("bid", outbid, recipient=heir, conversation="consensus")
+    with pytest.raises(PeerError) as refused:
+        asyncio.run(_post(swarm.agents()[heir], forged))
+    assert refused.value.refused == "forged"
+    assert agent.beliefs == beliefs
+    assert [(r.receiver, r.reason, r.kind) for r in swarm.audit.rejections] == [(heir, "forged", "bid")]  # type: ignore[attr-defined]
