@@ -142,6 +142,7 @@ class SwarmCoordinator:
             self.channels[uav] = self._channel(agent, guard, ground_guard, a2a)
         self.manager = Manager(Sealer(key, GROUND), ground_guard, self.channels, bid_window_s=bid_window_s)
         self._lock = threading.RLock()
+        self._agreeing = threading.Lock()
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="swarm-manager", daemon=True)
         self._thread.start()
@@ -275,6 +276,10 @@ class SwarmCoordinator:
         return self._agree([t for t in self.manager.tasks if t not in self.manager.allocation.done])
 
     def _agree(self, open_ids: list[str], *, exclude: tuple[str, ...] = ()) -> dict[str, str]:
+        with self._agreeing:  # one consensus at a time: each UAV's server hears the one under way
+            return self._agree_now(open_ids, exclude)
+
+    def _agree_now(self, open_ids: list[str], exclude: tuple[str, ...]) -> dict[str, str]:
         allocation = self.manager.allocation
         tasks = [self.manager.tasks[t] for t in open_ids]
         live = [u for u in self.members if u not in (*self.failed, *exclude) and self.members[u].alive()]

@@ -5,6 +5,7 @@ to a UAV's endpoint by anyone is refused there and audited; a lost UAV is not ca
 from __future__ import annotations
 
 import asyncio
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -165,3 +166,19 @@ def test_without_the_ground_the_uavs_agree_over_their_a2a_endpoints(swarm: Swarm
     assert refused.value.refused == "forged"
     assert agent.beliefs == beliefs
     assert [(r.receiver, r.reason, r.kind) for r in swarm.audit.rejections] == [(heir, "forged", "bid")]  # type: ignore[attr-defined]
+
+
+def test_two_consensus_runs_at_once_do_not_mix_their_bids(swarm: SwarmCoordinator) -> None:
+    swarm.allocate_sectors()
+    swarm.lose_ground("fault ground_link@t=60s")
+    results: list[dict[str, str]] = []
+    runs = [threading.Thread(target=lambda: results.append(swarm.without_ground())) for _ in range(2)]
+    for run in runs:
+        run.start()
+    for run in runs:
+        run.join(timeout=60.0)
+    assert len(results) == 2 and results[0] == results[1]  # the same fleet, the same tasks: the same agreement
+    awarded = swarm.manager.allocation.awarded
+    assert sorted(awarded) == ["survey:S1", "survey:S2", "survey:S3"] and awarded == results[0]
+    for uav, participant in swarm.participants.items():  # each task held by its winner alone
+        assert sorted(participant.tasks) == sorted(t for t, u in awarded.items() if u == uav)
