@@ -35,6 +35,7 @@ from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
 from ..examples import resolve_mission, resolve_scene
 from .detector_choice import parse_detector
 from .responses import DEGRADED_EXIT
+from .swarm_cli import refuse_swarm_mission
 
 if TYPE_CHECKING:
     from ..agent.control import Operator
@@ -192,6 +193,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         mission = resolve_mission(args.mission)
+        refuse_swarm_mission(mission)
         scene = None if args.scene is None else resolve_scene(args.scene)
         if args.gains is not None:
             load_gains(args.gains)  # a bad file is refused before anything starts

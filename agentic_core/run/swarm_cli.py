@@ -1,6 +1,7 @@
 """``agentic-uav swarm run MISSION --vehicles N``: fly a swarm mission with N simulated F450s on one clock (or,
 with ``--connect URL,URL,...``, the vehicles at those MAVLink addresses, one per UAV) and write
-``runs/<swarm-id>/`` (see :mod:`agentic_core.run.swarm_run`). Exit status: 0 when every sector was covered and
+``runs/<swarm-id>/`` (see :mod:`agentic_core.run.swarm_run`); ``--fault ground_link@t=60s`` loses the ground link
+then (the UAVs allocate the rest by consensus). Exit status: 0 when every sector was covered and
 every casualty found, verified, alerted and served with the separation kept; 3 when all that held but a UAV was
 lost (its work moved) or an alert reached only the outbox; 1 when anything fell short; 2 for bad input.
 
@@ -17,9 +18,12 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import yaml
+
 from flight.cli import parse_speed
 
 from ..contracts.errors import AgenticUAVError, InputError, report_error
+from .swarm_faults import ground_link_lost_at
 
 PROG = "agentic-uav swarm"
 
@@ -51,7 +55,34 @@ def build_parser() -> argparse.ArgumentParser:
                      help="vehicle i streams to API port 14540+i too (PX4 SITL's multi-vehicle)")  # fmt: skip
     run.add_argument("--camera-hz", type=float, default=10.0, help="each UAV's camera rate (default 10)")
     run.add_argument("--max-wall-s", type=float, default=900.0, help="each UAV gives up (and lands) after this")
+    run.add_argument("--fault", action="append", default=[], metavar="ground_link@t=SECONDS",
+                     help="lose the ground link then: the UAVs allocate what is left by consensus")  # fmt: skip
     return parser
+
+
+def refuse_swarm_mission(mission: Path) -> None:
+    """For ``agentic-uav run``: an :class:`InputError` naming the file and line when ``mission`` is a swarm mission
+    (one drone cannot fly it: its steps call the ``swarm.*`` tools of a swarm run). A file that does not parse is
+    left to the mission loader, which says why.
+
+    >>> try:
+    ...     refuse_swarm_mission(Path("missions/hajj_swarm.yaml"))
+    ... except InputError as exc:
+    ...     str(exc).split(": ")[0], "agentic-uav swarm run missions/hajj_swarm.yaml" in str(exc)
+    ('missions/hajj_swarm.yaml:23', True)
+    """
+    try:
+        root = yaml.compose(mission.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return
+    if not isinstance(root, yaml.MappingNode):
+        return
+    for key, _ in root.value:
+        if isinstance(key, yaml.ScalarNode) and key.value == "swarm":
+            raise InputError(
+                f"{mission}:{key.start_mark.line + 1}: a swarm mission (its swarm: block): fly it with "
+                f"`agentic-uav swarm run {mission} --vehicles N`, not `agentic-uav run`"
+            )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -61,10 +92,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if args.vehicles is not None and args.vehicles < 1:
         return report_error(PROG, InputError(f"--vehicles {args.vehicles}: at least 1"), sys.stderr)
+    try:
+        ground_lost_s = ground_link_lost_at(args.fault)
+    except InputError as exc:
+        return report_error(PROG, exc, sys.stderr)
     settings = SwarmSettings(
         mission=args.mission, vehicles=args.vehicles, connect=args.connect, scene=args.scene, runs_dir=args.runs_dir,
         speed=args.speed, seed=args.seed, reasoner=args.reasoner, gcs=args.gcs, px4_ports=args.px4_ports,
-        max_wall_s=args.max_wall_s, rounds=args.rounds, camera_hz=args.camera_hz,
+        max_wall_s=args.max_wall_s, rounds=args.rounds, camera_hz=args.camera_hz, ground_link_lost_s=ground_lost_s,
     )  # fmt: skip
     try:
         summary = run_swarm(settings, progress=sys.stderr)
@@ -75,4 +110,4 @@ def main(argv: Sequence[str] | None = None) -> int:
     return code
 
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "refuse_swarm_mission"]

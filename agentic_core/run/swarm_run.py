@@ -6,8 +6,11 @@ Each UAV is a :class:`~agentic_core.run.runner.MissionRun` of its share of the m
 thread ``swarm-clock``) at the pace of all the agents at once (one :class:`~agentic_core.agent.pacing.Pace`), or,
 with ``--connect``, each UAV flies the vehicle at its address. The ground side
 (:class:`~agentic_core.swarm.coordinator.SwarmCoordinator`) auctions the sectors by Contract Net before take-off and
-the casualty work as it comes, over signed messages; the caller's thread watches the members (a dead one's tasks
-move) until every UAV's run has ended.
+the casualty work as it comes, over signed messages posted over HTTP to each UAV's A2A server (127.0.0.1, a free
+port; its signed Agent Card says its live state); the caller's thread watches the members (a dead one's tasks
+move) until every UAV's run has ended. With ``--fault ground_link@t=N`` the ground is lost at N s of the swarm's
+clock: from then on the UAVs allocate among themselves by consensus
+(:meth:`~agentic_core.swarm.coordinator.SwarmCoordinator.lose_ground`).
 
 Files: ``runs/<swarm-id>/`` holds ``swarm.jsonl`` (rounds, awards, claims, verifications, deliveries, failures),
 ``refusals.jsonl`` (swarm messages refused, audited), ``summary.json`` and ``report.md``, ``missions/uav-<n>.yaml``
@@ -70,6 +73,10 @@ class SwarmSettings:
     rounds: int | None = None
     camera_hz: float = 10.0
     """Each UAV's camera: fewer frames than one drone's 30, for N perception loops on one machine."""
+    ground_link_lost_s: float | None = None
+    """``--fault ground_link@t=N``: the swarm's clock time the ground link is lost (then consensus among the UAVs)."""
+    a2a: bool = True
+    """Each UAV an A2A agent on 127.0.0.1, the Contract Net over HTTP; False: in-process (the same guards)."""
 
 
 class _Audit:
@@ -188,6 +195,7 @@ class SwarmRun:
         self.coordinator = SwarmCoordinator(
             SwarmKey.generate(plan.plan_id), [self._member(s) for s in self.seats], sectors, rounds=rounds,
             verify_k=min(plan.swarm.verify_k, n), audit=self.audit, log=self._log, clock=self.time_s,
+            a2a=settings.a2a,
         )  # fmt: skip
         self.sectors = sectors
         try:
@@ -254,6 +262,7 @@ class SwarmRun:
         """Fly the swarm: sectors auctioned, every UAV's run on its thread, the members watched; the summary."""
         wall0 = time.monotonic()
         try:
+            self._log({"event": "a2a", "sim_t": 0.0, "t": time.time(), "agents": self.coordinator.agents()})
             awarded = self.coordinator.allocate_sectors()
             self._log({"event": "sectors", "sim_t": 0.0, "t": time.time(), "awarded": awarded,
                        "sectors": {s.id: s.corners() for s in self.sectors}})  # fmt: skip
@@ -263,6 +272,9 @@ class SwarmRun:
                 seat.thread = threading.Thread(target=seat.fly, name=seat.uav, daemon=True)
                 seat.thread.start()
             while any(s.thread is not None and s.thread.is_alive() for s in self.seats):
+                lost_s = self.settings.ground_link_lost_s
+                if lost_s is not None and self.time_s() >= lost_s:
+                    self.coordinator.lose_ground(f"fault ground_link@t={lost_s:g}s")
                 self.coordinator.watch()
                 if time.monotonic() - wall0 > self.settings.max_wall_s + 60:
                     break

@@ -112,6 +112,10 @@ class ConsensusAgent:
             message = self.guard.parse(raw)
         except Refused:
             return False
+        return self.take(message)
+
+    def take(self, message: SwarmMessage) -> bool:
+        """Phase 2 with one UAV's message its guard has already verified (an A2A server's); whether anything changed."""
         bids = message.body.get("bids")
         sender = message.sender
         if message.kind != "bid" or not isinstance(bids, dict) or sender == self.uav:
@@ -157,9 +161,11 @@ def agree(
     links: Mapping[str, Sequence[str]],
     max_rounds: int = 100,
     deliver: Callable[[str, SwarmMessage], str] | None = None,
+    send: Callable[[str, SwarmMessage], bool] | None = None,
 ) -> Agreement:
     """Run the consensus over ``links`` (uav → the neighbours it hears) until nothing changes; ``deliver`` carries a
-    message to its recipient as JSON (default: as it is), where a test may tamper with it."""
+    message to its recipient as JSON (default: as it is), where a test may tamper with it; ``send``, when given,
+    carries it instead to where the recipient hears it (over A2A) and says whether its beliefs changed."""
     carry = deliver or (lambda _to, message: message.model_dump_json())
     rounds = 0
     for rounds in range(1, max_rounds + 1):  # noqa: B007 (the last round is reported)
@@ -172,7 +178,7 @@ def agree(
         changed = False
         for to, message in outbox:
             if to in agents:
-                changed |= agents[to].hear(carry(to, message))
+                changed |= send(to, message) if send is not None else agents[to].hear(carry(to, message))
         if not changed and not grew:
             break
     owners: dict[str, str] = {}

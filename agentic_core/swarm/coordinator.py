@@ -5,7 +5,8 @@ are auctioned again among the rest. Everything it decides goes to ``swarm.jsonl`
 
 The manager runs on its own asyncio loop (thread ``swarm-manager``); the tools call it from the UAVs' tool threads
 and wait for the answer (:meth:`SwarmCoordinator.call`). Every message crosses as JSON through the receiver's
-:class:`~agentic_core.swarm.signing.Guard`, as it would over A2A.
+:class:`~agentic_core.swarm.signing.Guard`: with ``a2a=True`` (a swarm run) over HTTP, each UAV an A2A agent on
+127.0.0.1 with its signed Agent Card (:class:`~agentic_core.swarm.a2a_channel.A2AChannel`); else in-process.
 
 >>> from agentic_core.swarm.signing import SwarmKey
 >>> from agentic_core.contracts.swarm import Point, UavState
@@ -28,7 +29,7 @@ import threading
 import time
 from collections.abc import Callable, Coroutine, Iterable
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from agentic_core.contracts.errors import AgenticUAVError
 from agentic_core.contracts.swarm import Point, SwarmMessage, SwarmTask, UavState
@@ -38,6 +39,10 @@ from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
 from agentic_core.swarm.fusion import fuse
 from agentic_core.swarm.sectors import Sector
 from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmKey
+
+if TYPE_CHECKING:
+    from agentic_core.swarm.a2a_channel import A2AChannel
+    from agentic_core.swarm.a2a_client import A2APeer
 
 T = TypeVar("T")
 GROUND = "ground"
@@ -59,9 +64,15 @@ class Member:
 
 
 class FinderRefuses(Participant):
-    """A participant that does not bid to verify its own find (a verification is another UAV's eyes)."""
+    """A participant that does not bid to verify its own find (a verification is another UAV's eyes), and, without
+    the ground, hears the other UAVs' consensus bids (``consensus``: its side of the consensus under way)."""
+
+    consensus: ConsensusAgent | None = None
 
     async def handle(self, message: SwarmMessage) -> SwarmMessage | None:
+        if message.kind == "bid" and message.conversation == "consensus":
+            changed = self.consensus.take(message) if self.consensus is not None else False
+            return self.sealer.seal("inform", {"changed": changed}, recipient=message.sender, conversation="consensus")
         task = message.body.get("task")
         parts = str(task.get("id", "")).split(":") if isinstance(task, dict) else []
         if message.kind == "cfp" and parts[:2] == ["verify_casualty", self.sealer.sender]:
@@ -101,6 +112,7 @@ class SwarmCoordinator:
         log: Callable[[dict[str, Any]], None] = lambda _: None,
         clock: Callable[[], float] = lambda: 0.0,
         bid_window_s: float = 2.0,
+        a2a: bool = False,
     ) -> None:
         self.key = key
         self.members = {m.uav: m for m in members}
@@ -114,8 +126,12 @@ class SwarmCoordinator:
         """Sector id → the UAVs that finished a survey of it, one entry per survey."""
         self.casualties: dict[str, Casualty] = {}
         self.failed: list[str] = []
-        self.participants: dict[str, Participant] = {}
-        self.channels: dict[str, LocalChannel] = {}
+        self.ground_lost = False
+        """The ground link is lost: the UAVs allocate among themselves (:meth:`lose_ground`)."""
+        self.ground_lost_at: float | None = None
+        self._peers: dict[tuple[str, str], A2APeer] = {}
+        self.participants: dict[str, FinderRefuses] = {}
+        self.channels: dict[str, LocalChannel | A2AChannel] = {}
         self.guards: dict[str, Guard] = {}
         names = [GROUND, *self.members]
         ground_guard = Guard(key, GROUND, audit=self.audit, members=names)
@@ -123,12 +139,33 @@ class SwarmCoordinator:
             guard = Guard(key, uav, audit=self.audit, members=names)
             agent = FinderRefuses(Sealer(key, uav), member.state, manager=GROUND, guard=guard)
             self.participants[uav], self.guards[uav] = agent, guard
-            self.channels[uav] = LocalChannel(agent, guard, reply_guard=ground_guard)
+            self.channels[uav] = self._channel(agent, guard, ground_guard, a2a)
         self.manager = Manager(Sealer(key, GROUND), ground_guard, self.channels, bid_window_s=bid_window_s)
         self._lock = threading.RLock()
+        self._agreeing = threading.Lock()
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="swarm-manager", daemon=True)
         self._thread.start()
+
+    def _channel(self, agent: Participant, guard: Guard, ground: Guard, a2a: bool) -> LocalChannel | A2AChannel:
+        if not a2a:
+            return LocalChannel(agent, guard, reply_guard=ground)
+        from agentic_core.swarm.a2a_channel import A2AChannel
+
+        try:
+            return A2AChannel(agent, guard, reply_guard=ground, card_key=self.key)
+        except Exception:
+            self._close_servers()
+            raise
+
+    def agents(self) -> dict[str, str]:
+        """Each UAV's A2A base URL (its signed Agent Card and JSON-RPC endpoint); empty when in-process."""
+        return {uav: ch.url for uav, ch in self.channels.items() if not isinstance(ch, LocalChannel)}
+
+    def a2a_report(self) -> dict[str, dict[str, Any]]:
+        """Per UAV served over A2A: its URL and the swarm messages posted to it."""
+        return {u: {"url": ch.url, "requests": ch.requests} for u, ch in self.channels.items()
+                if not isinstance(ch, LocalChannel)}  # fmt: skip
 
     # ---- the manager's loop ----
 
@@ -137,12 +174,23 @@ class SwarmCoordinator:
         return asyncio.run_coroutine_threadsafe(work, self._loop).result(timeout=timeout_s)
 
     def close(self) -> None:
-        """Stop the manager's loop (idempotent)."""
+        """Stop the manager's loop and the UAVs' A2A servers (idempotent)."""
         if self._loop.is_running():
+            for channel in self.channels.values():
+                if not isinstance(channel, LocalChannel):
+                    self.call(channel.aclose(), timeout_s=5.0)
+            for peer in self._peers.values():
+                self.call(peer.aclose(), timeout_s=5.0)
             self._loop.call_soon_threadsafe(self._loop.stop)
             self._thread.join(timeout=5.0)
         if not self._loop.is_running() and not self._loop.is_closed():
             self._loop.close()
+        self._close_servers()
+
+    def _close_servers(self) -> None:
+        for channel in self.channels.values():
+            if not isinstance(channel, LocalChannel):
+                channel.close()
 
     def _record(self, event: str, **fields: Any) -> None:
         self.log({"event": event, "sim_t": round(self.clock(), 2), "t": time.time(), **fields})
@@ -161,10 +209,19 @@ class SwarmCoordinator:
             SwarmTask(id=f"survey:{s.id}", skill="survey_sector", where=s.centre, work_s=60.0)
             for s in self.sectors.values()
         ]
+        self._allocate(tasks)
+        awarded = self.manager.allocation.awarded
+        return {t.split(":", 1)[1]: uav for t, uav in awarded.items() if t.startswith("survey:")}
+
+    def _allocate(self, tasks: list[SwarmTask], *, exclude: tuple[str, ...] = ()) -> None:
+        """Contract Net from the ground; without the ground, consensus among the live UAVs but ``exclude``."""
+        if self.ground_lost:
+            self.manager.tasks.update({t.id: t for t in tasks})
+            self._agree([t.id for t in tasks], exclude=exclude)
+            return
         before = len(self.manager.allocation.rounds)
-        allocation = self.call(self.manager.allocate(tasks))
+        self.call(self.manager.allocate(tasks))
         self._awards_since(before)
-        return {t.split(":", 1)[1]: uav for t, uav in allocation.awarded.items() if t.startswith("survey:")}
 
     def fail(self, uav: str, why: str) -> list[str]:
         """``uav`` is lost: its undone tasks auctioned again among the rest. The tasks that moved."""
@@ -173,6 +230,12 @@ class SwarmCoordinator:
                 return []
             self.failed.append(uav)
         self.channels[uav].alive = False
+        if self.ground_lost:
+            self.manager.failed.add(uav)
+            moved = self.manager.allocation.tasks_of(uav)
+            self._record("failed", uav=uav, why=why, moved=moved)
+            self._agree(moved)
+            return moved
         before = len(self.manager.allocation.rounds)
         moved = self.call(self.manager.fail(uav))
         self._record("failed", uav=uav, why=why, moved=moved)
@@ -186,19 +249,48 @@ class SwarmCoordinator:
             if uav not in self.failed and holds and not member.alive():
                 self.fail(uav, "its vehicle stopped answering")
 
+    def lose_ground(self, why: str) -> dict[str, str]:
+        """The ground link is lost (``why``): the ground is called no more. What a live UAV holds stays its own (it
+        may be flying it); every other open task, and every task, failure and report from now on, is settled among
+        the live UAVs by consensus. Idempotent; the new holders of the tasks that had none."""
+        with self._lock:
+            if self.ground_lost:
+                return {}
+            self.ground_lost = True
+            self.ground_lost_at = self.clock()
+        for channel in self.channels.values():
+            channel.alive = False
+        allocation = self.manager.allocation
+        holders = {u for u in self.members if u not in self.failed and self.members[u].alive()}
+        orphans = [
+            t for t in self.manager.tasks if t not in allocation.done and allocation.awarded.get(t) not in holders
+        ]
+        kept = {t: u for t, u in allocation.awarded.items() if t not in allocation.done and u in holders}
+        self._record("ground_link_lost", why=why, kept=kept, orphans=orphans)
+        return self._agree(orphans) if orphans else {}
+
     def without_ground(self) -> dict[str, str]:
         """The ground link is gone: the live UAVs share out every task not yet done among themselves by consensus
         (:mod:`~agentic_core.swarm.consensus`, signed messages through their own guards), and each holds what it
         won from then on. Task id → its UAV."""
+        return self._agree([t for t in self.manager.tasks if t not in self.manager.allocation.done])
+
+    def _agree(self, open_ids: list[str], *, exclude: tuple[str, ...] = ()) -> dict[str, str]:
+        with self._agreeing:  # one consensus at a time: each UAV's server hears the one under way
+            return self._agree_now(open_ids, exclude)
+
+    def _agree_now(self, open_ids: list[str], exclude: tuple[str, ...]) -> dict[str, str]:
         allocation = self.manager.allocation
-        open_ids = [t for t in self.manager.tasks if t not in allocation.done]
         tasks = [self.manager.tasks[t] for t in open_ids]
-        live = [u for u in self.members if u not in self.failed and self.members[u].alive()]
+        live = [u for u in self.members if u not in (*self.failed, *exclude) and self.members[u].alive()]
         agents = {
             u: ConsensusAgent(Sealer(self.key, u), self.guards[u], self.members[u].state, max_bundle=len(tasks) or 1)
             for u in live
         }
-        result = agree(agents, tasks, links={u: [v for v in live if v != u] for u in live})
+        for uav, agent in agents.items():
+            self.participants[uav].consensus = agent
+        over_a2a = self._post_bid if self.agents() else None
+        result = agree(agents, tasks, links={u: [v for v in live if v != u] for u in live}, send=over_a2a)
         with self._lock:
             for uav in self.members:
                 for task_id in open_ids:
@@ -208,12 +300,31 @@ class SwarmCoordinator:
                 allocation.costs.pop(task_id, None)
             for task_id, uav in result.assignment.items():
                 allocation.awarded[task_id] = uav
+                allocation.costs[task_id] = agents[uav].beliefs[task_id][0]
                 self.participants[uav].tasks[task_id] = self.manager.tasks[task_id]
         self._record(
-            "consensus", agreed=result.agreed, rounds=result.rounds, awarded=result.assignment,
-            unassigned=result.unassigned,
+            "consensus", tasks=open_ids, agreed=result.agreed, rounds=result.rounds, awarded=result.assignment,
+            unassigned=result.unassigned, among=live,
         )  # fmt: skip
         return dict(result.assignment)
+
+    def _post_bid(self, to: str, message: SwarmMessage) -> bool:
+        """One UAV's consensus bids posted to another's A2A endpoint (our client, the sender's guard on the reply);
+        whether the receiver's beliefs changed (an unreachable one's did not)."""
+        channel = self.channels[to]
+        if isinstance(channel, LocalChannel):
+            return False
+        from agentic_core.swarm.a2a_client import A2APeer
+
+        key = (message.sender, to)
+        if key not in self._peers:
+            self._peers[key] = A2APeer(channel.url, guard=self.guards[message.sender], card_key=self.key)
+        channel.requests += 1
+        try:
+            reply = self.call(self._peers[key].send(message), timeout_s=10.0)
+        except (AgenticUAVError, TimeoutError):
+            return False
+        return bool(reply is not None and reply.body.get("changed"))
 
     # ---- what the tools ask ----
 
@@ -254,7 +365,10 @@ class SwarmCoordinator:
         elif task_id.startswith("deliver_kit:"):
             self.casualties[task_id.split(":", 2)[2]].delivered = True
             self._record("delivered", uav=uav, casualty=task_id.split(":", 2)[2])
-        if finished:
+        if finished and self.ground_lost:  # the UAVs keep the books among themselves
+            self.participants[uav].tasks.pop(task_id, None)
+            self.manager.allocation.done.add(task_id)
+        elif finished:
             self.call(self.manager.report(self.participants[uav].report(task_id, done=True)))
         return {"task": task_id, "finished": finished}
 
@@ -293,9 +407,7 @@ class SwarmCoordinator:
             raise AgenticUAVError(f"{casualty_id} was found by {casualty.finder}, not {uav}")
         if self.verify_k > 1:
             task = SwarmTask(id=f"verify_casualty:{uav}:{casualty_id}", skill="verify_casualty", where=casualty.where)
-            before = len(self.manager.allocation.rounds)
-            self.call(self.manager.allocate([task]))
-            self._awards_since(before)
+            self._allocate([task], exclude=(uav,))
         deadline = self.clock() + timeout_s
         seen = self.seen_by(casualty)
         while len(seen) < self.verify_k and self.clock() < deadline:
@@ -340,9 +452,8 @@ class SwarmCoordinator:
         task = SwarmTask(
             id=f"deliver_kit:{uav}:{casualty_id}", skill="deliver_kit", where=casualty.where, needs="medkit"
         )
-        before = len(self.manager.allocation.rounds)
-        allocation = self.call(self.manager.allocate([task]))
-        self._awards_since(before)
+        self._allocate([task])
+        allocation = self.manager.allocation
         casualty.delivery = allocation.awarded.get(task.id)
         return {"awarded": casualty.delivery, "cost": allocation.costs.get(task.id)}
 

@@ -1,7 +1,8 @@
 """``agentic-uav swarm run``: the shipped swarm mission flown by four simulated UAVs on one clock, each with its own
 agent loop — sectors covered, the casualty found, verified by a second UAV, alerted, and served by the medic UAV
 awarded the kit, with the separation kept; and a UAV killed mid-mission whose sector another UAV covers, while
-forged and replayed awards injected on the wire are refused and audited."""
+forged and replayed awards posted to a UAV's A2A endpoint are refused and audited; and the ground link lost
+mid-mission, after which the UAVs agree the verification and the delivery among themselves."""
 
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ from typing import Any
 import pytest
 
 from agentic_core.cli import main
-from agentic_core.contracts.swarm import SwarmMessage
+from agentic_core.contracts.swarm import SwarmMessage, UavState
 from agentic_core.run.swarm_run import SwarmRun, SwarmSettings
-from agentic_core.swarm.signing import Refused, Sealer, SwarmKey
+from agentic_core.swarm.a2a_client import A2APeer, PeerError
+from agentic_core.swarm.signing import Sealer, SwarmKey
 from tests.waiting import wait_for
 
 REPO = Path(__file__).resolve().parents[3]
@@ -26,6 +28,16 @@ CAMERA_HZ = 5.0
 """Each UAV's camera: enough to find and verify the casualty, and four perception loops fit a shared machine."""
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
+
+
+async def _post(url: str, message: SwarmMessage) -> SwarmMessage | None:
+    async with A2APeer(url) as peer:
+        return await peer.send(message)
+
+
+async def _card_state(url: str, key: SwarmKey) -> UavState:
+    async with A2APeer(url, card_key=key) as peer:
+        return await peer.state()
 
 
 def _lines(path: Path) -> list[dict[str, Any]]:
@@ -53,6 +65,9 @@ def test_four_uavs_cover_the_sectors_and_answer_the_casualty_together(tmp_path: 
     assert separation["losses"] == 0 and separation["instants"] > 100
     assert separation["min_distance_m"] >= min(separation["horizontal_m"], separation["vertical_m"])
     records = _lines(swarm_dir / "swarm.jsonl")
+    (served,) = [r["agents"] for r in records if r["event"] == "a2a"]
+    assert sorted(served) == sorted(summary["uavs"]) and {u: a["url"] for u, a in summary["a2a"].items()} == served
+    assert all(a["requests"] >= len(summary["sectors"]) for a in summary["a2a"].values())  # the rounds over HTTP
     kit_round = next(r for r in records if r["event"] == "round" and r["task"].startswith("deliver_kit:"))
     assert set(kit_round["bids"]) <= {u for u, v in summary["uavs"].items() if v["role"] == "medic"}
     assert kit_round["awarded"] == min(kit_round["bids"], key=kit_round["bids"].get) == medic
@@ -93,11 +108,13 @@ def test_a_uav_killed_mid_mission_loses_its_sector_to_another_and_bad_awards_are
         swarm.kill(victim)
         wait_for(lambda: victim in swarm.coordinator.failed, timeout_s=60.0, what="the swarm noticing")
         uav, award = next((u, m) for u, m in wire if m.kind == "award" and u != victim)
-        channel = swarm.coordinator.channels[uav]
+        agents = swarm.coordinator.agents()
         forged = Sealer(SwarmKey.generate("mina"), "ground").seal("award", award.body, recipient=uav)
         for bad in (award, forged):  # the genuine award again (replayed), and one signed with another key
-            with pytest.raises(Refused):
-                asyncio.run_coroutine_threadsafe(channel.send(bad), swarm.coordinator._loop).result(timeout=10.0)
+            with pytest.raises(PeerError):
+                asyncio.run(_post(agents[uav], bad))
+        victim_card = asyncio.run(_card_state(agents[victim], swarm.coordinator.key))  # served mid-run, signed
+        assert victim_card.uav_id == victim and victim_card.status == "failed"
     finally:
         flight.join(timeout=500.0)
     assert not flight.is_alive()
@@ -115,3 +132,30 @@ def test_a_uav_killed_mid_mission_loses_its_sector_to_another_and_bad_awards_are
         (uav, "forged", "award"),
     ]
     assert outcome["refusals"] == {"replayed": 1, "forged": 1}
+    assert {u: a["url"] for u, a in outcome["a2a"].items()} == agents and all(
+        a["requests"] > 0 for a in outcome["a2a"].values()
+    )  # every round of the run went over HTTP
+
+
+def test_without_the_ground_link_the_uavs_agree_among_themselves_and_finish(tmp_path: Path, smtp: Any) -> None:
+    lost_at = 40.0  # the sectors are being flown; the casualty is not yet found
+    argv = ["swarm", "run", str(MISSION), "--vehicles", "4", "--runs-dir", str(tmp_path), "--speed", "max"]
+    code = main([*argv, "--camera-hz", str(CAMERA_HZ), "--fault", f"ground_link@t={lost_at:g}s"])
+    (swarm_dir,) = tmp_path.iterdir()
+    summary = json.loads((swarm_dir / "summary.json").read_text(encoding="utf-8"))
+    assert code == 0, summary["problems"]
+    assert summary["ground_link_lost_s"] >= lost_at and all(summary["sectors"].values())
+    (casualty,) = [c for c in summary["casualties"] if c["truth"] == "P-12"]
+    assert casualty["verified"] and casualty["alerted"] and casualty["delivered"]
+    records = _lines(swarm_dir / "swarm.jsonl")
+    (lost,) = [i for i, r in enumerate(records) if r["event"] == "ground_link_lost"]
+    assert records[lost]["sim_t"] >= lost_at and sorted(records[lost]["kept"]) == [f"survey:S{n}" for n in range(1, 5)]
+    after = records[lost + 1 :]
+    assert not [r for r in after if r["event"] == "round"]  # no Contract Net round from the ground after the loss
+    agreed = {task: r["awarded"][task] for r in after if r["event"] == "consensus" for task in r["tasks"]}
+    verify = next(t for t in agreed if t.startswith("verify_casualty:"))
+    kit = next(t for t in agreed if t.startswith("deliver_kit:"))
+    assert agreed[verify] != casualty["found_by"] and agreed[verify] in casualty["verified_by"]
+    assert agreed[kit] == casualty["delivery_awarded"] and summary["uavs"][agreed[kit]]["role"] == "medic"
+    assert all(r["agreed"] for r in after if r["event"] == "consensus")
+    assert any(r["event"] == "delivered" and r["uav"] == agreed[kit] for r in after)
