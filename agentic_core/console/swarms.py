@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 from ..contracts.errors import InputError
 from ..contracts.geodesy import offset_position
@@ -152,7 +152,7 @@ def _dict(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
 
-def _number(value: Any) -> bool:
+def _number(value: Any) -> TypeGuard[int | float]:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
@@ -192,7 +192,7 @@ def _casualties(log: list[dict[str, Any]], summary: dict[str, Any], home: Any) -
             north, east = where.get("north"), where.get("east")
             at = None
             if isinstance(home, list) and len(home) == 2 and _number(north) and _number(east):
-                at = list(offset_position(float(home[0]), float(home[1]), float(north), float(east)))  # type: ignore[arg-type]
+                at = list(offset_position(float(home[0]), float(home[1]), float(north), float(east)))
             found[casualty] = {"id": casualty, "at": at, "found_by": record.get("uav"), "object": record.get("object"),
                                "verified_by": [], "verified": False, "delivery_awarded": None,
                                "delivered": False}  # fmt: skip
