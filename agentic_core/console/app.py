@@ -24,6 +24,7 @@ from .campaigns import list_campaigns
 from .feed import LiveFeed
 from .launch import Launcher, RunBusy
 from .runs import list_runs, replay
+from .swarms import listing, replay_swarm
 
 STATIC = Path(str(files("agentic_core.console") / "static"))
 COMMANDS = ("pause", "resume", "hold", "rtl", "land", "abort")
@@ -110,7 +111,7 @@ def build_app(
         return responses.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-store"})
 
     async def runs(request: Any) -> Any:
-        return JSONResponse({"runs": list_runs(runs_dir), "live": live is not None})
+        return JSONResponse({"runs": listing(runs_dir, list_runs(runs_dir)), "live": live is not None})
 
     async def campaigns(request: Any) -> Any:
         return JSONResponse({"campaigns": list_campaigns(campaigns_dir or runs_dir)})
@@ -118,6 +119,12 @@ def build_app(
     async def one_run(request: Any) -> Any:
         try:
             return JSONResponse(replay(runs_dir, request.path_params["run_id"]))
+        except InputError as exc:
+            return JSONResponse({"error": str(exc)}, status_code=404)
+
+    async def one_swarm(request: Any) -> Any:
+        try:
+            return JSONResponse(replay_swarm(runs_dir, request.path_params["swarm_id"]))
         except InputError as exc:
             return JSONResponse({"error": str(exc)}, status_code=404)
 
@@ -216,6 +223,7 @@ def build_app(
             route("/api/runs", reading(runs)),
             route("/api/campaigns", reading(campaigns)),
             route("/api/runs/{run_id}", reading(one_run)),
+            route("/api/swarms/{swarm_id}", reading(one_swarm)),
             route("/api/live/stream", reading(stream)),
             route("/api/control/{command}", changing(command), methods=["POST"]),
             route("/api/questions/{question_id}", changing(answer), methods=["POST"]),

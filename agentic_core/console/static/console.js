@@ -288,6 +288,7 @@ let following = null;
 
 async function openRun(id, keepView, waitFor) {  // waitFor: re-reads to wait for a resumed run to speak
   const run = await api(`/api/runs/${encodeURIComponent(id)}`);
+  leaveSwarm();
   const slider = document.getElementById("slider");
   const atEnd = !keepView || Number(slider.value) >= Number(slider.max) - Number(slider.step);  // a value snaps to a step
   const still = keepView && state.replayed === id && run.events.length === state.replayedEvents &&
@@ -386,11 +387,14 @@ async function start() {
   try { listing = await api("/api/runs"); } catch (err) { setStatus("no access: open the address with its #token"); return; }
   const select = document.getElementById("runs");
   if (listing.live) select.append(new Option("live run", "__live__"));
-  for (const r of listing.runs) select.append(new Option(`${r.id} · ${r.outcome}`, r.id));
-  select.addEventListener("change", () => (select.value === "__live__" ? location.reload() : openRun(select.value, false)));
+  const swarms = new Set(listing.runs.filter((r) => r.kind === "swarm").map((r) => r.id));  // swarm.js opens those
+  const open = (id) => (swarms.has(id) ? openSwarm(id, false) : openRun(id, false));
+  for (const r of listing.runs) select.append(new Option(r.kind === "swarm" ? `${r.id} · swarm of ${r.vehicles} · ` +
+    `${r.outcome}${r.error ? " (" + r.error + ")" : ""}` : `${r.id} · ${r.outcome}`, r.id));
+  select.addEventListener("change", () => (select.value === "__live__" ? location.reload() : open(select.value)));
   pollCampaigns();
   if (listing.live) live();
-  else if (listing.runs.length) openRun(listing.runs[0].id, false);
+  else if (listing.runs.length) open(listing.runs[0].id);
   else setStatus("no runs yet");
 }
 start();

@@ -71,7 +71,7 @@ def test_the_time_slider_moves_through_a_finished_run_and_shows_hostile_text_as_
         page.wait_for_function("() => window.consoleState.events.length === 6", timeout=20_000)
         assert page.locator("#timeline").inner_text().count("<img src=") == 1  # shown as text, never as HTML
         found = page.evaluate("() => [window.pwned, document.querySelectorAll('#timeline img, script').length]")
-        assert found == [None, 2]  # nothing ran, and no element was made: the page's own two scripts only
+        assert found == [None, 3]  # nothing ran, and no element was made: the page's own three scripts only
         at_end = page.evaluate("() => window.consoleState.lastSample.time_s")
         page.evaluate("() => { const s = document.getElementById('slider'); s.value = 15; s.dispatchEvent("
                       "new Event('input')); }")  # fmt: skip
