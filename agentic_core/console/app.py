@@ -17,13 +17,16 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Any, Protocol
 
+from flight.sim.scene_model import Scene
+
 from ..contracts.errors import InputError
 from ..contracts.extras import require
 from .access import Guard
+from .basemap import GroundPictures
 from .campaigns import list_campaigns
 from .feed import LiveFeed
 from .launch import Launcher, RunBusy
-from .runs import list_runs, replay
+from .runs import list_runs, replay, run_scene
 from .swarms import listing, replay_swarm
 
 STATIC = Path(str(files("agentic_core.console") / "static"))
@@ -60,6 +63,7 @@ class Live:
 
     feed: LiveFeed
     control: Steering
+    scene: Scene | None = None
 
 
 def build_app(
@@ -78,6 +82,7 @@ def build_app(
     sse = require("sse_starlette.sse", "console")
     concurrency = require("starlette.concurrency", "console")
     JSONResponse = responses.JSONResponse
+    pictures = GroundPictures()
 
     def refused(why: str) -> Any:
         return JSONResponse({"error": why}, status_code=403)
@@ -121,6 +126,18 @@ def build_app(
             return JSONResponse(replay(runs_dir, request.path_params["run_id"]))
         except InputError as exc:
             return JSONResponse({"error": str(exc)}, status_code=404)
+
+    async def ground(request: Any) -> Any:
+        run_id = request.path_params["run_id"]
+        try:
+            is_live = live is not None and live.scene is not None and live.feed.static.get("run_id") == run_id
+            scene = live.scene if is_live and live is not None else run_scene(runs_dir, run_id)
+        except InputError as exc:
+            return JSONResponse({"error": str(exc)}, status_code=404)
+        if scene is None:
+            return JSONResponse({"error": f"run {run_id!r}: no scene to draw"}, status_code=404)
+        png = await concurrency.run_in_threadpool(pictures.png, scene)
+        return responses.Response(png, media_type="image/png", headers={"Cache-Control": "private, max-age=3600"})
 
     async def one_swarm(request: Any) -> Any:
         try:
@@ -223,6 +240,7 @@ def build_app(
             route("/api/runs", reading(runs)),
             route("/api/campaigns", reading(campaigns)),
             route("/api/runs/{run_id}", reading(one_run)),
+            route("/api/runs/{run_id}/ground.png", reading(ground)),
             route("/api/swarms/{swarm_id}", reading(one_swarm)),
             route("/api/live/stream", reading(stream)),
             route("/api/control/{command}", changing(command), methods=["POST"]),

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from flight.sim.scene_file import load_scene
+from flight.sim.scene_model import Scene
 
 from ..contracts.errors import AgenticUAVError, InputError
 from ..mission.validate import load_mission
@@ -78,13 +79,8 @@ def replay(runs_dir: Path, run_id: str) -> dict[str, Any]:
 def _map(folder: Path) -> dict[str, Any]:
     """The scene and mission of a run from ``run.json``; nothing when they no longer load (the replay still
     shows the flight and its events)."""
-    from ..run.settings import default_scene  # here: the run's settings import its report's plotting (seconds)
-
     try:
-        settings = json.loads((folder / "run.json").read_text(encoding="utf-8"))["settings"]
-        mission = Path(settings["mission"])
-        scene_file = Path(settings["scene"]) if settings.get("scene") else default_scene(mission)
-        scene = load_scene(scene_file) if scene_file else None
+        mission, scene = _settings(folder)
         home = (scene.home.lat_deg, scene.home.lon_deg) if scene else None
         out: dict[str, Any] = {"mission": mission_view(load_mission(mission, home=home), home)}
         if scene is not None:
@@ -92,6 +88,25 @@ def _map(folder: Path) -> dict[str, Any]:
         return out
     except (OSError, KeyError, TypeError, ValueError, AgenticUAVError):
         return {}
+
+
+def run_scene(runs_dir: Path, run_id: str) -> Scene | None:
+    """The scene ``run_id`` flew in, from its ``run.json``; ``None`` when it has none or it no longer loads;
+    :class:`InputError` for an id that is not a run."""
+    folder = run_folder(runs_dir, run_id)
+    try:
+        return _settings(folder)[1]
+    except (OSError, KeyError, TypeError, ValueError, AgenticUAVError):
+        return None
+
+
+def _settings(folder: Path) -> tuple[Path, Scene | None]:
+    from ..run.settings import default_scene  # here: the run's settings import its report's plotting (seconds)
+
+    settings = json.loads((folder / "run.json").read_text(encoding="utf-8"))["settings"]
+    mission = Path(settings["mission"])
+    scene_file = Path(settings["scene"]) if settings.get("scene") else default_scene(mission)
+    return mission, load_scene(scene_file) if scene_file else None
 
 
 def _checkpoints(folder: Path) -> list[dict[str, Any]]:
@@ -133,4 +148,4 @@ def _thin(items: list[dict[str, Any]], most: int) -> list[dict[str, Any]]:
     return [items[int(i * step)] for i in range(most)] + [items[-1]]
 
 
-__all__ = ["list_runs", "replay", "run_folder"]
+__all__ = ["list_runs", "replay", "run_folder", "run_scene"]

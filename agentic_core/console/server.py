@@ -116,7 +116,7 @@ def watch(run: MissionRun, feed: LiveFeed | None = None) -> Live:
                 feed.world(world_view(model.model_dump(mode="json", by_alias=True)))
 
         run.loop.on_world.append(world)
-    return Live(feed, run.control)
+    return Live(feed, run.control, scene)
 
 
 class ConsoleOperator:

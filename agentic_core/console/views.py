@@ -1,11 +1,12 @@
 """What the page draws besides the vehicle, as plain JSON: the scene's zones and landmarks in latitude and
-longitude (the offline basemap), the mission's legs, its geofence and ceiling; and a World Model cut to what the
-map shows (each object's class, confidence, position and covariance; the relations).
+longitude (the offline basemap, and the bounds of its rendered ground picture), the mission's legs, its geofence
+and ceiling; and a World Model cut to what the map shows (each object's class, confidence, position and
+covariance; the relations).
 
 >>> from flight.sim.scene_file import load_scene
 >>> view = scene_view(load_scene("scenes/hajj_emergency.yaml"))
 >>> sorted(view), view["zones"][0]["kind"]
-(['home', 'landmarks', 'zones'], 'walkway')
+(['ground', 'home', 'landmarks', 'zones'], 'walkway')
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from flight.sim.scene_model import Scene
 from ..contracts.geodesy import offset_position
 from ..contracts.policy_graph import Circle, PolicyGraph
 from ..mission.validate import iter_steps
+from .basemap import ground_bounds
 
 
 def scene_view(scene: Scene) -> dict[str, Any]:
@@ -39,7 +41,8 @@ def scene_view(scene: Scene) -> dict[str, Any]:
         if mark.polygon:
             item["polygon"] = [ll(p.north, p.east) for p in mark.polygon]
         landmarks.append(item)
-    return {"home": [home.lat_deg, home.lon_deg], "zones": zones, "landmarks": landmarks}
+    ground = {"bounds": ground_bounds(scene)}  # the picture itself: GET /api/runs/{run_id}/ground.png
+    return {"home": [home.lat_deg, home.lon_deg], "zones": zones, "landmarks": landmarks, "ground": ground}
 
 
 def mission_view(plan: PolicyGraph, home: tuple[float, float] | None) -> dict[str, Any]:

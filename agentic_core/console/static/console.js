@@ -37,15 +37,40 @@ function setStatus(text) { document.getElementById("status").textContent = text;
 const map = L.map("map", { zoomControl: true, attributionControl: true, zoomSnap: 0.25, maxZoom: 22 });
 map.attributionControl.setPrefix("Leaflet (offline; basemap drawn from the scene)");
 map.setView([21.4133, 39.8933], 17);
-const layers = { scene: L.layerGroup().addTo(map), mission: L.layerGroup().addTo(map),
+map.createPane("ground").style.zIndex = 250;  // the rendered ground: above the (empty) tile pane, under the vectors
+const layers = { ground: L.layerGroup().addTo(map), scene: L.layerGroup().addTo(map), mission: L.layerGroup().addTo(map),
   world: L.layerGroup().addTo(map), trail: L.polyline([], { color: "#1565c0", weight: 2 }).addTo(map) };
+L.control.layers(null, { "ground picture": layers.ground, "scene": layers.scene }, { collapsed: false }).addTo(map);
 const ZONE_COLOURS = { walkway: "#b9a78a", camp: "#c9b48f", plaza: "#cdbf9f" };
 let vehicle = null;
+
+// The scene's ground rendered straight down, under the vectors: fetched after the page with the token (an <img>
+// cannot send it) and shown as a data: URL (the CSP's img-src); once per run, dropped if another run opened meanwhile.
+async function drawGround(scene) {
+  const runId = state.runId;
+  if (!scene.ground || !runId || state.groundOf === runId) return;
+  state.groundOf = runId;
+  layers.ground.clearLayers();
+  try {
+    const r = await fetch(`/api/runs/${encodeURIComponent(runId)}/ground.png`,
+      { headers: { Authorization: "Bearer " + token } });
+    if (!r.ok) return;
+    const blob = await r.blob();
+    const url = await new Promise((done, fail) => {
+      const reader = new FileReader();
+      reader.onload = () => done(reader.result); reader.onerror = fail; reader.readAsDataURL(blob);
+    });
+    if (state.runId !== runId) return;
+    L.imageOverlay(url, scene.ground.bounds, { pane: "ground", className: "ground-picture", alt: "ground" })
+      .addTo(layers.ground);
+  } catch (err) { state.groundOf = null; }
+}
 
 function drawScene(scene) {
   state.scene = scene;
   layers.scene.clearLayers();
-  if (!scene) return;
+  if (!scene) { layers.ground.clearLayers(); state.groundOf = null; return; }
+  drawGround(scene);
   for (const z of scene.zones) {
     L.polygon(z.polygon, { color: "#8d7b5a", weight: 1, fillColor: ZONE_COLOURS[z.kind] || "#c8bda5",
       fillOpacity: 0.45 }).bindTooltip(tip(`${z.name || z.id} (${z.kind}, ${z.density} /m²)`)).addTo(layers.scene);
