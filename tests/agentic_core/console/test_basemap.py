@@ -1,6 +1,7 @@
 """The ground picture under the map: the route answers a run's scene as a PNG laid over the bounds the map is
 told (the home inside them), with the token only, refuses ids that are paths or no run, says so for a run without
-a scene, renders a scene once; in the browser the picture lies on the map under the vectors, and a toggle hides it."""
+a scene, draws a live run from its own scene, renders a scene once; in the browser the picture lies on the map
+under the vectors, and a toggle hides it."""
 
 from __future__ import annotations
 
@@ -13,7 +14,9 @@ import httpx
 import matplotlib.image
 import pytest
 
-from agentic_core.console import ConsoleServer
+from agentic_core.agent import ControlPort
+from agentic_core.console import ConsoleServer, LiveFeed
+from agentic_core.console.app import Live
 from agentic_core.console.basemap import GroundPictures, ground_bounds
 from agentic_core.console.runs import replay
 from flight.sim.scene_file import load_scene
@@ -61,6 +64,18 @@ def test_a_run_without_a_scene_is_told_not_drawn(tmp_path: Path) -> None:
         answer = httpx.get(f"http://127.0.0.1:{server.port}/api/runs/{RUN}/ground.png",
                            headers={"Authorization": f"Bearer {server.token}"}, timeout=30)  # fmt: skip
     assert answer.status_code == 404 and "no scene" in answer.json()["error"]
+
+
+def test_a_live_run_is_drawn_from_its_own_scene_and_no_other_id_is(tmp_path: Path) -> None:
+    feed = LiveFeed()
+    feed.static = {"run_id": "live-1", "live": True, "mission": None}
+    scene = load_scene(REPO / "scenes" / "inspect_perimeter.yaml")  # no run folder: only the live run knows it
+    with ConsoleServer(tmp_path, port=0, live=Live(feed, ControlPort(), scene)) as server:
+        base, auth = f"http://127.0.0.1:{server.port}", {"Authorization": f"Bearer {server.token}"}
+        answer = httpx.get(f"{base}/api/runs/live-1/ground.png", headers=auth, timeout=30)
+        other = httpx.get(f"{base}/api/runs/live-2/ground.png", headers=auth, timeout=30)
+    assert answer.status_code == 200 and answer.content == GroundPictures().png(scene)
+    assert other.status_code == 404
 
 
 def test_a_scene_is_rendered_once_and_the_pictures_kept_are_bounded() -> None:
