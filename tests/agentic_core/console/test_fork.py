@@ -193,8 +193,10 @@ def test_fork_from_here_in_the_browser_starts_a_new_run_that_flies_and_is_follow
             f"() => {{ const s = document.getElementById('slider'); s.value = {mark.sim_t}; "
             "s.dispatchEvent(new Event('input')); }"
         )
+        at = float(page.evaluate("() => document.getElementById('slider').value"))  # snapped to the slider's step
+        picked = [m for m in checkpoints(runs_dir / run_id, run_id) if m.sim_t is not None and m.sim_t <= at + 1e-6]
         fork = page.locator("#fork-run")
-        assert fork.is_visible() and f"step {mark.step}" in fork.inner_text()
+        assert fork.is_visible() and f"step {picked[-1].step}" in fork.inner_text()
         fork.click()
         page.wait_for_function("() => document.getElementById('status').textContent.includes('fork of')")
         new_id = page.evaluate("() => window.consoleState.runId")
