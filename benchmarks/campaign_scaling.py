@@ -7,9 +7,6 @@ the speed-up over one worker of the same kind (goal: 2 workers ≥ 1.8×, on a m
 start-up time of the executor alone (measured apart, with no job), and the executor's cost per episode against
 ``local`` with as many workers, start-up taken out (goal: < 5%).
 
-The machine's own ceiling is printed first: the same pure-Python CPU work split over one and two processes (no
-campaign code), so a speed-up short of 2× can be read against what two processes gain on this machine at all.
-
 Usage: ``python benchmarks/campaign_scaling.py [--scenes 16] [--frames 360] [--executors local:1,local:2,...]``.
 Numbers from a machine other programs are using say little; the script prints the load average it saw.
 """
@@ -38,30 +35,9 @@ def start_up_s(text: str) -> float:
     if spec.kind == "local":
         return 0.0
     start = time.perf_counter()
-    with open_executor(spec, jobs=1):
+    with open_executor(spec, jobs=1, preload="evaluation.campaign.jobs"):
         pass
     return time.perf_counter() - start
-
-
-def _spin(n: int) -> int:
-    total = 0
-    for i in range(n):
-        total = (total + i * i) % 1_000_003
-    return total
-
-
-def ceiling(work: int = 30_000_000) -> float:
-    """How much faster two processes do ``work`` loop turns than one (the machine's limit for CPU-bound jobs)."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(max_workers=2) as pool:
-        list(pool.map(_spin, [1000, 1000]))  # both processes started before timing
-        start = time.perf_counter()
-        list(pool.map(_spin, [work // 2, work // 2]))
-        two = time.perf_counter() - start
-    start = time.perf_counter()
-    _spin(work)
-    return (time.perf_counter() - start) / two
 
 
 def run(text: str, plan: CampaignPlan) -> float:
@@ -85,7 +61,6 @@ def main(argv: list[str] | None = None) -> int:
     executors = [e.strip() for e in args.executors.split(",") if e.strip()]
     print(f"campaign scaling: {args.scenes} episodes (yolo, rules; {args.frames} frames), {os.cpu_count()} CPUs")
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    print(f"machine ceiling: two processes do pure CPU work {ceiling():.2f}× as fast as one")
     walls: dict[str, float] = {}
     starts: dict[str, float] = {}
     for text in executors:

@@ -107,7 +107,7 @@ class InlineExecutor(Executor):
 def open_executor(spec: ExecutorSpec, *, jobs: int, preload: str | None = None) -> Iterator[Pool]:
     """The executor ``spec`` names, for ``jobs`` jobs (never more local workers than jobs), shut down on exit.
 
-    ``preload`` is a module local worker processes import once, before their first job.
+    ``preload`` is a module the worker processes (local and dask-local) import once, before their first job.
     """
     if spec.kind == "local":
         count = min(spec.workers or 1, max(jobs, 1))
@@ -119,14 +119,20 @@ def open_executor(spec: ExecutorSpec, *, jobs: int, preload: str | None = None) 
         return
     distributed = require("distributed", "distributed")
     if spec.kind == "dask-local":
-        cluster = distributed.LocalCluster(
-            n_workers=spec.workers or 1,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-            silence_logs=40,  # errors only: the campaign's own progress line is the display
-        )
+        import dask
+
+        # No dashboard, so no use for the workers' statistical profiler, which samples every thread's stack each
+        # 10 ms: a cost on every episode. The workers import the episode code as they start, as local ones do.
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            cluster = distributed.LocalCluster(
+                n_workers=spec.workers or 1,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=40,  # errors only: the campaign's own progress line is the display
+                preload=[preload] if preload else [],
+            )
         with cluster, distributed.Client(cluster) as client, _shut(client.get_executor(pure=False)) as executor:
             yield Pool(executor, 2 * (spec.workers or 1))
         return
