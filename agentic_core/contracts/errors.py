@@ -7,7 +7,10 @@ catch all of ours in one place; the CLI maps :class:`InputError` to exit status 
 
 from __future__ import annotations
 
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from pydantic import ValidationError
 
 
 class AgenticUAVError(Exception):
@@ -41,4 +44,12 @@ def report_error(prog: str, error: AgenticUAVError, stream: TextIO) -> int:
     return error.exit_status
 
 
-__all__ = ["AgenticUAVError", "InputError", "RunFailure", "report_error"]
+def option_problem(exc: ValidationError) -> str:
+    """The first problem pydantic found in settings made from command-line options, named as the option:
+    ``--camera-hz: Input should be greater than 0``."""
+    first = exc.errors()[0]
+    name = str(first["loc"][0]).replace("_", "-") if first["loc"] else "options"
+    return f"--{name}: {str(first['msg']).removeprefix('Value error, ')}"
+
+
+__all__ = ["AgenticUAVError", "InputError", "RunFailure", "option_problem", "report_error"]

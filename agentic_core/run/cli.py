@@ -30,7 +30,7 @@ from flight.cli import parse_speed
 from flight.sim.gains_file import load_gains
 
 from ..console.cli import add_run_options, console_check, live_console, operator_for
-from ..contracts.errors import AgenticUAVError, report_error
+from ..contracts.errors import AgenticUAVError, option_problem, report_error
 from ..contracts.faults import FAULT_KINDS, Fault, parse_fault
 from ..examples import resolve_mission, resolve_scene
 from .detector_choice import parse_detector
@@ -225,8 +225,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             detector=args.detector,
         )
     except ValidationError as exc:  # an option out of range (pydantic names it)
-        first = exc.errors()[0]
-        print(f"{PROG}: error: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
+        print(f"{PROG}: error: {option_problem(exc)}", file=sys.stderr)
         return 2
     return _fly(lambda: MissionRun(settings, progress=progress, operator=operator), args, operator)
 

@@ -23,7 +23,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from agentic_core.contracts.errors import AgenticUAVError, report_error
+from agentic_core.contracts.errors import AgenticUAVError, option_problem, report_error
 from agentic_core.contracts.feedback import Preference, PreferenceFeatures
 from agentic_core.contracts.world_model import WorldModel
 from agentic_core.memory.feedback import FeedbackModel
@@ -178,8 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         fields = {k: getattr(args, k) for k in StudySettings.model_fields}
         settings = StudySettings(**fields)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        print(f"agentic-uav eval feedback: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
+        print(f"agentic-uav eval feedback: {option_problem(exc)}", file=sys.stderr)
         return 2
     try:
         report = run_study(settings, args.out)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from agentic_core.contracts.errors import AgenticUAVError, report_error
+from agentic_core.contracts.errors import AgenticUAVError, option_problem, report_error
 from flight.sim.controller import Gains
 
 from .tuner import BOUNDS, judge, tune, tuned
@@ -75,8 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         settings = TuneSettings(**{k: getattr(args, k) for k in TuneSettings.model_fields})
     except ValidationError as exc:
-        first = exc.errors()[0]
-        print(f"{PROG}: --{str(first['loc'][0]).replace('_', '-')}: {first['msg']}", file=sys.stderr)
+        print(f"{PROG}: {option_problem(exc)}", file=sys.stderr)
         return 2
     try:
         report = run_tuning(settings, args.out)
