@@ -121,11 +121,15 @@ def build_app(
     async def campaigns(request: Any) -> Any:
         return JSONResponse({"campaigns": list_campaigns(campaigns_dir or runs_dir)})
 
-    async def one_run(request: Any) -> Any:
+    def found(read: Callable[[Path, str], Any], runs_dir: Path, ident: str) -> Any:
+        """``read``'s answer for one run or swarm, or 404 saying why there is none."""
         try:
-            return JSONResponse(replay(runs_dir, request.path_params["run_id"]))
+            return JSONResponse(read(runs_dir, ident))
         except InputError as exc:
             return JSONResponse({"error": str(exc)}, status_code=404)
+
+    async def one_run(request: Any) -> Any:
+        return found(replay, runs_dir, request.path_params["run_id"])
 
     async def ground(request: Any) -> Any:
         run_id = request.path_params["run_id"]
@@ -140,10 +144,7 @@ def build_app(
         return responses.Response(png, media_type="image/png", headers={"Cache-Control": "private, max-age=3600"})
 
     async def one_swarm(request: Any) -> Any:
-        try:
-            return JSONResponse(replay_swarm(runs_dir, request.path_params["swarm_id"]))
-        except InputError as exc:
-            return JSONResponse({"error": str(exc)}, status_code=404)
+        return found(replay_swarm, runs_dir, request.path_params["swarm_id"])
 
     async def stream(request: Any) -> Any:
         if live is None:
