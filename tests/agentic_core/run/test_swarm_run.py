@@ -19,6 +19,7 @@ from agentic_core.contracts.swarm import SwarmMessage, UavState
 from agentic_core.run.swarm_run import SwarmRun, SwarmSettings
 from agentic_core.swarm.a2a_client import A2APeer, PeerError
 from agentic_core.swarm.signing import Sealer, SwarmKey
+from tests.agentic_core.swarm.wire import tap_wire
 from tests.waiting import wait_for
 
 REPO = Path(__file__).resolve().parents[3]
@@ -85,16 +86,7 @@ def test_a_uav_killed_mid_mission_loses_its_sector_to_another_and_bad_awards_are
 ) -> None:
     settings = SwarmSettings(mission=MISSION, vehicles=3, runs_dir=tmp_path, speed=None, camera_hz=CAMERA_HZ)
     swarm = SwarmRun(settings)
-    wire: list[tuple[str, SwarmMessage]] = []
-    for uav, channel in swarm.coordinator.channels.items():
-        send = channel.send
-
-        async def tap(message: SwarmMessage, uav: str = uav, send: Any = send) -> SwarmMessage | None:
-            wire.append((uav, message))
-            reply: SwarmMessage | None = await send(message)
-            return reply
-
-        channel.send = tap  # type: ignore[method-assign]
+    wire = tap_wire(swarm.coordinator)
     outcome: dict[str, Any] = {}
     flight = threading.Thread(target=lambda: outcome.update(swarm.execute()), name="test-swarm")
     flight.start()

@@ -7,7 +7,6 @@ from __future__ import annotations
 import asyncio
 import threading
 from collections.abc import Iterator
-from typing import Any
 
 import pytest
 
@@ -19,6 +18,8 @@ from agentic_core.swarm.card_signing import CardRejected
 from agentic_core.swarm.coordinator import Member, SwarmCoordinator
 from agentic_core.swarm.sectors import split
 from agentic_core.swarm.signing import MemoryAudit, Sealer, SwarmKey
+
+from .wire import tap_wire
 
 HOME = (21.4133, 39.8933)
 AREA = [offset_position(*HOME, n, e) for n, e in ((0, -80), (200, -80), (200, 80), (0, 80))]
@@ -56,20 +57,6 @@ def swarm(key: SwarmKey, uavs: list[Uav]) -> Iterator[SwarmCoordinator]:
     coordinator.close()
 
 
-def _tap(swarm: SwarmCoordinator) -> list[tuple[str, SwarmMessage]]:
-    wire: list[tuple[str, SwarmMessage]] = []
-    for uav, channel in swarm.channels.items():
-        send = channel.send
-
-        async def tap(message: SwarmMessage, uav: str = uav, send: Any = send) -> SwarmMessage | None:
-            wire.append((uav, message))
-            reply: SwarmMessage | None = await send(message)
-            return reply
-
-        channel.send = tap  # type: ignore[method-assign]
-    return wire
-
-
 async def _post(url: str, message: SwarmMessage) -> SwarmMessage | None:
     async with A2APeer(url) as peer:
         return await peer.send(message)
@@ -103,7 +90,7 @@ def test_every_uav_is_an_a2a_agent_and_the_auction_goes_over_http(
 
 
 def test_a_forged_replayed_or_foreign_award_posted_over_http_is_refused_and_audited(swarm: SwarmCoordinator) -> None:
-    wire = _tap(swarm)
+    wire = tap_wire(swarm)
     swarm.allocate_sectors()
     before = dict(swarm.manager.allocation.awarded)
     uav, award = next((u, m) for u, m in wire if m.kind == "award")
@@ -142,7 +129,7 @@ def test_a_lost_uav_is_not_called_and_its_sector_moves_over_a2a(swarm: SwarmCoor
 
 def test_without_the_ground_the_uavs_agree_over_their_a2a_endpoints(swarm: SwarmCoordinator, uavs: list[Uav]) -> None:
     awarded = swarm.allocate_sectors()
-    sent = _tap(swarm)  # what the ground sends from now on: nothing
+    sent = tap_wire(swarm)  # what the ground sends from now on: nothing
     swarm.lose_ground("fault ground_link@t=60s")
     before = {u: a["requests"] for u, a in swarm.a2a_report().items()}
     victim = awarded["S2"]
