@@ -461,7 +461,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--runs", type=int, default=None, help="fresh processes per measurement (default 5)")
     p.add_argument("--steps", type=int, default=None, help="loop count / appended items (default 1000)")
-    p.add_argument("--quick", action="store_true", help="a smoke run: 1 run, 20 steps, 3 import samples")
+    p.add_argument("--quick", action="store_true", help="a smoke run: 1 run, 20 steps, 1 import sample")
     p.add_argument("--profile", choices=MODES, default=None, help="cProfile our runtime in case 1 and stop")
     p.add_argument("--child", choices=("superstep", "append"), help=argparse.SUPPRESS)
     p.add_argument("--impl", choices=IMPLS, default="ours", help=argparse.SUPPRESS)
@@ -488,7 +488,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     lg_reason = available("langgraph")
     if lg_reason is not None:
         lg_reason = f"langgraph is not importable ({lg_reason})"
-    import_samples = 3 if args.quick else max(5, 2 * args.runs)
+    import_samples = 1 if args.quick else max(5, 2 * args.runs)
     print(TABLE_HEADER)
     print(
         f"python {platform.python_version()} on {platform.machine()}, {os.cpu_count()} CPU(s);"

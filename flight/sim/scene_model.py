@@ -186,6 +186,16 @@ class Zone(BaseModel):
             return points_in_circle(points, (c.north, c.east), self.circle.radius_m)
         return points_in_polygon(points, self.vertices())
 
+    def clearance(self, points: FloatArray) -> FloatArray:
+        """Distance (m) from N points to the zone's boundary (its edges, or its circle): a point inside stays
+        inside while it moves less than this."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        if self.circle is not None and self.polygon is None:
+            c = self.circle.center
+            gap: FloatArray = np.abs(np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east) - self.circle.radius_m)
+            return gap
+        return distance_to_edge(pts, self.vertices())
+
     def distance(self, points: FloatArray) -> FloatArray:
         """Ground distance (m) from N points to the zone: 0 inside."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)

@@ -130,6 +130,33 @@ def test_runners_are_faster_and_milling_crowds_stay_in_their_circle():
     assert speed[kinds == "running"].mean() > 2.0 * speed[kinds == "walking"].mean()
 
 
+def test_the_clearance_shortcut_finds_exactly_the_walkers_that_left_their_zone(monkeypatch):
+    """Stepping tests only the walkers that moved at least their distance to the edge; that must give, step by step,
+    the walkers a test of every one would: in a zigzag corridor (walkers always near an edge), a milling circle and a
+    flowing road, with runners."""
+    zigzag = [NE(north=0, east=0), NE(north=30, east=6), NE(north=0, east=12), NE(north=30, east=18),
+              NE(north=34, east=18), NE(north=4, east=12), NE(north=34, east=6), NE(north=4, east=0)]  # fmt: skip
+    zones = [
+        Zone(id="Z-zig", polygon=zigzag, density=1.5, flow=Flow(heading_deg=90, speed_mps=1.0),
+             mix={"walking": 0.7, "running": 0.3}),
+        Zone(id="Z-mill", circle=Circle(center=NE(north=-40, east=0), radius_m=6), density=1.0, mix={"walking": 1}),
+        Zone(id="Z-road", polygon=rect(50, 90, 0, 8), density=0.8, flow=Flow(heading_deg=0, speed_mps=1.4)),
+    ]  # fmt: skip
+    state = SceneState(Scene(id="edges", seed=11, zones=zones))
+    shortcut = SceneState._stepped_out
+    checked = []
+
+    def every_walker_tested(self, zone, rows, new):
+        out = shortcut(self, zone, rows, new)
+        assert np.array_equal(out, rows[~zone.contains(new[rows])])
+        checked.append(len(out))
+        return out
+
+    monkeypatch.setattr(SceneState, "_stepped_out", every_walker_tested)
+    state.advance_to(40.0)
+    assert len(checked) == 3 * 1200 and sum(checked) > 100  # walkers did leave, and each step agreed
+
+
 def test_a_thousand_actors_step_as_arrays():
     scene = generate_scene(5, persons=1500, casualties=1, distractors=4)
     state = SceneState(scene)
