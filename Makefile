@@ -45,6 +45,7 @@ bench: $(VENV)/.installed-dev
 	$(PY) benchmarks/tool_overhead.py
 	$(PY) benchmarks/sim_speed.py
 	$(PY) benchmarks/perception.py
+	$(PY) benchmarks/pixel_pipeline.py
 	$(PY) benchmarks/decision_latency.py
 	$(PY) benchmarks/envelope.py
 	$(PY) benchmarks/memory.py
