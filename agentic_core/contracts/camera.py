@@ -152,8 +152,9 @@ class Detection(BaseModel):
 class Frame(BaseModel):
     """One camera frame: when and from where it was taken, the sensors' health, and the image if there is one.
 
-    The simulated camera has no pixels (``image`` is ``None``); a real detector reads ``image`` (H×W×3, uint8),
-    which stays out of the JSON form.
+    The statistical simulated camera gives no pixels (``image`` is ``None``); the rendering camera (``--render``,
+    ``--detector ours|onnx:PATH``) and a real one do, and a real detector reads ``image`` (H×W×3, uint8), which
+    stays out of the JSON form.
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid", arbitrary_types_allowed=True)
