@@ -17,9 +17,10 @@ from typing import Any, Protocol
 
 from ..contracts import AgenticUAVError, RunFailure
 from ..graph import GraphInterrupt, interrupt
-from .expressions import Expression, ExpressionError, render
+from .expressions import Expression, ExpressionError
 from .geometry import lawnmower
 from .model import ACTION_TOOLS, BranchStep, CallToolStep, RepeatStep, Step, SurveyStep, WaitUntilStep, step_args
+from .templates import render
 
 
 class ToolOutcome(Protocol):

@@ -22,12 +22,13 @@ from pydantic import ValidationError
 
 from agentic_core.contracts.input_files import InputFileError, check_input_file
 
-from .expressions import Expression, ExpressionError, find_templates
+from .expressions import Expression, ExpressionError
 from .limits_check import LimitsCheck
 from .model import BranchStep, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
 from .schema_errors import schema_problems, suggest
 from .source import MissionError, Path, Problem, SourceMap, load_document
 from .steps import SCOPE_ROOTS
+from .templates import find_templates
 from .tool_check import ToolCatalog, Validators, argument_problems, unknown_tool_message
 
 

@@ -16,7 +16,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from agentic_core.contracts import geodesy
 from agentic_core.mission import expressions
-from agentic_core.mission.expressions import FUNCTIONS, Expression, ExpressionError, find_templates, render
+from agentic_core.mission.expressions import FUNCTIONS, Expression, ExpressionError
+from agentic_core.mission.templates import find_templates, render
 
 
 def ev(source: str, **scope: Any) -> Any:

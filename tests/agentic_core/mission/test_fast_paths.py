@@ -13,8 +13,9 @@ from collections.abc import Iterator
 import pytest
 
 from agentic_core.mission import MissionError, load_mission
-from agentic_core.mission.expressions import Expression, find_templates
+from agentic_core.mission.expressions import Expression
 from agentic_core.mission.source import load_document
+from agentic_core.mission.templates import find_templates
 
 
 def messages(text: str) -> list[str]:

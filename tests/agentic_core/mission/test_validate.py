@@ -30,8 +30,8 @@ from agentic_core.mission import (
     load_mission,
     mission_json_schema,
 )
-from agentic_core.mission.expressions import find_templates
 from agentic_core.mission.model import Circle, FlyToStep, LandStep, OrbitStep, step_args
+from agentic_core.mission.templates import find_templates
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[2]

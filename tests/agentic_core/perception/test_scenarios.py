@@ -27,8 +27,9 @@ import pytest
 
 from agentic_core.contracts.geodesy import local_offset
 from agentic_core.contracts.polygon import distance_to_edge, points_in_polygon
-from agentic_core.mission.expressions import Expression, render
+from agentic_core.mission.expressions import Expression
 from agentic_core.mission.functions import find
+from agentic_core.mission.templates import render
 from agentic_core.perception.metrics import TrackingScore
 from agentic_core.perception.scene_graph import RelationConfig
 from agentic_core.perception.world_model import WorldModel, WorldObject

@@ -8,8 +8,9 @@ import jsonschema
 import pytest
 from pydantic import ValidationError
 
-from agentic_core.mission.expressions import Expression, render
+from agentic_core.mission.expressions import Expression
 from agentic_core.mission.functions import find, get_field
+from agentic_core.mission.templates import render
 from agentic_core.perception.pipeline import Perception
 from agentic_core.perception.world_model import SCHEMA_FILE, WorldModel, world_model_schema
 
