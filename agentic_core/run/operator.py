@@ -8,7 +8,7 @@ that timed out does not leave a reader behind to swallow the next answer.
 >>> import io
 >>> ask = TerminalOperator(io.StringIO("y\\n"), io.StringIO(), timeout_s=1.0)
 >>> ask({"step": "land_near", "question": "approve land (land_near)?"})
-OperatorAnswer(approved=True, said='y', why='the operator approved')
+OperatorAnswer(approved=True, said='y', why='the operator approved', args=None)
 """
 
 from __future__ import annotations

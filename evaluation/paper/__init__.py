@@ -2,7 +2,10 @@
 
 >>> from evaluation.paper import reproduce
 >>> table = reproduce()
->>> print(table.to_text())          # figure, paper's value, recomputed value, verdict and reason
+>>> table.to_text().splitlines()[0]  # then each figure, the paper's value, ours, the verdict and the reason
+'Reproducing: Agentic UAVs: LLM-Driven Autonomy with Integrated Tool-Calling and Cognitive Reasoning'
+>>> table.rows[0].figure_id, table.rows[0].verdict
+('n_total', 'reproduced')
 
 The figures live in ``figures.json`` (package data), each with the section, table and line of
 ``paper/agentic_uavs.tex`` it was read from.

@@ -1,9 +1,10 @@
 """The paper's statistics pipeline on any results file.
 
 >>> from evaluation.stats import analyze
->>> report = analyze("results.csv")                 # group and outcome columns detected
->>> print(report.to_markdown())                     # Table 2 / Table 3 layouts and every test
->>> report.to_latex(); report.to_json()
+>>> rows = [{"system": s, "latency_s": t + 0.01 * i} for i in range(12) for s, t in (("a", 1.0), ("b", 2.0))]
+>>> report = analyze(rows)                          # or a CSV/TSV/JSON/JSONL file; columns detected
+>>> report.to_markdown().count("|") > 0, report.to_latex().startswith("%"), report.to_json()[:1]
+(True, True, '{')
 
 Modules, one job each: :mod:`readers` (files and records → raw table), :mod:`dataset` (column detection and
 parsing), :mod:`descriptive`, :mod:`assumptions` (Shapiro–Wilk, Levene), :mod:`parametric` (ANOVA, Welch,

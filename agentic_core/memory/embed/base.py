@@ -1,8 +1,10 @@
 """The embedder interface and :func:`resolve`, which turns an index config's ``embed`` into one.
 
->>> e = resolve(lambda texts: [[float(len(t)), 1.0] for t in texts])
+>>> def lengths(texts):
+...     return [[float(len(t)), 1.0] for t in texts]
+>>> e = resolve(lengths)
 >>> e.embed(["ab"]).shape, e.name
-((1, 2), 'function')
+((1, 2), 'lengths')
 """
 
 from __future__ import annotations
