@@ -93,6 +93,17 @@ def parse_home(text: str) -> tuple[float, float, float]:
     return lat, lon, alt
 
 
+def parse_system_id(text: str) -> int:
+    """A MAVLink system id, 1 to 255.
+
+    >>> parse_system_id("3")
+    3
+    """
+    if not text.strip().isdigit() or not 1 <= int(text) <= 255:
+        raise argparse.ArgumentTypeError(f"a MAVLink system id is 1 to 255, not {text!r}")
+    return int(text)
+
+
 def parse_param(text: str) -> tuple[str, float]:
     name, sep, value = text.partition("=")
     try:
@@ -119,6 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--resume", default=None, metavar="FILE", help="start from a vehicle snapshot (JSON, MavlinkVehicle.snapshot)"
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the wind gusts and GPS noise")
+    parser.add_argument(
+        "--sysid", type=parse_system_id, default=1, help="MAVLink system id (PX4's multi-vehicle: instance i is i+1)"
+    )
     parser.add_argument(
         "--gains", default=None, metavar="FILE", help="position-controller gains: tune.json of agentic-uav eval tune"
     )
@@ -191,6 +205,7 @@ def _main(argv: Sequence[str] | None) -> int:
             gcs=args.gcs,
             api=args.api,
             bind=args.bind,
+            system_id=args.sysid,
             params=dict(args.param),
             signing_key=key,
             key_store=store,
@@ -225,7 +240,8 @@ def _main(argv: Sequence[str] | None) -> int:
         speed = "max" if args.speed is None else f"{args.speed:g}x"
         signing = "on" if vehicle.guard.active else "required, no key" if vehicle.guard.signer.required else "off"
         print(
-            f"agentic-uav sim: listening on {host}:{port}; sending to {targets or 'nobody until contacted'}; "
+            f"agentic-uav sim: listening on {host}:{port}; system id {args.sysid}; "
+            f"sending to {targets or 'nobody until contacted'}; "
             f"speed {speed}; signing {signing}; Ctrl-C or SIGTERM stops it",
             flush=True,
         )

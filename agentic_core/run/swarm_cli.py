@@ -55,6 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="vehicle i streams to API port 14540+i too (PX4 SITL's multi-vehicle)")  # fmt: skip
     run.add_argument("--camera-hz", type=float, default=10.0, help="each UAV's camera rate (default 10)")
     run.add_argument("--max-wall-s", type=float, default=900.0, help="each UAV gives up (and lands) after this")
+    run.add_argument("--approval", choices=("approve", "decline", "ask"), default=None,
+                     help="approvals and the operator's verification: a headless answer, or ask the operator "
+                          "(default: ask when the mission's verify is by: operator, else approve)")  # fmt: skip
     run.add_argument("--fault", action="append", default=[], metavar="ground_link@t=SECONDS",
                      help="lose the ground link then: the UAVs allocate what is left by consensus")  # fmt: skip
     return parser
@@ -100,6 +103,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         mission=args.mission, vehicles=args.vehicles, connect=args.connect, scene=args.scene, runs_dir=args.runs_dir,
         speed=args.speed, seed=args.seed, reasoner=args.reasoner, gcs=args.gcs, px4_ports=args.px4_ports,
         max_wall_s=args.max_wall_s, rounds=args.rounds, camera_hz=args.camera_hz, ground_link_lost_s=ground_lost_s,
+        approval=args.approval,
     )  # fmt: skip
     try:
         summary = run_swarm(settings, progress=sys.stderr)

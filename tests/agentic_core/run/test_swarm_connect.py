@@ -1,0 +1,146 @@
+"""``agentic-uav swarm run --connect URL,URL``: vehicles in processes of their own (``agentic-uav sim``, each with its
+system id and home) fly one swarm mission, named by system id and placed in the mission's frame through WGS-84;
+a URL nobody answers, one vehicle named twice and a vehicle far from the area are refused at once, naming them."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import textwrap
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from agentic_core.cli import main
+from agentic_core.contracts.geodesy import offset_position
+from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
+from tests.flight.test_cli import free_udp_port
+from tests.flight.test_cli_vehicle import listening_port, start_sim, stop
+
+ORIGIN = Home()
+"""The mission has no scene: its frame's origin is the simulator's default home."""
+
+
+def _corner(north: float, east: float) -> str:
+    lat, lon = offset_position(ORIGIN.lat_deg, ORIGIN.lon_deg, north, east)
+    return f"{{lat: {lat:.7f}, lon: {lon:.7f}}}"
+
+
+MISSION = f"""\
+plan_id: connect
+goal: Two vehicles of their own survey a small area together.
+params:
+  layer_m: {{type: number, default: 20}}
+  uav: {{type: string, default: "uav-1"}}
+  role: {{type: string, default: ""}}
+swarm:
+  vehicles: 2
+  area: [{_corner(15, -20)}, {_corner(45, -20)}, {_corner(45, 20)}, {_corner(15, 20)}]
+  layers_m: [15, 25]
+steps:
+  - {{id: climb, action: takeoff, args: {{altitude_m: "${{params.layer_m}}"}}}}
+  - id: work
+    action: repeat
+    depends_on: [climb]
+    until: "next.skill == 'done'"
+    max_iterations: 50
+    steps:
+      - {{id: next, action: call_tool, tool: swarm.next_task}}
+      - id: sweep
+        action: branch
+        if: "next.skill == 'survey_sector'"
+        then:
+          - id: survey
+            action: survey
+            args: {{polygon: "${{next.polygon}}", altitude_m: "${{params.layer_m}}", spacing_m: 30}}
+          - {{id: surveyed, action: call_tool, tool: swarm.done, args: {{task: "${{next.id}}"}}}}
+      - id: wait
+        action: branch
+        if: "next.skill == 'hold'"
+        then:
+          - {{id: idle, action: hover, args: {{duration_s: 2}}}}
+  - {{id: go_home, action: rtl, depends_on: [work]}}
+"""
+
+
+@pytest.fixture
+def mission(tmp_path: Path) -> Path:
+    path = tmp_path / "connect.yaml"
+    path.write_text(textwrap.dedent(MISSION), encoding="utf-8")
+    return path
+
+
+def _vehicle(sysid: int, east_m: float, speed: str = "1", north_m: float = 0.0) -> tuple[subprocess.Popen[str], str]:
+    """``agentic-uav sim`` in a process of its own, ``east_m`` east of the origin; it and its URL."""
+    lat, lon = offset_position(ORIGIN.lat_deg, ORIGIN.lon_deg, north_m, east_m)
+    port = free_udp_port()
+    proc = start_sim("--bind", f"127.0.0.1:{port}", "--gcs", "none", "--api", "none", "--speed", speed,
+                     "--sysid", str(sysid), "--home", f"{lat:.7f},{lon:.7f},{DEFAULT_HOME_ALT_MSL_M}")  # fmt: skip
+    assert listening_port(proc) == port
+    return proc, f"udp://127.0.0.1:{port}"
+
+
+@pytest.fixture
+def vehicles() -> Iterator[list[subprocess.Popen[str]]]:
+    started: list[subprocess.Popen[str]] = []
+    yield started
+    for proc in started:
+        code, _, err = stop(proc)
+        assert code == 0, err
+
+
+def _lines(path: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_vehicles_of_their_own_fly_the_swarm_named_by_system_id_in_the_missions_frame(
+    mission: Path, tmp_path: Path, vehicles: list[subprocess.Popen[str]]
+) -> None:
+    west, west_url = _vehicle(5, -10.0, speed="4")
+    east, east_url = _vehicle(3, 10.0, speed="4")
+    vehicles += [west, east]
+    runs = tmp_path / "runs"
+    code = main(["swarm", "run", str(mission), "--connect", f"{west_url},{east_url}", "--runs-dir", str(runs)])
+    (swarm_dir,) = runs.iterdir()
+    summary = json.loads((swarm_dir / "summary.json").read_text(encoding="utf-8"))
+    assert code == 0, summary["problems"]
+    assert {u: v["system_id"] for u, v in summary["uavs"].items()} == {"uav-3": 3, "uav-5": 5}  # by system id
+    assert all(summary["sectors"].values()) and summary["outcome"] == "completed"
+    for uav, east_m in (("uav-3", 10.0), ("uav-5", -10.0)):
+        first = _lines(Path(summary["uavs"][uav]["run_dir"]) / "telemetry.jsonl")[0]
+        # each vehicle counts from its own home; the swarm places it from the mission's origin
+        assert first["east_m"] == pytest.approx(east_m, abs=1.5) and first["north_m"] == pytest.approx(0.0, abs=1.5)
+    separation = summary["separation"]
+    assert separation["losses"] == 0 and separation["instants"] > 10
+    assert separation["min_distance_m"] > 10.0  # the pads are 20 m apart and the layers 10 m
+
+
+def test_a_url_nobody_answers_is_a_clear_error_at_once(mission: Path, tmp_path: Path, capsys: Any) -> None:
+    silent = f"udp://127.0.0.1:{free_udp_port()}"
+    began = time.monotonic()
+    code = main(["swarm", "run", str(mission), "--connect", silent, "--runs-dir", str(tmp_path / "runs")])
+    took = time.monotonic() - began
+    err = capsys.readouterr().err
+    assert code == 1 and f"--connect {silent}: no vehicle answered" in err and "Traceback" not in err
+    assert took < 10.0 and not (tmp_path / "runs").exists()  # no swarm directory for a swarm that never was
+
+
+def test_one_vehicle_named_twice_and_one_far_away_are_refused(
+    mission: Path, tmp_path: Path, capsys: Any, vehicles: list[subprocess.Popen[str]]
+) -> None:
+    near, url = _vehicle(2, 0.0)
+    far, far_url = _vehicle(4, 0.0, north_m=30_000.0)
+    vehicles += [near, far]
+    base = ["swarm", "run", str(mission), "--runs-dir", str(tmp_path / "runs")]
+    assert main([*base, "--connect", f"{url},{url.replace('127.0.0.1', 'localhost')}"]) == 2
+    err = capsys.readouterr().err
+    assert "the same vehicle (system id 2)" in err and url in err and "Traceback" not in err
+    assert main([*base, "--connect", f"{url},{far_url}"]) == 2
+    err = capsys.readouterr().err
+    assert f"--connect {far_url}: the vehicle (system id 4) is 30.0 km from the mission's area" in err
+    assert not (tmp_path / "runs").exists()
