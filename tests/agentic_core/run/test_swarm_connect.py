@@ -1,10 +1,12 @@
 """``agentic-uav swarm run --connect URL,URL``: vehicles in processes of their own (``agentic-uav sim``, each with its
 system id and home) fly one swarm mission, named by system id and placed in the mission's frame through WGS-84;
-a URL nobody answers, one vehicle named twice and a vehicle far from the area are refused at once, naming them."""
+a URL nobody answers, one vehicle named twice and a vehicle far from the area are refused at once, naming them.
+``agentic-uav sim --vehicles N`` serves N in one process with PX4's numbering, each found as its own vehicle."""
 
 from __future__ import annotations
 
 import json
+import socket
 import subprocess
 import textwrap
 import time
@@ -16,8 +18,10 @@ import pytest
 
 from agentic_core.cli import main
 from agentic_core.contracts.geodesy import offset_position
+from agentic_core.run.swarm_connect import find_fleet
+from flight.cli import main as sim_main
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
-from tests.flight.test_cli import free_udp_port
+from tests.flight.test_cli import free_udp_port, read_line
 from tests.flight.test_cli_vehicle import listening_port, start_sim, stop
 
 ORIGIN = Home()
@@ -144,3 +148,40 @@ def test_one_vehicle_named_twice_and_one_far_away_are_refused(
     err = capsys.readouterr().err
     assert f"--connect {far_url}: the vehicle (system id 4) is 30.0 km from the mission's area" in err
     assert not (tmp_path / "runs").exists()
+
+
+def _two_free_ports() -> int:
+    """A port ``p`` with ``p + 1`` free too (PX4's numbering puts vehicle i on the first port + i)."""
+    while True:
+        port: int = free_udp_port()
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            try:
+                probe.bind(("127.0.0.1", port + 1))
+            except OSError:
+                continue
+        return port
+
+
+def test_one_sim_serves_several_vehicles_numbered_as_px4_does(vehicles: list[subprocess.Popen[str]]) -> None:
+    port = _two_free_ports()
+    proc = start_sim("--vehicles", "2", "--sysid", "7", "--spacing", "30", "--bind", f"127.0.0.1:{port}",
+                     "--gcs", "none", "--api", "none")  # fmt: skip
+    vehicles.append(proc)
+    assert listening_port(proc) == port
+    second = read_line(proc.stdout, 30.0)
+    assert second is not None and f"listening on 127.0.0.1:{port + 1}; system id 8;" in second
+    urls = [f"udp://127.0.0.1:{port + i}" for i in range(2)]
+    area = [(ORIGIN.lat_deg, ORIGIN.lon_deg)]
+    fleet = find_fleet(urls, ORIGIN, area)
+    assert [(v.uav, v.url) for v in fleet] == [("uav-7", urls[0]), ("uav-8", urls[1])]
+    assert [round(v.east_m, 1) for v in fleet] == [0.0, 30.0] and all(abs(v.north_m) < 0.1 for v in fleet)
+
+
+def test_several_vehicles_refuse_what_is_for_one_and_run_out_of_system_ids(capsys: Any) -> None:
+    assert sim_main(["--vehicles", "2", "--resume", "snapshot.json"]) == 2
+    assert "--resume and --state-dir are for one" in capsys.readouterr().err
+    assert sim_main(["--vehicles", "3", "--sysid", "254", "--bind", "127.0.0.1:0"]) == 2
+    assert "system ids 254 to 256: at most 255" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as usage:
+        sim_main(["--vehicles", "0"])
+    assert usage.value.code == 2 and "1 to 255" in capsys.readouterr().err
