@@ -25,6 +25,8 @@ NOT_RUN_HERE = {
     "until stopped; tests/agentic_core/run/test_swarm_connect.py starts vehicles with --sysid and --home",
     "agentic-uav sim --sysid 2 --bind 127.0.0.1:18571 --api 127.0.0.1:14541 --home 21.413300,39.893397": "serves "
     "until stopped; tests/agentic_core/run/test_swarm_connect.py starts vehicles with --sysid and --home",
+    "agentic-uav sim --vehicles 4 --home 21.413300,39.893014": "serves until stopped on fixed ports; "
+    "tests/agentic_core/run/test_swarm_connect.py starts --vehicles 2 on free ports",
     "pip install agentic-uavs": "installs from PyPI; tests/release/ installs the built wheel in a fresh venv",
     "agentic-uav run hajj_emergency": "minutes of flight over the whole scene; tests/release/ flies the mission by "
     "name from the installed wheel",
