@@ -1,7 +1,9 @@
 """``agentic-uav swarm run MISSION --vehicles N``: fly a swarm mission with N simulated F450s on one clock (or,
 with ``--connect URL,URL,...``, the vehicles at those MAVLink addresses, one per UAV) and write
 ``runs/<swarm-id>/`` (see :mod:`agentic_core.run.swarm_run`); ``--fault ground_link@t=60s`` loses the ground link
-then (the UAVs allocate the rest by consensus). Exit status: 0 when every sector was covered and
+then (the UAVs allocate the rest by consensus, judging each other alive by signed heartbeats); ``--approval
+ask|approve|decline`` answers approvals and, for a mission whose operator verifies casualties (``verify: {by:
+operator}``, which asks by default), that question too. Exit status: 0 when every sector was covered and
 every casualty found, verified, alerted and served with the separation kept; 3 when all that held but a UAV was
 lost (its work moved) or an alert reached only the outbox; 1 when anything fell short; 2 for bad input.
 

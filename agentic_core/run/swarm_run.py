@@ -137,7 +137,8 @@ class SwarmSeat:
         payload = self.swarm.plan_swarm.payload_of(self.index)
         status = "idle" if self.alive() else "failed"
         if sample is None:
-            where = Point(north=self.swarm.start_of(self.index)[0], east=self.swarm.start_of(self.index)[1], alt=0.0)
+            north, east = self.swarm.start_of(self.index)
+            where = Point(north=north, east=east, alt=0.0)
             return UavState(uav_id=self.uav, position=where, battery_pct=100.0, payload=payload, status=status)
         where = Point(north=sample.north_m, east=sample.east_m, alt=sample.alt_m)
         battery = min(100.0, max(0.0, sample.battery_pct if sample.battery_pct is not None else 100.0))

@@ -115,3 +115,35 @@ def test_a_headless_swarm_run_answers_by_its_policy(fly: Any) -> None:
     run_dir = swarm.seats[0].run.run_dir
     approvals = [r for r in _lines(run_dir / "trace.jsonl") if r["kind"] == "approval"]
     assert approvals[-1]["via"] == "policy" and approvals[-1]["answer"] is False
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("approve", [True, False])
+def test_flown_the_operators_answer_decides_the_alert(tmp_path: Path, smtp: Any, approve: bool) -> None:
+    script = Script(approve)
+    mission = _mission(tmp_path, "unverified").read_text(encoding="utf-8")
+    path = tmp_path / "flown.yaml"
+    two_uavs = mission.replace("timeout_s: 0.5", "timeout_s: 60").replace("spacing_m: 50", "spacing_m: 25")
+    # two strips twice as wide: lanes half as far apart; and the operator judges every claimed casualty, however
+    # severe the finder's own reasoner found it
+    operator_judges = two_uavs.replace(""", "confirm.assessment.severity == 'critical'"]""", "]")
+    assert operator_judges != two_uavs
+    path.write_text(operator_judges, encoding="utf-8")
+    settings = SwarmSettings(mission=path, scene=REPO / "scenes" / "hajj_swarm.yaml", vehicles=2, speed=None,
+                             runs_dir=tmp_path / "runs", camera_hz=5.0, operator=script)  # fmt: skip
+    swarm = SwarmRun(settings)
+    summary = swarm.execute()
+    (casualty,) = [c for c in summary["casualties"] if c["truth"] == "P-12"]
+    (question,) = script.questions  # one question, the finder's
+    assert question["args"]["casualty"] == casualty["id"] and casualty["found_by"] in question["question"]
+    assert casualty["verified"] is approve and casualty["alerted"] is approve
+    assert len(smtp.inbox.envelopes) == (1 if approve else 0)
+    finder = Path(summary["uavs"][casualty["found_by"]]["run_dir"])
+    answered = [r for r in _lines(finder / "trace.jsonl") if r["kind"] == "approval" and r.get("verdict")]
+    assert [a["verdict"] for a in answered] == ["approved" if approve else "declined"]
+    if not approve:  # declined: the alert step was skipped, and the run says so
+        skipped = [r for r in _lines(finder / "trace.jsonl") if r.get("step") == "alert_medics"]
+        assert skipped and not [r for r in _lines(finder / "trace.jsonl")
+                                if r["kind"] == "tool" and r.get("name") == "alerts.notify"
+                                and (r.get("args") or {}).get("channel") == "email"]  # fmt: skip
