@@ -37,7 +37,8 @@ from flight.sim.environment import Home
 
 from ..contracts import TelemetrySample
 from ..contracts.errors import InputError, RunFailure
-from ..contracts.geodesy import distance_m, local_offset
+from ..contracts.geodesy import local_offset
+from ..contracts.polygon import outside_by
 from .backends import LinkBackend, SampleHook, parse_link
 
 PROBE_TIMEOUT_S = 3.0
@@ -46,7 +47,7 @@ ASK_EVERY_S = 0.25
 PROBE_SYSTEM = 254
 """The probe's own system id (not 255, the agent's client's: it is no ground station)."""
 FAR_M = 2_000.0
-"""A vehicle whose home lies farther than this from every corner of the mission's area is refused."""
+"""A vehicle whose home lies farther than this outside the mission's area is refused."""
 
 
 class VehicleUnreachable(RunFailure):
@@ -162,7 +163,7 @@ def find_fleet(
                 f"--connect {fleet[system_id].url} and {url}: the same vehicle (system id {system_id}); "
                 "give each vehicle once (PX4's instance i has system id i+1)"
             )
-        nearest = min(distance_m(home[0], home[1], lat, lon) for lat, lon in area)
+        nearest = outside_by((0.0, 0.0), [local_offset(home[0], home[1], lat, lon) for lat, lon in area])
         if nearest > FAR_M:
             raise InputError(
                 f"--connect {url}: the vehicle (system id {system_id}) is {nearest / 1000:.1f} km from the mission's "

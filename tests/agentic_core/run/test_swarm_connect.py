@@ -17,7 +17,9 @@ from typing import Any
 import pytest
 
 from agentic_core.cli import main
+from agentic_core.contracts.errors import InputError
 from agentic_core.contracts.geodesy import offset_position
+from agentic_core.run import swarm_connect
 from agentic_core.run.swarm_connect import find_fleet
 from flight.cli import main as sim_main
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
@@ -185,3 +187,16 @@ def test_several_vehicles_refuse_what_is_for_one_and_run_out_of_system_ids(capsy
     with pytest.raises(SystemExit) as usage:
         sim_main(["--vehicles", "0"])
     assert usage.value.code == 2 and "1 to 255" in capsys.readouterr().err
+
+
+def test_far_means_outside_the_area_not_far_from_its_corners(monkeypatch: pytest.MonkeyPatch) -> None:
+    wide = [offset_position(ORIGIN.lat_deg, ORIGIN.lon_deg, n, e) for n, e in ((-5e3, -5e3), (5e3, -5e3), (5e3, 5e3),
+                                                                             (-5e3, 5e3))]  # fmt: skip
+    homes = {"udp://127.0.0.1:1": (ORIGIN.lat_deg, ORIGIN.lon_deg), "udp://127.0.0.1:2": offset_position(
+        ORIGIN.lat_deg, ORIGIN.lon_deg, 0.0, 7.5e3)}  # fmt: skip
+    answers = {url: (n + 1, (*home, 300.0)) for n, (url, home) in enumerate(homes.items())}
+    monkeypatch.setattr(swarm_connect, "_probe_all", lambda urls, _t: [answers[u] for u in urls])
+    (inside,) = find_fleet(["udp://127.0.0.1:1"], ORIGIN, wide)  # 7 km from every corner, but inside
+    assert inside.system_id == 1
+    with pytest.raises(InputError, match=r"is 2\.5 km from the mission's area"):
+        find_fleet(list(homes), ORIGIN, wide)
