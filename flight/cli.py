@@ -10,6 +10,16 @@ on, from memory of PX4's ``px4-rc.mavlink``), streams to the ground-station and 
 to it. ``--speed`` is a multiple of real time, or ``max`` for as fast as the machine goes. It prints where it
 listens, then runs until interrupted, and stops cleanly (the socket closed, exit status 0).
 
+``--sysid`` is its MAVLink system id (1 by default; PX4 SITL's instance ``i`` is ``i + 1``, with ``--bind`` port
+18570+i and ``--api`` 127.0.0.1:14540+i): several vehicles, each its own process with its own ``--home``, make a
+swarm that ``agentic-uav swarm run --connect`` tells apart by system id. ``--vehicles N`` serves N in this one
+process on one clock with that numbering: vehicle ``i`` has system id ``--sysid`` + i, listens on the ``--bind``
+port + i, streams to the ``--api`` port + i (the ground station is shared), and stands ``--spacing`` metres east of
+the one before; it prints one line per vehicle.
+
+>>> numbered(("127.0.0.1", 18570), 2), numbered(("127.0.0.1", 0), 2), numbered(None, 2)
+(('127.0.0.1', 18572), ('127.0.0.1', 0), None)
+
 >>> parse_speed("4"), parse_speed("max")
 (4.0, None)
 >>> parse_address("127.0.0.1:14550"), parse_address("none")
@@ -42,6 +52,7 @@ if TYPE_CHECKING:
     from flight.sim import Simulator
 
 from agentic_core.contracts.errors import AgenticUAVError, report_error
+from agentic_core.contracts.geodesy import offset_position
 
 Address = tuple[str, int]
 
@@ -93,6 +104,24 @@ def parse_home(text: str) -> tuple[float, float, float]:
     return lat, lon, alt
 
 
+def parse_system_id(text: str) -> int:
+    """A MAVLink system id, 1 to 255.
+
+    >>> parse_system_id("3")
+    3
+    """
+    if not text.strip().isdigit() or not 1 <= int(text) <= 255:
+        raise argparse.ArgumentTypeError(f"a MAVLink system id is 1 to 255, not {text!r}")
+    return int(text)
+
+
+def numbered(address: Address | None, index: int) -> Address | None:
+    """Vehicle ``index``'s address in PX4's multi-vehicle numbering: the port plus ``index`` (0, any port, stays)."""
+    if address is None or address[1] == 0:
+        return address
+    return address[0], address[1] + index
+
+
 def parse_param(text: str) -> tuple[str, float]:
     name, sep, value = text.partition("=")
     try:
@@ -120,6 +149,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the wind gusts and GPS noise")
     parser.add_argument(
+        "--vehicles", type=parse_system_id, default=1, help="serve N vehicles on one clock (PX4's numbering, above)"
+    )
+    parser.add_argument("--spacing", type=float, default=20.0, help="metres east between --vehicles' homes (20)")
+    parser.add_argument(
+        "--sysid", type=parse_system_id, default=1, help="MAVLink system id (PX4's multi-vehicle: instance i is i+1)"
+    )
+    parser.add_argument(
         "--gains", default=None, metavar="FILE", help="position-controller gains: tune.json of agentic-uav eval tune"
     )
     parser.add_argument(
@@ -137,8 +173,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _simulator(args: argparse.Namespace) -> tuple[Simulator, VehicleSnapshot | None]:
-    """The simulator the arguments ask for, and the snapshot to resume (ValueError naming what is wrong)."""
+def _simulator(args: argparse.Namespace, east_m: float = 0.0) -> tuple[Simulator, VehicleSnapshot | None]:
+    """The simulator the arguments ask for, its home ``east_m`` east of theirs, and the snapshot to resume
+    (ValueError naming what is wrong)."""
     from flight.mavlink import VehicleSnapshot
     from flight.sim import Environment, Home, Simulator
     from flight.sim.gains_file import load_gains
@@ -157,6 +194,9 @@ def _simulator(args: argparse.Namespace) -> tuple[Simulator, VehicleSnapshot | N
         home = load_scene(args.scene).home.to_home()
     else:
         home = Home(*args.home) if args.home else Home()
+    if east_m:
+        lat, lon = offset_position(home.lat_deg, home.lon_deg, 0.0, east_m)
+        home = Home(lat_deg=lat, lon_deg=lon, alt_msl_m=home.alt_msl_m, heading_deg=home.heading_deg)
     return Simulator(Environment(home=home), seed=args.seed, gains=gains), None
 
 
@@ -175,37 +215,49 @@ def _main(argv: Sequence[str] | None) -> int:
         print("agentic-uav sim: error: --bind needs an address", file=sys.stderr)
         return 2
 
+    if args.vehicles > 1 and (args.resume is not None or args.state_dir is not None):
+        print("agentic-uav sim: error: --vehicles starts fresh vehicles; --resume and --state-dir are for one",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    if args.sysid + args.vehicles - 1 > 255:
+        print(f"agentic-uav sim: error: system ids {args.sysid} to {args.sysid + args.vehicles - 1}: at most 255",
+              file=sys.stderr)  # fmt: skip
+        return 2
+
     from flight.mavlink import MavlinkVehicle
+    from flight.mavlink.lockstep import Lockstep
     from flight.signing import read_key_file
 
     key = read_key_file(args.signing_key) if args.signing_key is not None else None
     store = Path(args.state_dir) / "mavlink" / "mavlink-signing-key.bin" if args.state_dir is not None else None
     try:
-        sim, snapshot = _simulator(args)
+        sims = [_simulator(args, east_m=i * args.spacing) for i in range(args.vehicles)]
     except ValueError as exc:  # a bad home, scene or snapshot: the user's input
         print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
         return 2
+    fleet: list[MavlinkVehicle] = []
     try:
-        vehicle = MavlinkVehicle(
-            sim,
-            gcs=args.gcs,
-            api=args.api,
-            bind=args.bind,
-            params=dict(args.param),
-            signing_key=key,
-            key_store=store,
-            require_signing=args.require_signing,
-        )
+        for i, (sim, _) in enumerate(sims):
+            fleet.append(MavlinkVehicle(
+                sim, gcs=args.gcs, api=numbered(args.api, i), bind=numbered(args.bind, i) or args.bind,
+                system_id=args.sysid + i, params=dict(args.param), signing_key=key, key_store=store,
+                require_signing=args.require_signing,
+            ))  # fmt: skip
     except AgenticUAVError:
+        for vehicle in fleet:
+            vehicle.close()
         raise
     except (OSError, ValueError) as exc:
+        for vehicle in fleet:
+            vehicle.close()
         print(f"agentic-uav sim: error: {exc}", file=sys.stderr)
         return 1
+    snapshot = sims[0][1]
     if snapshot is not None:
         try:
-            vehicle.restore(snapshot)
+            fleet[0].restore(snapshot)
         except ValueError as exc:
-            vehicle.close()
+            fleet[0].close()
             print(f"agentic-uav sim: error: {args.resume}: {exc}", file=sys.stderr)
             return 2
 
@@ -218,29 +270,41 @@ def _main(argv: Sequence[str] | None) -> int:
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):
             previous[sig] = signal.signal(sig, on_signal)
+    clock = Lockstep(fleet) if len(fleet) > 1 else None
     try:
-        thread = vehicle.start(args.speed)
-        host, port = vehicle.address
-        targets = ", ".join(f"{name} {a[0]}:{a[1]}" for name, a in (("gcs", args.gcs), ("api", args.api)) if a)
+        thread = clock.start(args.speed) if clock is not None else fleet[0].start(args.speed)
         speed = "max" if args.speed is None else f"{args.speed:g}x"
-        signing = "on" if vehicle.guard.active else "required, no key" if vehicle.guard.signer.required else "off"
-        print(
-            f"agentic-uav sim: listening on {host}:{port}; sending to {targets or 'nobody until contacted'}; "
-            f"speed {speed}; signing {signing}; Ctrl-C or SIGTERM stops it",
-            flush=True,
-        )
+        for i, vehicle in enumerate(fleet):
+            host, port = vehicle.address
+            sends = (("gcs", args.gcs), ("api", numbered(args.api, i)))
+            targets = ", ".join(f"{name} {a[0]}:{a[1]}" for name, a in sends if a)
+            guard = vehicle.guard
+            signing = "on" if guard.active else "required, no key" if guard.signer.required else "off"
+            print(
+                f"agentic-uav sim: listening on {host}:{port}; system id {vehicle.system_id}; "
+                f"sending to {targets or 'nobody until contacted'}; "
+                f"speed {speed}; signing {signing}; Ctrl-C or SIGTERM stops it",
+                flush=True,
+            )
         while not stop.wait(0.2):
             if not thread.is_alive():
                 print("agentic-uav sim: error: the vehicle stopped unexpectedly", file=sys.stderr)
                 return 1
         return 0
     finally:
-        vehicle.close()
+        if clock is not None:
+            clock.stop()
+        for vehicle in fleet:
+            vehicle.close()
         for signum, handler in previous.items():
             with contextlib.suppress(TypeError, ValueError):
                 signal.signal(signum, handler)  # type: ignore[arg-type]
         if stop.is_set():
-            refused = {k: v for k, v in vehicle.security().items() if v and k not in ("signed", "allowed_unsigned")}
+            refused: dict[str, int] = {}
+            for vehicle in fleet:
+                for k, v in vehicle.security().items():
+                    if v and k not in ("signed", "allowed_unsigned"):
+                        refused[k] = refused.get(k, 0) + v
             print(f"agentic-uav sim: stopped; refused {refused or 'nothing'}", flush=True)
 
 

@@ -18,8 +18,15 @@ NOT_RUN_HERE = {
     "tests/agentic_core/run/test_swarm_run.py",
     "agentic-uav swarm run missions/hajj_swarm.yaml --vehicles 4 --gcs 127.0.0.1:14550 --px4-ports": "streams to "
     "fixed ports a test may not take; tests/flight/mavlink/test_lockstep.py checks the numbering",
-    "agentic-uav swarm run missions/hajj_swarm.yaml --connect udp://127.0.0.1:14580,udp://127.0.0.1:14581": "needs "
-    "two vehicles running in other processes; not flown by the tests yet",
+    "agentic-uav swarm run missions/hajj_swarm.yaml --connect udp://127.0.0.1:18570,udp://127.0.0.1:18571": "needs "
+    "vehicles running in other processes on fixed ports; tests/agentic_core/run/test_swarm_connect.py flies two "
+    "agentic-uav sim on free ports",
+    "agentic-uav sim --sysid 1 --bind 127.0.0.1:18570 --api 127.0.0.1:14540 --home 21.413300,39.893203": "serves "
+    "until stopped; tests/agentic_core/run/test_swarm_connect.py starts vehicles with --sysid and --home",
+    "agentic-uav sim --sysid 2 --bind 127.0.0.1:18571 --api 127.0.0.1:14541 --home 21.413300,39.893397": "serves "
+    "until stopped; tests/agentic_core/run/test_swarm_connect.py starts vehicles with --sysid and --home",
+    "agentic-uav sim --vehicles 4 --home 21.413300,39.893014": "serves until stopped on fixed ports; "
+    "tests/agentic_core/run/test_swarm_connect.py starts --vehicles 2 on free ports",
     "pip install agentic-uavs": "installs from PyPI; tests/release/ installs the built wheel in a fresh venv",
     "agentic-uav run hajj_emergency": "minutes of flight over the whole scene; tests/release/ flies the mission by "
     "name from the installed wheel",

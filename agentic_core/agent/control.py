@@ -33,6 +33,8 @@ class OperatorAnswer:
     why: str
     args: dict[str, Any] | None = None
     """With an approval, the operator's edits to the step's arguments (checked like any others when they fly)."""
+    timed_out: bool = False
+    """Nobody answered in time (declined, but a question may treat silence otherwise: a swarm's verification)."""
 
 
 @dataclass
@@ -180,7 +182,9 @@ class ControlPort:
             while question.answer is None and self._stop is None:
                 left = deadline - time.monotonic()
                 if left <= 0:
-                    question.answer = OperatorAnswer(False, None, f"no answer in {timeout_s:g} s: declined")
+                    question.answer = OperatorAnswer(
+                        False, None, f"no answer in {timeout_s:g} s: declined", timed_out=True
+                    )
                     question.by = "timeout"
                     break
                 self._cond.wait(min(left, 0.5))

@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.:-]+$")]
 
-MessageKind = Literal["cfp", "bid", "refuse", "award", "accept", "inform", "failure", "cancel", "state"]
+MessageKind = Literal["cfp", "bid", "refuse", "award", "accept", "inform", "failure", "cancel", "state", "heartbeat"]
 """FIPA Contract Net's performatives as the swarm uses them, and ``state`` (a vehicle's news about itself)."""
 
 Skill = Literal["survey_sector", "verify_casualty", "deliver_kit"]

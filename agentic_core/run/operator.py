@@ -47,7 +47,7 @@ class TerminalOperator:
             line = self._lines.get(timeout=self.timeout_s)
         except queue.Empty:
             print("(no answer)", file=self.out, flush=True)
-            return OperatorAnswer(False, None, f"no answer in {self.timeout_s:g} s: declined")
+            return OperatorAnswer(False, None, f"no answer in {self.timeout_s:g} s: declined", timed_out=True)
         if line is None:
             self._lines.put(None)  # the input has ended: every later question gets the same
             return OperatorAnswer(False, None, "the operator's input ended: declined")

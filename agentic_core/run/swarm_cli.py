@@ -1,7 +1,9 @@
 """``agentic-uav swarm run MISSION --vehicles N``: fly a swarm mission with N simulated F450s on one clock (or,
 with ``--connect URL,URL,...``, the vehicles at those MAVLink addresses, one per UAV) and write
 ``runs/<swarm-id>/`` (see :mod:`agentic_core.run.swarm_run`); ``--fault ground_link@t=60s`` loses the ground link
-then (the UAVs allocate the rest by consensus). Exit status: 0 when every sector was covered and
+then (the UAVs allocate the rest by consensus, judging each other alive by signed heartbeats); ``--approval
+ask|approve|decline`` answers approvals and, for a mission whose operator verifies casualties (``verify: {by:
+operator}``, which asks by default), that question too. Exit status: 0 when every sector was covered and
 every casualty found, verified, alerted and served with the separation kept; 3 when all that held but a UAV was
 lost (its work moved) or an alert reached only the outbox; 1 when anything fell short; 2 for bad input.
 
@@ -55,6 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="vehicle i streams to API port 14540+i too (PX4 SITL's multi-vehicle)")  # fmt: skip
     run.add_argument("--camera-hz", type=float, default=10.0, help="each UAV's camera rate (default 10)")
     run.add_argument("--max-wall-s", type=float, default=900.0, help="each UAV gives up (and lands) after this")
+    run.add_argument("--approval", choices=("approve", "decline", "ask"), default=None,
+                     help="approvals and the operator's verification: a headless answer, or ask the operator "
+                          "(default: ask when the mission's verify is by: operator, else approve)")  # fmt: skip
     run.add_argument("--fault", action="append", default=[], metavar="ground_link@t=SECONDS",
                      help="lose the ground link then: the UAVs allocate what is left by consensus")  # fmt: skip
     return parser
@@ -100,6 +105,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         mission=args.mission, vehicles=args.vehicles, connect=args.connect, scene=args.scene, runs_dir=args.runs_dir,
         speed=args.speed, seed=args.seed, reasoner=args.reasoner, gcs=args.gcs, px4_ports=args.px4_ports,
         max_wall_s=args.max_wall_s, rounds=args.rounds, camera_hz=args.camera_hz, ground_link_lost_s=ground_lost_s,
+        approval=args.approval,
     )  # fmt: skip
     try:
         summary = run_swarm(settings, progress=sys.stderr)

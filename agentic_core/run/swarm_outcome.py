@@ -52,7 +52,7 @@ def outcome_of(swarm: Any, wall_s: float) -> dict[str, Any]:
             "error": s.error,
             "run_dir": str(s.result.run_dir if s.result else (s.run.run_dir if s.run else "")),
             "role": swarm.plan_swarm.role_of(s.index),
-            "system_id": s.index + 1,
+            "system_id": s.system_id,
             "sim_s": round(s.result.summary.sim_duration_s, 1) if s.result else None,
         }
         for uav, s in seats.items()
@@ -65,7 +65,7 @@ def outcome_of(swarm: Any, wall_s: float) -> dict[str, Any]:
         truth = finder.result.summary.truth_ids.get(c.object_id) if finder.result else None
         if truth:
             truth_found[truth] = c.id
-        verified = len(c.verified_by) >= coordinator.verify_k
+        verified = c.verified
         alerted = _alerted(finder.result, _claimed_at(swarm, c.id))
         casualties.append({
             "id": c.id, "found_by": c.finder, "object": c.object_id, "truth": truth, "verified_by": c.verified_by,
@@ -96,7 +96,8 @@ def outcome_of(swarm: Any, wall_s: float) -> dict[str, Any]:
         "outcome": outcome, "exit": code, "problems": problems, "lost": lost, "uavs": uavs,
         "sectors": coverage, "casualties": casualties, "scene_casualties": scene_casualties,
         "separation": separation, "refusals": dict(refusals), "rounds": coordinator.rounds,
-        "verify_k": coordinator.verify_k, "sim_s": round(swarm.clock.time_s, 1), "wall_s": round(wall_s, 1),
+        "verify_k": coordinator.verify_k,
+        "verify_by": coordinator.verification.by, "sim_s": round(swarm.time_s(), 1), "wall_s": round(wall_s, 1),
         "allocation": dict(coordinator.manager.allocation.awarded), "a2a": coordinator.a2a_report(),
         "ground_link_lost_s": coordinator.ground_lost_at,
     }  # fmt: skip

@@ -24,7 +24,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import Any, Literal, TextIO, cast
 
 import yaml
 
@@ -32,6 +32,7 @@ from flight.mavlink.lockstep import Lockstep
 from flight.sim.environment import Home
 from tools import ToolRegistry
 
+from ..agent.control import Operator
 from ..agent.pacing import Pace
 from ..contracts import TelemetrySample
 from ..contracts.geodesy import offset_position
@@ -41,14 +42,17 @@ from ..mission.source import MissionError
 from ..mission.validate import load_mission
 from ..swarm.coordinator import Member, SwarmCoordinator
 from ..swarm.fleet_tools import register_swarm_tools
+from ..swarm.operator_verify import Verdict
 from ..swarm.projection import project
 from ..swarm.sectors import split
-from ..swarm.separation import SeparationLog
+from ..swarm.separation import GRID_S, SeparationLog
 from ..swarm.signing import JsonlAudit, MemoryAudit, SwarmKey
-from .backends import Backend, LinkBackend
+from .backends import Backend
 from .runner import MissionRun
 from .settings import RunError, RunResult, RunSettings, default_scene
 from .swarm_backend import LockstepBackend
+from .swarm_connect import ConnectedBackend, find_fleet
+from .swarm_operator import ask_on_port
 from .swarm_outcome import outcome_of, write_summary
 
 MONITOR_S = 0.2
@@ -77,6 +81,11 @@ class SwarmSettings:
     """``--fault ground_link@t=N``: the swarm's clock time the ground link is lost (then consensus among the UAVs)."""
     a2a: bool = True
     """Each UAV an A2A agent on 127.0.0.1, the Contract Net over HTTP; False: in-process (the same guards)."""
+    approval: Literal["approve", "decline", "ask"] | None = None
+    """Each UAV's approvals (and the operator's verification): None asks the operator when the mission's
+    ``verify`` is ``by: operator``, and approves otherwise."""
+    operator: Operator | None = None
+    """With ``approval="ask"``: who answers (a script); None: the terminal."""
 
 
 class _Audit:
@@ -97,7 +106,8 @@ class SwarmSeat:
     def __init__(self, swarm: SwarmRun, index: int) -> None:
         self.swarm = swarm
         self.index = index
-        self.uav = f"uav-{index + 1}"
+        self.uav = swarm.fleet[index].uav if swarm.fleet else f"uav-{index + 1}"
+        self.system_id = swarm.fleet[index].system_id if swarm.fleet else index + 1
         self.pace = swarm.pace
         self.run: MissionRun | None = None
         self.result: RunResult | None = None
@@ -107,7 +117,9 @@ class SwarmSeat:
     def backend(self, run: Any) -> Backend:
         swarm, settings = self.swarm, self.swarm.settings
         if settings.connect:
-            return LinkBackend(settings.connect[self.index], tlog=run.run_dir / "flight.tlog")
+            return ConnectedBackend(
+                swarm.fleet[self.index], camera_hz=settings.camera_hz, tlog=run.run_dir / "flight.tlog"
+            )
         return LockstepBackend(
             clock=swarm.clock, index=self.index, home=swarm.home, pad_east_m=swarm.pad_east(self.index),
             px4_ports=settings.px4_ports, seed=settings.seed + self.index, pace=self.pace,
@@ -125,11 +137,16 @@ class SwarmSeat:
         payload = self.swarm.plan_swarm.payload_of(self.index)
         status = "idle" if self.alive() else "failed"
         if sample is None:
-            where = Point(north=0.0, east=self.swarm.pad_east(self.index), alt=0.0)
+            north, east = self.swarm.start_of(self.index)
+            where = Point(north=north, east=east, alt=0.0)
             return UavState(uav_id=self.uav, position=where, battery_pct=100.0, payload=payload, status=status)
         where = Point(north=sample.north_m, east=sample.east_m, alt=sample.alt_m)
         battery = min(100.0, max(0.0, sample.battery_pct if sample.battery_pct is not None else 100.0))
         return UavState(uav_id=self.uav, position=where, battery_pct=battery, payload=payload, status=status)
+
+    def ask(self, request: dict[str, Any], timeout_s: float) -> Verdict:
+        """Ask this UAV's operator (:func:`~agentic_core.run.swarm_operator.ask_on_port`); silence before it flies."""
+        return ask_on_port(self.run, request, timeout_s) if self.run is not None else "no_answer"
 
     def world(self) -> Any:
         loop = self.run.loop if self.run is not None else None
@@ -146,7 +163,10 @@ class SwarmSeat:
     def on_sample(self, sample: TelemetrySample) -> None:
         if sample.armed and sample.alt_m > 1.0:
             where = Point(north=sample.north_m, east=sample.east_m, alt=sample.alt_m)
-            self.swarm.separation.record(self.uav, sample.time_s, where)
+            # connected vehicles each count from their own boot: they share the swarm's clock, on the log's grid
+            at = round(self.swarm.time_s() / GRID_S) * GRID_S if self.swarm.fleet else sample.time_s
+            self.swarm.separation.record(self.uav, at, where)
+        self.swarm.coordinator.heartbeats.beat(self.uav)  # its own signed word that it lives, once the ground is lost
 
     def fly(self) -> None:
         assert self.run is not None
@@ -169,6 +189,7 @@ class SwarmRun:
         if plan.swarm is None:
             raise RunError(f"{settings.mission}: not a swarm mission (it has no swarm: block)")
         self.plan: PolicyGraph = plan
+        self.approval = settings.approval or ("ask" if plan.swarm.verify.by == "operator" else "approve")
         self.plan_swarm = plan.swarm
         n = len(settings.connect) or settings.vehicles or plan.swarm.vehicles
         if settings.connect and settings.vehicles not in (None, n):
@@ -177,6 +198,8 @@ class SwarmRun:
         scene = settings.scene or default_scene(settings.mission)
         self.scene_path = scene
         self.home = self._home(scene)
+        self.fleet = find_fleet(settings.connect, self.home, [(c.lat, c.lon) for c in plan.swarm.area]) if (
+            settings.connect) else []  # fmt: skip
         self.swarm_id = f"{time.strftime('%Y%m%d-%H%M%S')}-{settings.mission.stem}-swarm"
         self.dir = settings.runs_dir / self.swarm_id
         (self.dir / "missions").mkdir(parents=True, exist_ok=True)
@@ -194,14 +217,15 @@ class SwarmRun:
         rounds = settings.rounds or int(declared.default if declared is not None and declared.default else 1)
         self.coordinator = SwarmCoordinator(
             SwarmKey.generate(plan.plan_id), [self._member(s) for s in self.seats], sectors, rounds=rounds,
-            verify_k=min(plan.swarm.verify_k, n), audit=self.audit, log=self._log, clock=self.time_s,
+            verify_k=min(plan.swarm.verify.k, n), verification=plan.swarm.verify, audit=self.audit,
+            heartbeat=plan.swarm.heartbeat, log=self._log, clock=self.time_s,
             a2a=settings.a2a,
         )  # fmt: skip
         self.sectors = sectors
         try:
             for seat in self.seats:
                 said = cast(TextIO, _Prefixed(progress, seat.uav)) if progress is not None else None
-                seat.run = MissionRun(self._settings_of(seat), progress=said, fleet=seat)
+                seat.run = MissionRun(self._settings_of(seat), progress=said, fleet=seat, operator=settings.operator)
                 seat.run.backend.on_sample(seat.on_sample)
         except Exception:
             self.close()
@@ -222,11 +246,17 @@ class SwarmRun:
         """Where UAV ``index``'s pad is, metres east of the scene's home (the pads in a row, centred on it)."""
         return (index - (self.n - 1) / 2) * self.plan_swarm.pad_spacing_m
 
+    def start_of(self, index: int) -> tuple[float, float]:
+        """Where UAV ``index`` starts, north and east of the scene's home: its pad, or a connected vehicle's home."""
+        if self.fleet:
+            return self.fleet[index].north_m, self.fleet[index].east_m
+        return 0.0, self.pad_east(index)
+
     def _member(self, seat: SwarmSeat) -> Member:
         layers = self.plan_swarm.layers_m
-        park = offset_position(self.home.lat_deg, self.home.lon_deg, 0.0, self.pad_east(seat.index))
+        park = offset_position(self.home.lat_deg, self.home.lon_deg, *self.start_of(seat.index))
         layer = layers[seat.index % len(layers)]
-        return Member(seat.uav, seat.state, layer, world=seat.world, alive=seat.alive, park=park)
+        return Member(seat.uav, seat.state, layer, world=seat.world, alive=seat.alive, park=park, ask=seat.ask)
 
     def _settings_of(self, seat: SwarmSeat) -> RunSettings:
         raw = yaml.safe_load(self.settings.mission.read_text(encoding="utf-8"))
@@ -238,7 +268,7 @@ class SwarmRun:
         return RunSettings(
             mission=path, scene=self.scene_path, reasoner=self.settings.reasoner, speed=self.settings.speed,
             runs_dir=self.dir, seed=self.settings.seed + seat.index, gcs=self.settings.gcs,
-            max_wall_s=self.settings.max_wall_s, camera_hz=self.settings.camera_hz,
+            max_wall_s=self.settings.max_wall_s, camera_hz=self.settings.camera_hz, approval=self.approval,
         )  # fmt: skip
 
     def _log(self, record: dict[str, Any]) -> None:

@@ -33,10 +33,13 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from agentic_core.contracts.errors import AgenticUAVError
 from agentic_core.contracts.swarm import Point, SwarmMessage, SwarmTask, UavState
+from agentic_core.contracts.swarm_plan import Heartbeat, Verification
 from agentic_core.contracts.world_model import WorldModel
 from agentic_core.swarm.consensus import ConsensusAgent, agree
 from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
 from agentic_core.swarm.fusion import fuse
+from agentic_core.swarm.heartbeat import Heartbeats
+from agentic_core.swarm.operator_verify import Ask, ask_operator
 from agentic_core.swarm.sectors import Sector
 from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmKey
 
@@ -61,6 +64,8 @@ class Member:
     alive: Callable[[], bool] = lambda: True
     park: tuple[float, float] = (0.0, 0.0)
     """Where it waits for work (latitude, longitude): over its own pad, clear of every other UAV's."""
+    ask: Ask | None = None
+    """Its operator, for a mission whose casualties the operator verifies (:mod:`.operator_verify`)."""
 
 
 class FinderRefuses(Participant):
@@ -93,6 +98,7 @@ class Casualty:
     lat: float
     lon: float
     verified_by: list[str] = field(default_factory=list)
+    verified: bool = False
     delivery: str | None = None
     delivered: bool = False
 
@@ -108,17 +114,21 @@ class SwarmCoordinator:
         *,
         rounds: int = 1,
         verify_k: int = 2,
+        verification: Verification | None = None,
         audit: Audit | None = None,
         log: Callable[[dict[str, Any]], None] = lambda _: None,
         clock: Callable[[], float] = lambda: 0.0,
         bid_window_s: float = 2.0,
         a2a: bool = False,
+        heartbeat: Heartbeat | None = None,
     ) -> None:
         self.key = key
         self.members = {m.uav: m for m in members}
         self.sectors = {s.id: s for s in sectors}
         self.rounds = rounds
         self.verify_k = verify_k
+        self.verification = verification or Verification(k=verify_k)
+        """Who verifies a casualty: k of n UAVs (``verify_k``), or the finder's operator."""
         self.audit = audit or MemoryAudit()
         self.log = log
         self.clock = clock
@@ -141,6 +151,9 @@ class SwarmCoordinator:
             self.participants[uav], self.guards[uav] = agent, guard
             self.channels[uav] = self._channel(agent, guard, ground_guard, a2a)
         self.manager = Manager(Sealer(key, GROUND), ground_guard, self.channels, bid_window_s=bid_window_s)
+        rule = heartbeat or Heartbeat()
+        self.heartbeats = Heartbeats(key, self.guards, clock=clock, period_s=rule.period_s, timeout_s=rule.timeout_s)
+        """Without the ground, who lives is who its peers hear (:meth:`alive`)."""
         self._lock = threading.RLock()
         self._agreeing = threading.Lock()
         self._loop = asyncio.new_event_loop()
@@ -242,12 +255,22 @@ class SwarmCoordinator:
         self._awards_since(before)
         return moved
 
+    def alive(self, uav: str) -> bool:
+        """Whether ``uav`` lives: as the ground sees its vehicle; without the ground, whether a live peer has heard
+        its signed heartbeat within the timeout."""
+        if not self.ground_lost:
+            return self.members[uav].alive()
+        return self.heartbeats.alive(uav, among=[u for u in self.members if u not in self.failed])
+
     def watch(self) -> None:
-        """Check every member once: one whose vehicle is gone has failed (its tasks move)."""
-        for uav, member in self.members.items():
+        """Check every member once: one whose vehicle is gone (without the ground: silent) has failed (its tasks
+        move)."""
+        for uav in self.members:
             holds = self.manager.allocation.tasks_of(uav)  # a UAV that went home with nothing left to do is not lost
-            if uav not in self.failed and holds and not member.alive():
-                self.fail(uav, "its vehicle stopped answering")
+            if uav not in self.failed and holds and not self.alive(uav):
+                silent = self.heartbeats.silent_s(uav, [u for u in self.members if u not in self.failed])
+                self.fail(uav, f"no heartbeat heard for {silent:.1f} s" if self.ground_lost else
+                          "its vehicle stopped answering")  # fmt: skip
 
     def lose_ground(self, why: str) -> dict[str, str]:
         """The ground link is lost (``why``): the ground is called no more. What a live UAV holds stays its own (it
@@ -262,6 +285,7 @@ class SwarmCoordinator:
             channel.alive = False
         allocation = self.manager.allocation
         holders = {u for u in self.members if u not in self.failed and self.members[u].alive()}
+        self.heartbeats.start(holders)  # from now on, a UAV lives as long as its peers hear it
         orphans = [
             t for t in self.manager.tasks if t not in allocation.done and allocation.awarded.get(t) not in holders
         ]
@@ -282,7 +306,7 @@ class SwarmCoordinator:
     def _agree_now(self, open_ids: list[str], exclude: tuple[str, ...]) -> dict[str, str]:
         allocation = self.manager.allocation
         tasks = [self.manager.tasks[t] for t in open_ids]
-        live = [u for u in self.members if u not in (*self.failed, *exclude) and self.members[u].alive()]
+        live = [u for u in self.members if u not in (*self.failed, *exclude) and self.alive(u)]
         agents = {
             u: ConsensusAgent(Sealer(self.key, u), self.guards[u], self.members[u].state, max_bundle=len(tasks) or 1)
             for u in live
@@ -405,6 +429,13 @@ class SwarmCoordinator:
         casualty = self.casualties[casualty_id]
         if casualty.finder != uav:
             raise AgenticUAVError(f"{casualty_id} was found by {casualty.finder}, not {uav}")
+        if self.verification.by == "operator":
+            seen = self.seen_by(casualty)
+            answer, casualty.verified = ask_operator(casualty, self.members[uav].ask, self.verification, seen)
+            casualty.verified_by = seen
+            self._record("verify", uav=uav, casualty=casualty_id, by="operator", answer=answer,
+                         verified=casualty.verified, seen_by=seen)  # fmt: skip
+            return {"verified": casualty.verified, "seen_by": seen, "by": "operator", "answer": answer}
         if self.verify_k > 1:
             task = SwarmTask(id=f"verify_casualty:{uav}:{casualty_id}", skill="verify_casualty", where=casualty.where)
             self._allocate([task], exclude=(uav,))
@@ -414,7 +445,7 @@ class SwarmCoordinator:
             wait()
             seen = self.seen_by(casualty)
         casualty.verified_by = seen
-        verified = len(seen) >= self.verify_k
+        verified = casualty.verified = len(seen) >= self.verify_k
         self._record("verify", uav=uav, casualty=casualty_id, seen_by=seen, k=self.verify_k, verified=verified)
         task_id = f"verify_casualty:{uav}:{casualty_id}"
         holder = self.manager.allocation.awarded.get(task_id)

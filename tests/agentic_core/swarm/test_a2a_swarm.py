@@ -130,10 +130,14 @@ def test_a_lost_uav_is_not_called_and_its_sector_moves_over_a2a(swarm: SwarmCoor
 def test_without_the_ground_the_uavs_agree_over_their_a2a_endpoints(swarm: SwarmCoordinator, uavs: list[Uav]) -> None:
     awarded = swarm.allocate_sectors()
     sent = tap_wire(swarm)  # what the ground sends from now on: nothing
+    now = [0.0]
+    swarm.heartbeats.clock = lambda: now[0]  # the swarm's clock, moved by hand
     swarm.lose_ground("fault ground_link@t=60s")
     before = {u: a["requests"] for u, a in swarm.a2a_report().items()}
     victim = awarded["S2"]
-    next(u for u in uavs if u.name == victim).alive = False
+    now[0] = swarm.heartbeats.timeout_s + 1.0  # the victim silent that long; the others' heartbeats heard
+    for uav in (u.name for u in uavs if u.name != victim):
+        swarm.heartbeats.beat(uav)
     swarm.watch()
     heir = swarm.manager.allocation.awarded["survey:S2"]
     assert heir != victim and victim in swarm.failed and sent == []

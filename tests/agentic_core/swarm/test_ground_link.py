@@ -78,8 +78,14 @@ def test_after_the_ground_link_is_lost_everything_is_settled_by_consensus(
     assert first["agreed"] and first["awarded"] == moved and victim not in first["among"]
     assert "survey:S3" in swarm.participants[moved["survey:S3"]].tasks
 
-    heir = awarded["S2"]  # a UAV lost without the ground: its work moves by consensus too
-    next(u for u in uavs if u.name == heir).alive = False
+    heir = awarded["S2"]  # a UAV lost without the ground (its heartbeats stop): its work moves by consensus too
+    live = [u.name for u in uavs if u.name not in (victim, heir)]
+    while swarm.now[0] <= 61.5 + swarm.heartbeats.timeout_s + 1.0:  # type: ignore[attr-defined]
+        swarm.watch()
+        assert heir not in swarm.failed or swarm.now[0] > 61.5 + swarm.heartbeats.timeout_s  # type: ignore[attr-defined]
+        swarm.now[0] += 1.0  # type: ignore[attr-defined]
+        for uav in live:
+            swarm.heartbeats.beat(uav)
     swarm.watch()
     assert heir in swarm.failed and swarm.manager.allocation.awarded["survey:S2"] not in (heir, victim)
     again = _events(swarm, "consensus")[-1]
