@@ -7,8 +7,9 @@ that timed out does not leave a reader behind to swallow the next answer.
 
 >>> import io
 >>> ask = TerminalOperator(io.StringIO("y\\n"), io.StringIO(), timeout_s=1.0)
->>> ask({"step": "land_near", "question": "approve land (land_near)?"})
-OperatorAnswer(approved=True, said='y', why='the operator approved', args=None)
+>>> answer = ask({"step": "land_near", "question": "approve land (land_near)?"})
+>>> answer.approved, answer.said, answer.why, answer.timed_out
+(True, 'y', 'the operator approved', False)
 """
 
 from __future__ import annotations
