@@ -1,18 +1,13 @@
 """Smoke test: ``benchmarks/decision_latency.py --quick`` runs to the end and prints its table (no timing checks)."""
 
-import subprocess
-import sys
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "decision_latency.py"
+from .script import table
 
 
 def test_quick_run_prints_every_stage_for_both_reasoners(tmp_path: Path) -> None:
-    proc = subprocess.run(
-        [sys.executable, str(SCRIPT), "--quick"], capture_output=True, text=True, timeout=300, cwd=tmp_path
-    )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    lines = proc.stdout.splitlines()
+    out = table("decision_latency.py", "--quick", cwd=tmp_path)
+    lines = out.splitlines()
     assert lines[0] == "decision latency benchmark (our overhead, detection frame to alert)"
     assert "rules" in lines[1] and "llm (stand-in, 0 s)" in lines[1]
     stages = [line.rsplit(maxsplit=2)[0] for line in lines[2:10]]

@@ -1,23 +1,12 @@
 """Smoke test: ``benchmarks/perception.py`` runs to the end on small sizes and prints its table (no timing checks)."""
 
-import subprocess
-import sys
-from pathlib import Path
-
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "perception.py"
+from .script import run_script, table
 
 
 def test_small_run_prints_the_table() -> None:
     args = ["--sizes", "20", "200", "--frames", "5", "--warmup", "5", "--repeats", "1", "--render-sizes", "0", "200"]
-    proc = subprocess.run(
-        [sys.executable, str(SCRIPT), *args],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=SCRIPT.parent.parent,
-    )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    lines = proc.stdout.splitlines()
+    out = table("perception.py", *args)
+    lines = out.splitlines()
     assert lines[0] == "perception update benchmark"
     header = lines[2].split()
     assert header[:6] == ["persons", "measure", "track", "relations", "contract", "total"]
@@ -37,6 +26,6 @@ def test_small_run_prints_the_table() -> None:
 
 
 def test_bad_arguments_are_a_usage_error() -> None:
-    proc = subprocess.run([sys.executable, str(SCRIPT), "--frames", "0"], capture_output=True, text=True, timeout=120)
+    proc = run_script("perception.py", "--frames", "0", timeout_s=120)
     assert proc.returncode == 2
     assert "must be at least 1" in proc.stderr

@@ -2,19 +2,13 @@
 on each target (no timing checks: the machine may be busy)."""
 
 import re
-import subprocess
-import sys
-from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "sim_speed.py"
+from .script import table
 
 
 def test_quick_run_prints_the_cases_ratios_and_targets():
-    proc = subprocess.run(
-        [sys.executable, str(SCRIPT), "--quick"], capture_output=True, text=True, timeout=180, cwd=SCRIPT.parent.parent
-    )
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    out = proc.stdout
+    out = table("sim_speed.py", "--quick", timeout_s=180)
+    out = out
     assert "simulator speed benchmark" in out
     rates = re.findall(r"^\((a|b|c)\).*?\s(\d+)x\s", out, flags=re.MULTILINE)
     assert [case for case, _ in rates] == ["a", "b", "c"], out
