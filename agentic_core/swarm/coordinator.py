@@ -36,7 +36,9 @@ from agentic_core.contracts.swarm import Point, SwarmMessage, SwarmTask, UavStat
 from agentic_core.contracts.world_model import WorldModel
 from agentic_core.swarm.consensus import ConsensusAgent, agree
 from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
+from agentic_core.swarm.deconflict import Airspace
 from agentic_core.swarm.fusion import fuse
+from agentic_core.swarm.legs import LegBook
 from agentic_core.swarm.sectors import Sector
 from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmKey
 
@@ -113,6 +115,7 @@ class SwarmCoordinator:
         clock: Callable[[], float] = lambda: 0.0,
         bid_window_s: float = 2.0,
         a2a: bool = False,
+        airspace: Airspace | None = None,
     ) -> None:
         self.key = key
         self.members = {m.uav: m for m in members}
@@ -130,6 +133,10 @@ class SwarmCoordinator:
         """The ground link is lost: the UAVs allocate among themselves (:meth:`lose_ground`)."""
         self.ground_lost_at: float | None = None
         self._peers: dict[tuple[str, str], A2APeer] = {}
+        self.legs = LegBook(airspace or Airspace(), clock=lambda: self.clock(), record=self._record)
+        """Every UAV's legs, reserved before it flies them (:mod:`~agentic_core.swarm.leg_gate`)."""
+        for member in self.members.values():
+            self.legs.prefer(member.uav, member.layer_m)
         self.participants: dict[str, FinderRefuses] = {}
         self.channels: dict[str, LocalChannel | A2AChannel] = {}
         self.guards: dict[str, Guard] = {}
@@ -230,6 +237,7 @@ class SwarmCoordinator:
                 return []
             self.failed.append(uav)
         self.channels[uav].alive = False
+        self.legs.release(uav, why)
         if self.ground_lost:
             self.manager.failed.add(uav)
             moved = self.manager.allocation.tasks_of(uav)
@@ -245,6 +253,8 @@ class SwarmCoordinator:
     def watch(self) -> None:
         """Check every member once: one whose vehicle is gone has failed (its tasks move)."""
         for uav, member in self.members.items():
+            if not member.alive():
+                self.legs.release(uav, "its vehicle stopped answering")
             holds = self.manager.allocation.tasks_of(uav)  # a UAV that went home with nothing left to do is not lost
             if uav not in self.failed and holds and not member.alive():
                 self.fail(uav, "its vehicle stopped answering")
