@@ -237,7 +237,7 @@ class SwarmCoordinator:
                 return []
             self.failed.append(uav)
         self.channels[uav].alive = False
-        self.legs.release(uav, why)
+        self.legs.release(uav, why, lost=True)
         if self.ground_lost:
             self.manager.failed.add(uav)
             moved = self.manager.allocation.tasks_of(uav)
@@ -254,7 +254,7 @@ class SwarmCoordinator:
         """Check every member once: one whose vehicle is gone has failed (its tasks move)."""
         for uav, member in self.members.items():
             if not member.alive():
-                self.legs.release(uav, "its vehicle stopped answering")
+                self.legs.release(uav, "its vehicle stopped answering", lost=True)
             holds = self.manager.allocation.tasks_of(uav)  # a UAV that went home with nothing left to do is not lost
             if uav not in self.failed and holds and not member.alive():
                 self.fail(uav, "its vehicle stopped answering")

@@ -101,6 +101,8 @@ class _Gate:
         """The leg from here to ``goal``, asked again while refused (a hold where it is meanwhile)."""
         deadline = self.book.clock() + self.patience_s
         while True:
+            if self.uav in self.book.lost:
+                raise ToolError(f"{self.uav} is lost to the swarm: it may not fly")
             try:
                 return self.book.request(self.uav, self.here(), goal, tool=tool, land=land, asked_m=asked_m)
             except NoSafeLeg as refused:

@@ -66,6 +66,8 @@ class LegBook:
         self.record = record
         self._lock = threading.Lock()
         self.counts = {"granted": 0, "relayered": 0, "delayed": 0, "refused": 0, "released": 0, "strayed": 0}
+        self.lost: set[str] = set()
+        """UAVs released for good (dead): nothing of theirs is reserved again."""
 
     def prefer(self, uav: str, layer_m: float) -> None:
         """``uav``'s own layer, tried first (ignored if the airspace has no such layer)."""
@@ -81,6 +83,8 @@ class LegBook:
             t0 = self.clock()
             fields: dict[str, Any] = {"uav": uav, "tool": tool, "start": _xyz(start), "goal": _xyz(goal)}
             try:
+                if uav in self.lost:
+                    raise NoSafeLeg(f"{uav} is lost: its airspace was released")
                 trajectory = self.airspace.reserve(uav, start, goal, t0=t0, land=land)
             except NoSafeLeg as refused:
                 self._count("leg", decision="refused", why=str(refused), **fields)
@@ -102,13 +106,17 @@ class LegBook:
     def hold(self, uav: str, where: Point) -> None:
         """``uav`` holds at ``where`` from now on (until its next leg)."""
         with self._lock:
+            if uav in self.lost:
+                return
             clash = self.airspace.hold(uav, where, t0=self.clock())
             if clash:
                 self._count("leg", decision="strayed", uav=uav, at=_xyz(where), clash=clash)
 
-    def release(self, uav: str, why: str) -> None:
-        """Drop ``uav``'s reservations (written if it had any)."""
+    def release(self, uav: str, why: str, *, lost: bool = False) -> None:
+        """Drop ``uav``'s reservations (written if it had any); ``lost``: for good, it reserves nothing again."""
         with self._lock:
+            if lost:
+                self.lost.add(uav)
             dropped = self.airspace.release(uav)
             if dropped:
                 self._count("airspace_released", decision="released", uav=uav, why=why, legs=dropped)

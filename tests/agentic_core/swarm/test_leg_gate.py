@@ -20,7 +20,7 @@ import pytest
 from agentic_core.contracts.geodesy import local_offset, offset_position
 from agentic_core.contracts.swarm import Point
 from agentic_core.swarm.coordinator import SwarmCoordinator
-from agentic_core.swarm.deconflict import Airspace
+from agentic_core.swarm.deconflict import Airspace, NoSafeLeg
 from agentic_core.swarm.leg_gate import gate_legs
 from agentic_core.swarm.legs import LegBook
 from agentic_core.swarm.separation import GRID_S, SeparationLog
@@ -264,18 +264,22 @@ def test_a_dead_uavs_reservations_are_released_and_its_airspace_given_to_others(
         parked = Point(north=50.0, east=0.0, alt=30.0)
         swarm.legs.request("uav-1", Point(north=0, east=-10, alt=30), parked, tool="flight.fly_to")
         across = {"start": Point(north=50, east=-100, alt=30), "goal": Point(north=50, east=100), "tool": "t"}
-        with pytest.raises(Exception, match="no layer"):
+        with pytest.raises(NoSafeLeg, match="no layer"):
             swarm.legs.request("uav-2", **across)  # type: ignore[arg-type]
         uavs[0].alive = False
         swarm.watch()
-        swarm.watch()  # released once
+        swarm.legs.hold("uav-1", parked)  # a dead UAV's agent, still holding where its aircraft was
+        swarm.watch()  # released once, and for good
         assert "uav-1" not in swarm.legs.airspace.reserved
         released = [r for r in records if r["event"] == "airspace_released"]
         assert [(r["uav"], r["legs"]) for r in released] == [("uav-1", 1)]
         grant = swarm.legs.request("uav-2", **across)  # type: ignore[arg-type]
         assert grant.delay_s == 0 and grant.layer_m == 30.0
-        swarm.legs.request("uav-1", Point(north=0, east=-10, alt=30), parked, tool="flight.fly_to")
-        swarm.fail("uav-1", "its vehicle stopped answering")  # a failure releases too (here: what it reserved again)
+        with pytest.raises(NoSafeLeg, match="uav-1 is lost"):
+            swarm.legs.request("uav-1", Point(north=0, east=-10, alt=30), parked, tool="flight.fly_to")
         assert "uav-1" not in swarm.legs.airspace.reserved
+        swarm.legs.request("uav-2", Point(north=50, east=100, alt=30), parked, tool="flight.fly_to")
+        swarm.fail("uav-2", "its vehicle stopped answering")  # a failure releases too
+        assert swarm.legs.airspace.reserved == {} and swarm.legs.lost == {"uav-1", "uav-2"}
     finally:
         swarm.close()
