@@ -4,6 +4,8 @@ reserved — it holds where it is until its start (a delay), goes to the layer g
 that layer at the planned speed, and comes down only where the leg lands (a delivery, the way home). Arriving
 early, it waits for the plan. Between legs, and while it hovers, it holds where it is, reserved as well.
 
+A newer command supersedes one still under way (a hold, the watch going over an object), as the vehicle client's do:
+the older one raises the client's "superseded" error, and leaves the airspace to the newer one.
 A refused leg is asked again every ``retry_s`` of the swarm's clock (others' legs end, their holds move on) for
 ``patience_s`` at most, then fails as a tool error the agent sees. ``flight.rtl`` flies home in its layer and lands
 there (the autopilot's own return would climb to its return altitude through the other layers); its reservations
@@ -65,6 +67,8 @@ class _Gate:
         self.here, self.origin, self.pad, self.targets = here, origin, pad, targets
         self.poll_s, self.retry_s, self.patience_s = poll_s, retry_s, patience_s
         self.original: dict[str, Any] = {}
+        self.latest = (0, "")
+        """The newest movement command (number, tool): an older one still waiting gives way, as the client's do."""
 
     # ---- geometry ----
 
@@ -89,15 +93,31 @@ class _Gate:
 
     # ---- calling the real tools ----
 
-    async def call(self, name: str, args: dict[str, Any], context: ToolContext) -> Any:
+    def start(self, tool: str) -> int:
+        """A new movement command: any older one gives way to it. Its number."""
+        self.latest = (self.latest[0] + 1, tool)
+        return self.latest[0]
+
+    def current(self, mine: int, tool: str) -> None:
+        """Raise the client's error if a newer command superseded ``tool`` (command ``mine``)."""
+        if self.latest[0] != mine:
+            raise ToolError(f"{tool} failed: superseded by {self.latest[1]}")
+
+    async def call(self, name: str, args: dict[str, Any], context: ToolContext, mine: int | None = None) -> Any:
+        if mine is not None:
+            self.current(mine, context.tool)
         result = self.original[name](args, context)
         return await result if inspect.isawaitable(result) else result
 
-    async def until(self, t: float) -> None:
+    async def until(self, t: float, mine: int | None = None, tool: str = "") -> None:
         while self.book.clock() < t:
+            if mine is not None:
+                self.current(mine, tool)
             await asyncio.sleep(self.poll_s)
 
-    async def reserve(self, tool: str, goal: Point, *, land: bool = False, asked_m: float | None = None) -> Grant:
+    async def reserve(
+        self, mine: int, tool: str, goal: Point, *, land: bool = False, asked_m: float | None = None
+    ) -> Grant:
         """The leg from here to ``goal``, asked again while refused (a hold where it is meanwhile)."""
         deadline = self.book.clock() + self.patience_s
         while True:
@@ -108,26 +128,26 @@ class _Gate:
             except NoSafeLeg as refused:
                 self.book.hold(self.uav, self.here())
                 if self.book.clock() >= deadline:
-                    raise ToolError(
-                        f"the swarm's airspace refused the leg for {self.patience_s:g} s: {refused}"
-                    ) from None
-                await self.until(self.book.clock() + self.retry_s)
+                    why = f"the swarm's airspace refused the leg for {self.patience_s:g} s: {refused}"
+                    raise ToolError(why) from None
+                await self.until(self.book.clock() + self.retry_s, mine, tool)
 
-    async def to_layer(self, grant: Grant, context: ToolContext) -> None:
+    async def to_layer(self, mine: int, grant: Grant, context: ToolContext) -> None:
         """Wait for the leg's start, then climb (or descend) to its layer over where the aircraft is."""
-        await self.until(grant.go_s)
+        await self.until(grant.go_s, mine, context.tool)
         now = self.here()
         if now.alt > AT_M and abs(now.alt - grant.layer_m) > AT_M:
-            await self.call("flight.fly_to", {**self.latlon(now), "alt_m": grant.layer_m}, context)
-        await self.until(grant.reached_s(self._index_at(grant, lambda p: abs(p.alt - grant.layer_m) < 1e-6)))
+            await self.call("flight.fly_to", {**self.latlon(now), "alt_m": grant.layer_m}, context, mine)
+        up = self._index_at(grant, lambda p: abs(p.alt - grant.layer_m) < 1e-6)
+        await self.until(grant.reached_s(up), mine, context.tool)
 
-    async def across(self, grant: Grant, goal: Point, context: ToolContext) -> Any:
+    async def across(self, mine: int, grant: Grant, goal: Point, context: ToolContext) -> Any:
         """Cross to over ``goal`` in the leg's layer at the planned speed; arriving early, wait for the plan."""
         speed = self.book.airspace.speed_mps
         args = {**self.latlon(goal), "alt_m": grant.layer_m, "speed_mps": speed}
-        result = await self.call("flight.fly_to", args, context)
+        result = await self.call("flight.fly_to", args, context, mine)
         over = self._index_at(grant, lambda p: p.horizontal_to(goal) < 1e-6 and abs(p.alt - grant.layer_m) < 1e-6)
-        await self.until(grant.reached_s(over))
+        await self.until(grant.reached_s(over), mine, context.tool)
         return result
 
     @staticmethod
@@ -135,21 +155,28 @@ class _Gate:
         points = grant.trajectory.waypoints
         return next((i for i, (_, p) in enumerate(points) if where(p)), len(points) - 1)
 
+    def settle(self, mine: int) -> None:
+        """After a command: hold where the aircraft is, unless a newer command has reserved its own way on."""
+        if self.latest[0] == mine:
+            self.book.hold(self.uav, self.here())
+
     # ---- the gated tools ----
 
     async def takeoff(self, args: dict[str, Any], context: ToolContext) -> Any:
+        mine = self.start(context.tool)
         now = self.here()
         asked = float(args.get("altitude_m", 10.0))
-        grant = await self.reserve("flight.takeoff", Point(north=now.north, east=now.east), asked_m=asked)
+        grant = await self.reserve(mine, context.tool, Point(north=now.north, east=now.east), asked_m=asked)
         try:
-            await self.until(grant.go_s)
-            result = await self.call("flight.takeoff", {**args, "altitude_m": grant.layer_m}, context)
-            await self.until(grant.trajectory.waypoints[-1][0])
+            await self.until(grant.go_s, mine, context.tool)
+            result = await self.call("flight.takeoff", {**args, "altitude_m": grant.layer_m}, context, mine)
+            await self.until(grant.trajectory.waypoints[-1][0], mine, context.tool)
             return result
         finally:
-            self.book.hold(self.uav, self.here())
+            self.settle(mine)
 
     async def fly_to(self, args: dict[str, Any], context: ToolContext) -> Any:
+        mine = self.start(context.tool)
         goal = self.destination(args)
         if goal is None:
             return await self.call("flight.fly_to", args, context)  # the tool says what is wrong with it
@@ -158,49 +185,53 @@ class _Gate:
         if now.horizontal_to(goal) < AT_M and (asked is None or abs(now.alt - float(asked)) < AT_M):
             self.book.hold(self.uav, now)  # already there: no leg, a hold
             return await self.call("flight.fly_to", args, context)
-        grant = await self.reserve("flight.fly_to", goal, asked_m=None if asked is None else float(asked))
+        grant = await self.reserve(mine, context.tool, goal, asked_m=None if asked is None else float(asked))
         try:
-            await self.to_layer(grant, context)
-            return await self.across(grant, goal, context)
+            await self.to_layer(mine, grant, context)
+            return await self.across(mine, grant, goal, context)
         finally:
-            self.book.hold(self.uav, self.here())
+            self.settle(mine)
 
     async def land(self, args: dict[str, Any], context: ToolContext) -> Any:
+        mine = self.start(context.tool)
         now = self.here()
         goal = self.destination(args) or Point(north=now.north, east=now.east)
-        grant = await self.reserve("flight.land", goal, land=True)
+        grant = await self.reserve(mine, context.tool, goal, land=True)
         try:
-            await self.to_layer(grant, context)
-            await self.across(grant, goal, context)
-            return await self.call("flight.land", args, context)
+            await self.to_layer(mine, grant, context)
+            await self.across(mine, grant, goal, context)
+            return await self.call("flight.land", args, context, mine)
         finally:
-            self.book.hold(self.uav, self.here())
+            self.settle(mine)
 
     async def rtl(self, args: dict[str, Any], context: ToolContext) -> Any:
+        mine = self.start(context.tool)
         home = Point(north=self.pad.north, east=self.pad.east)
-        grant = await self.reserve("flight.rtl", home, land=True)
+        grant = await self.reserve(mine, context.tool, home, land=True)
         landed = False
         try:
-            await self.to_layer(grant, context)
-            await self.across(grant, home, context)
-            result = await self.call("flight.land", {}, context)
+            await self.to_layer(mine, grant, context)
+            await self.across(mine, grant, home, context)
+            result = await self.call("flight.land", {}, context, mine)
             landed = True
             return result
         finally:
             if landed:
                 self.book.release(self.uav, "landed at home")
             else:
-                self.book.hold(self.uav, self.here())
+                self.settle(mine)
 
     async def hover(self, args: dict[str, Any], context: ToolContext) -> Any:
+        self.start(context.tool)
         self.book.hold(self.uav, self.here())
         return await self.call("flight.hover", args, context)
 
     async def hold(self, args: dict[str, Any], context: ToolContext) -> Any:
+        mine = self.start(context.tool)
         try:
             return await self.call("flight.hold", args, context)
         finally:
-            self.book.hold(self.uav, self.here())
+            self.settle(mine)
 
     async def refuse(self, args: dict[str, Any], context: ToolContext) -> Any:
         raise ToolError(f"{context.tool} flies a path the swarm's airspace cannot reserve: fly it as fly_to legs")

@@ -64,9 +64,10 @@ class Aircraft:
 
 
 class Sky:
-    """A fake clock ticking every aircraft ``GRID_S`` at a time (about 100 times real time), recording separation."""
+    """A fake clock ticking every aircraft ``GRID_S`` at a time (pausing ``pause_s`` between), recording separation."""
 
-    def __init__(self, *aircraft: Aircraft) -> None:
+    def __init__(self, *aircraft: Aircraft, pause_s: float = 0.001) -> None:
+        self.pause_s = pause_s
         self.aircraft = {a.name: a for a in aircraft}
         self.ticks = 0
         self.separation = SeparationLog(horizontal_m=H, vertical_m=V)
@@ -84,7 +85,7 @@ class Sky:
             for a in self.aircraft.values():
                 if a.at.alt > 1.0:
                     self.separation.record(a.name, self.now(), a.at)
-            time.sleep(0.001)
+            time.sleep(self.pause_s)
 
     def __enter__(self) -> Sky:
         self._thread.start()
@@ -131,7 +132,11 @@ def fake_flight_tools(registry: ToolRegistry, sky: Sky, aircraft: Aircraft) -> N
     async def rtl() -> Any:
         return await go(aircraft.at.model_copy(update={"alt": 60.0}))  # the autopilot's own return: up first
 
-    for fn in (fly_to, takeoff, land, hover, orbit, rtl):
+    async def hold() -> Any:
+        aircraft.target = None
+        return {"status": "ok"}
+
+    for fn in (fly_to, takeoff, land, hover, orbit, rtl, hold):
         registry.register(spec_from_function(fn, name=f"flight.{fn.__name__}"))
 
 
@@ -177,11 +182,13 @@ class Crossing:
 
 
 @contextmanager
-def crossing(layers: tuple[float, ...], *, gated: bool, patience_s: float = 300.0) -> Iterator[Crossing]:
+def crossing(
+    layers: tuple[float, ...], *, gated: bool, patience_s: float = 300.0, pause_s: float = 0.001
+) -> Iterator[Crossing]:
     east = Aircraft("east", Point(north=0.0, east=-100.0, alt=30.0))
     north = Aircraft("north", Point(north=-100.0, east=0.0, alt=30.0))
     records: list[dict[str, Any]] = []
-    with Sky(east, north) as sky:
+    with Sky(east, north, pause_s=pause_s) as sky:
         book = LegBook(
             Airspace(layers=layers, horizontal_m=H + 3.0, vertical_m=V, speed_mps=SPEED, climb_mps=CLIMB, hold_s=1e5),
             clock=sky.now, record=lambda event, **fields: records.append({"event": event, **fields}),
@@ -238,6 +245,36 @@ def test_a_leg_refused_for_good_is_a_tool_error_and_each_refusal_is_logged() -> 
     refused = [r for r in situation.records if r.get("decision") == "refused"]
     assert len(refused) >= 2 and {r["uav"] for r in refused} == {"north"}
     assert situation.sky.aircraft["north"].at == Point(north=-100.0, east=0.0, alt=30.0)  # it never moved
+
+
+def test_a_hold_supersedes_a_leg_waiting_for_its_start_and_takes_its_place_in_the_airspace() -> None:
+    with crossing((30.0,), gated=True, pause_s=0.005) as situation:  # 20 times real time: a second to stop it
+        north = situation.registries["north"]
+        outcome: list[Any] = []
+
+        def delayed_leg() -> None:
+            try:
+                outcome.append(call(north, "flight.fly_to", {**latlon(100.0, 0.0), "alt_m": 30.0}))
+            except ToolError as exc:
+                outcome.append(exc)
+
+        east = threading.Thread(
+            target=call, args=(situation.registries["east"], "flight.fly_to", {**latlon(0.0, 100.0), "alt_m": 30.0})
+        )
+        east.start()
+        wait_for(lambda: situation.records, 10.0, what="the first leg granted")
+        waiting = threading.Thread(target=delayed_leg)
+        waiting.start()
+        wait_for(lambda: len(situation.records) > 1, 10.0, what="the second leg delayed")
+        assert situation.records[1]["decision"] == "delayed"
+        call(north, "flight.hold", {})  # the agent stops it while it waits for its start
+        waiting.join(timeout=10.0)
+        east.join(timeout=60.0)
+    (error,) = outcome
+    assert isinstance(error, ToolError) and "superseded by flight.hold" in str(error)
+    assert situation.sky.aircraft["north"].at == Point(north=-100.0, east=0.0, alt=30.0)  # it never left
+    last = situation.book.airspace.reserved["north"][-1]
+    assert last.waypoints == ((last.start, Point(north=-100.0, east=0.0, alt=30.0)),)  # a hold, not the dropped leg
 
 
 def test_a_path_the_airspace_cannot_reserve_is_refused_and_the_way_home_stays_in_the_layer() -> None:
