@@ -79,6 +79,8 @@ def test_four_uavs_cover_the_sectors_and_answer_the_casualty_together(tmp_path: 
     assert {r["uav"] for r in legs if r["tool"] == "flight.rtl"} == set(summary["uavs"])
     assert [r["uav"] for r in legs if r["tool"] == "flight.land"] == [medic]  # the descent for the delivery
     assert not [r for r in legs if r["decision"] in ("refused", "strayed")]
+    decided = summary["airspace"]
+    assert sum(decided[d] for d in ("granted", "relayered", "delayed")) == len(legs) and decided["released"] == 4
     released = sorted(r["uav"] for r in records if r["event"] == "airspace_released")
     assert released == sorted(summary["uavs"])  # each landed at home and gave its airspace back
     assert len(smtp.inbox.envelopes) == 1  # one alert for the fleet, not one per UAV that saw the casualty
