@@ -4,8 +4,9 @@ reserved — it holds where it is until its start (a delay), goes to the layer g
 that layer at the planned speed, and comes down only where the leg lands (a delivery, the way home). Arriving
 early, it waits for the plan. Between legs, and while it hovers, it holds where it is, reserved as well.
 
-A newer command supersedes one still under way (a hold, the watch going over an object), as the vehicle client's do:
-the older one raises the client's "superseded" error, and leaves the airspace to the newer one.
+A UAV the swarm has lost (its vehicle dead) flies no more: a command under way is given up at once, and any other
+is refused. A newer command supersedes one still under way (a hold, the watch going over an object), as the vehicle
+client's do: the older one raises the client's "superseded" error, and leaves the airspace to the newer one.
 A refused leg is asked again every ``retry_s`` of the swarm's clock (others' legs end, their holds move on) for
 ``patience_s`` at most, then fails as a tool error the agent sees. ``flight.rtl`` flies home in its layer and lands
 there (the autopilot's own return would climb to its return altitude through the other layers); its reservations
@@ -44,6 +45,9 @@ AT_M = 1.0
 """Closer than this to a place (and its layer) is being there: a leg there is a hold."""
 
 UNRESERVABLE = ("flight.orbit", "flight.start_mission")
+
+LOST_POLL_S = 0.1
+"""How often (wall) a tool under way looks whether the swarm has its UAV lost."""
 
 Targets = Callable[[str], "tuple[float, float] | None"]
 
@@ -104,10 +108,20 @@ class _Gate:
             raise ToolError(f"{tool} failed: superseded by {self.latest[1]}")
 
     async def call(self, name: str, args: dict[str, Any], context: ToolContext, mine: int | None = None) -> Any:
+        """The real tool; given up as soon as the swarm has this UAV lost (its vehicle is gone: waiting on it for
+        the client's timeout would only hold the swarm's run open)."""
         if mine is not None:
             self.current(mine, context.tool)
         result = self.original[name](args, context)
-        return await result if inspect.isawaitable(result) else result
+        if not inspect.isawaitable(result):
+            return result
+        task = asyncio.ensure_future(result)
+        while not task.done():
+            if self.uav in self.book.lost:
+                task.cancel()
+                raise ToolError(f"{context.tool} given up: {self.uav} is lost to the swarm (its vehicle is gone)")
+            await asyncio.wait({task}, timeout=LOST_POLL_S)
+        return task.result()
 
     async def until(self, t: float, mine: int | None = None, tool: str = "") -> None:
         while self.book.clock() < t:
@@ -271,4 +285,4 @@ def gate_legs(
             registry.register(replace(spec, handler=wrapper, is_async=True), replace=True)
 
 
-__all__ = ["AT_M", "UNRESERVABLE", "gate_legs"]
+__all__ = ["AT_M", "LOST_POLL_S", "UNRESERVABLE", "gate_legs"]

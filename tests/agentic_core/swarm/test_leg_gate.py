@@ -277,6 +277,30 @@ def test_a_hold_supersedes_a_leg_waiting_for_its_start_and_takes_its_place_in_th
     assert last.waypoints == ((last.start, Point(north=-100.0, east=0.0, alt=30.0)),)  # a hold, not the dropped leg
 
 
+def test_a_uav_the_swarm_has_lost_gives_up_the_command_under_way_and_flies_no_more() -> None:
+    with crossing((30.0,), gated=True, pause_s=0.005) as situation:
+        east = situation.registries["east"]
+        outcome: list[Any] = []
+
+        def long_leg() -> None:
+            try:
+                outcome.append(call(east, "flight.fly_to", {**latlon(0.0, 400.0), "alt_m": 30.0}))  # 100 s of flight
+            except ToolError as exc:
+                outcome.append(exc)
+
+        flying = threading.Thread(target=long_leg)
+        flying.start()
+        wait_for(lambda: situation.sky.aircraft["east"].target is not None, 10.0, what="the leg under way")
+        situation.book.release("east", "its vehicle stopped answering", lost=True)  # what the coordinator does
+        flying.join(timeout=5.0)  # not the 5 s of wall the rest of the leg would take at this pace
+        assert not flying.is_alive()
+        with pytest.raises(ToolError, match="east is lost"):
+            call(east, "flight.fly_to", {**latlon(0.0, 0.0), "alt_m": 30.0})
+    (error,) = outcome
+    assert isinstance(error, ToolError) and "given up: east is lost to the swarm" in str(error)
+    assert "east" not in situation.book.airspace.reserved  # nothing of a lost UAV is reserved again
+
+
 def test_a_path_the_airspace_cannot_reserve_is_refused_and_the_way_home_stays_in_the_layer() -> None:
     with crossing((30.0, 40.0), gated=True) as situation:
         with pytest.raises(ToolError, match="cannot reserve"):
