@@ -99,7 +99,7 @@ def outcome_of(swarm: Any, wall_s: float) -> dict[str, Any]:
         "verify_k": coordinator.verify_k,
         "verify_by": coordinator.verification.by, "sim_s": round(swarm.time_s(), 1), "wall_s": round(wall_s, 1),
         "allocation": dict(coordinator.manager.allocation.awarded), "a2a": coordinator.a2a_report(),
-        "ground_link_lost_s": coordinator.ground_lost_at,
+        "ground_link_lost_s": coordinator.ground_lost_at, "airspace": dict(coordinator.legs.counts),
     }  # fmt: skip
 
 
@@ -132,6 +132,8 @@ def write_summary(directory: Path, summary: dict[str, Any]) -> None:
         "",
         f"Separation: closest {sep['min_distance_m']} m ({', '.join(sep['closest'])} at {sep['at_s']} s); "
         f"minimum {sep['horizontal_m']} m horizontal or {sep['vertical_m']} m vertical; losses: {sep['losses']}.",
+        *([f"Legs reserved before they were flown (swarm.jsonl's leg events): {summary['airspace']}."]
+          if "airspace" in summary else []),
         f"Refused swarm messages: {summary['refusals'] or 'none'}.",
         *([f"Ground link lost at {summary['ground_link_lost_s']} s: from then on the UAVs allocated among themselves "
            "by consensus (swarm.jsonl's consensus events)."] if summary.get("ground_link_lost_s") is not None else []),

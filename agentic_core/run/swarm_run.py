@@ -42,6 +42,7 @@ from ..mission.source import MissionError
 from ..mission.validate import load_mission
 from ..swarm.coordinator import Member, SwarmCoordinator
 from ..swarm.fleet_tools import register_swarm_tools
+from ..swarm.leg_gate import gate_legs
 from ..swarm.operator_verify import Verdict
 from ..swarm.projection import project
 from ..swarm.sectors import split
@@ -50,6 +51,7 @@ from ..swarm.signing import JsonlAudit, MemoryAudit, SwarmKey
 from .backends import Backend
 from .runner import MissionRun
 from .settings import RunError, RunResult, RunSettings, default_scene
+from .swarm_airspace import swarm_airspace
 from .swarm_backend import LockstepBackend
 from .swarm_connect import ConnectedBackend, find_fleet
 from .swarm_operator import ask_on_port
@@ -129,6 +131,9 @@ class SwarmSeat:
     def tools(self, registry: ToolRegistry, run: Any) -> None:
         margin = self.swarm.plan_swarm.separation.horizontal_m + 5.0
         register_swarm_tools(registry, self.swarm.coordinator, self.uav, wait=self.swarm.wait, separation_m=margin)
+        home, pad = self.swarm.home, Point(north=0.0, east=self.swarm.pad_east(self.index))
+        gate_legs(registry, self.swarm.coordinator.legs, self.uav, here=lambda: self.state().position,
+                  origin=(home.lat_deg, home.lon_deg), pad=pad, targets=run._target)  # fmt: skip
 
     # ---- what the coordinator reads ----
 
@@ -174,6 +179,8 @@ class SwarmSeat:
             self.result = self.run.execute()
         except Exception as exc:  # one UAV's crash is the swarm's news, not the end of the others
             self.error = f"{type(exc).__name__}: {exc}"
+        finally:
+            self.swarm.coordinator.legs.release(self.uav, "its run ended")
 
 
 class SwarmRun:
@@ -219,7 +226,7 @@ class SwarmRun:
             SwarmKey.generate(plan.plan_id), [self._member(s) for s in self.seats], sectors, rounds=rounds,
             verify_k=min(plan.swarm.verify.k, n), verification=plan.swarm.verify, audit=self.audit,
             heartbeat=plan.swarm.heartbeat, log=self._log, clock=self.time_s,
-            a2a=settings.a2a,
+            a2a=settings.a2a, airspace=swarm_airspace(plan.swarm),
         )  # fmt: skip
         self.sectors = sectors
         try:

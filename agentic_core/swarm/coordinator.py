@@ -37,8 +37,10 @@ from agentic_core.contracts.swarm_plan import Heartbeat, Verification
 from agentic_core.contracts.world_model import WorldModel
 from agentic_core.swarm.consensus import ConsensusAgent, agree
 from agentic_core.swarm.contract_net import LocalChannel, Manager, Participant
+from agentic_core.swarm.deconflict import Airspace
 from agentic_core.swarm.fusion import fuse
 from agentic_core.swarm.heartbeat import Heartbeats
+from agentic_core.swarm.legs import LegBook
 from agentic_core.swarm.operator_verify import Ask, ask_operator
 from agentic_core.swarm.sectors import Sector
 from agentic_core.swarm.signing import Audit, Guard, MemoryAudit, Sealer, SwarmKey
@@ -121,6 +123,7 @@ class SwarmCoordinator:
         bid_window_s: float = 2.0,
         a2a: bool = False,
         heartbeat: Heartbeat | None = None,
+        airspace: Airspace | None = None,
     ) -> None:
         self.key = key
         self.members = {m.uav: m for m in members}
@@ -140,6 +143,10 @@ class SwarmCoordinator:
         """The ground link is lost: the UAVs allocate among themselves (:meth:`lose_ground`)."""
         self.ground_lost_at: float | None = None
         self._peers: dict[tuple[str, str], A2APeer] = {}
+        self.legs = LegBook(airspace or Airspace(), clock=lambda: self.clock(), record=self._record)
+        """Every UAV's legs, reserved before it flies them (:mod:`~agentic_core.swarm.leg_gate`)."""
+        for member in self.members.values():
+            self.legs.prefer(member.uav, member.layer_m)
         self.participants: dict[str, FinderRefuses] = {}
         self.channels: dict[str, LocalChannel | A2AChannel] = {}
         self.guards: dict[str, Guard] = {}
@@ -243,6 +250,7 @@ class SwarmCoordinator:
                 return []
             self.failed.append(uav)
         self.channels[uav].alive = False
+        self.legs.release(uav, why, lost=True)
         if self.ground_lost:
             self.manager.failed.add(uav)
             moved = self.manager.allocation.tasks_of(uav)
@@ -264,8 +272,10 @@ class SwarmCoordinator:
 
     def watch(self) -> None:
         """Check every member once: one whose vehicle is gone (without the ground: silent) has failed (its tasks
-        move)."""
-        for uav in self.members:
+        move); a vehicle gone is lost to the airspace."""
+        for uav, member in self.members.items():
+            if not member.alive():
+                self.legs.release(uav, "its vehicle stopped answering", lost=True)
             holds = self.manager.allocation.tasks_of(uav)  # a UAV that went home with nothing left to do is not lost
             if uav not in self.failed and holds and not self.alive(uav):
                 silent = self.heartbeats.silent_s(uav, [u for u in self.members if u not in self.failed])

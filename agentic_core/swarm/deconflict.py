@@ -126,6 +126,8 @@ class Airspace:
     vertical_m: float = 8.0
     speed_mps: float = 8.0
     climb_mps: float = 2.0
+    descent_mps: float | None = None
+    """How fast a leg that lands comes down (None: ``climb_mps``)."""
     hold_s: float = 120.0
     delay_step_s: float = 5.0
     max_delay_s: float = 120.0
@@ -134,13 +136,18 @@ class Airspace:
         self.reserved: dict[str, list[Trajectory]] = {}
         self._home_layer: dict[str, int] = {}
 
-    def reserve(self, uav: str, start: Point, goal: Point, *, t0: float) -> Trajectory:
+    def prefer(self, uav: str, layer_m: float) -> None:
+        """Make ``layer_m`` (one of :attr:`layers`) the layer ``uav``'s legs try first."""
+        self._home_layer[uav] = list(self.layers).index(layer_m)
+
+    def reserve(self, uav: str, start: Point, goal: Point, *, t0: float, land: bool = False) -> Trajectory:
         """Reserve ``uav``'s leg from ``start`` to over ``goal`` (flown in a layer) from ``t0``; the plan granted.
+        With ``land`` the leg ends coming down over ``goal`` to its ``alt``.
 
         Its previous reservation's hold ends at ``t0``."""
         self._home_layer.setdefault(uav, len(self._home_layer) % len(self.layers))
         others = [t for u, legs in self.reserved.items() if u != uav for t in legs]
-        for candidate in self._candidates(uav, start, goal, t0):
+        for candidate in self._candidates(uav, start, goal, t0, land):
             if all(conflict(candidate, o, self.horizontal_m, self.vertical_m) is None for o in others):
                 self._cut(uav, t0)
                 self.reserved.setdefault(uav, []).append(candidate)
@@ -150,28 +157,48 @@ class Airspace:
             f"keeps {self.horizontal_m:g} m / {self.vertical_m:g} m from the other legs"
         )
 
+    def hold(self, uav: str, where: Point, *, t0: float) -> list[str]:
+        """Reserve ``uav`` holding at ``where`` from ``t0`` (where it is: always granted, its previous hold ended);
+        the UAVs whose legs it conflicts with (none, unless the aircraft strayed from its plan)."""
+        mine = Trajectory(uav, ((t0, where),), until=t0 + self.hold_s)
+        clash = sorted(
+            {u for u, legs in self.reserved.items() if u != uav for t in legs
+             if conflict(mine, t, self.horizontal_m, self.vertical_m) is not None}
+        )  # fmt: skip
+        self._cut(uav, t0)
+        self.reserved.setdefault(uav, []).append(mine)
+        return clash
+
+    def release(self, uav: str) -> int:
+        """Drop every reservation of ``uav`` (it has landed for good, or died); how many there were."""
+        return len(self.reserved.pop(uav, []))
+
     def _cut(self, uav: str, t0: float) -> None:
         legs = self.reserved.get(uav, [])
         if legs and legs[-1].until > t0:
             legs[-1] = replace(legs[-1], until=max(t0, legs[-1].waypoints[-1][0]))
 
-    def _candidates(self, uav: str, start: Point, goal: Point, t0: float) -> Iterator[Trajectory]:
+    def _candidates(self, uav: str, start: Point, goal: Point, t0: float, land: bool) -> Iterator[Trajectory]:
         home = self._home_layer[uav]
         order = [self.layers[(home + i) % len(self.layers)] for i in range(len(self.layers))]
         steps = int(self.max_delay_s / self.delay_step_s)
         for k in range(steps + 1):
             for alt in order:
-                yield self._plan(uav, start, goal, alt, t0, k * self.delay_step_s)
+                yield self._plan(uav, start, goal, alt, t0, k * self.delay_step_s, land)
 
-    def _plan(self, uav: str, start: Point, goal: Point, alt: float, t0: float, delay: float) -> Trajectory:
+    def _plan(
+        self, uav: str, start: Point, goal: Point, alt: float, t0: float, delay: float, land: bool = False
+    ) -> Trajectory:
         up = Point(north=start.north, east=start.east, alt=alt)
         over = Point(north=goal.north, east=goal.east, alt=alt)
         t_go = t0 + delay
         t_up = t_go + abs(alt - start.alt) / self.climb_mps
         t_over = t_up + start.horizontal_to(goal) / self.speed_mps
         points: list[Waypoint] = [(t0, start), (t_go, start), (t_up, up), (t_over, over)]
+        if land:
+            points.append((t_over + abs(alt - goal.alt) / (self.descent_mps or self.climb_mps), goal))
         kept = [points[0]] + [p for prev, p in pairwise(points) if p[0] > prev[0]]
-        return Trajectory(uav, tuple(kept), until=t_over + self.hold_s)
+        return Trajectory(uav, tuple(kept), until=kept[-1][0] + self.hold_s)
 
 
 def min_separation(tracks: Mapping[str, Sequence[Waypoint]]) -> tuple[float, str, str, float] | None:

@@ -60,6 +60,19 @@ def test_no_room_is_a_clear_error_not_a_conflict() -> None:
         airspace.reserve("b", Point(north=0, east=-100, alt=30), Point(north=0, east=0), t0=0.0)
 
 
+def test_a_landing_leg_comes_down_over_its_goal_and_a_hold_says_whom_it_clashes_with() -> None:
+    airspace = Airspace(layers=(30.0,), horizontal_m=H, vertical_m=V, climb_mps=2.0, descent_mps=1.0, hold_s=50.0)
+    airspace.prefer("a", 30.0)
+    down = airspace.reserve("a", Point(north=0, east=0, alt=30), Point(north=80, east=0), t0=0.0, land=True)
+    assert down.waypoints[-1][1] == Point(north=80, east=0, alt=0) and down.waypoints[-2][1].alt == 30.0
+    assert down.waypoints[-1][0] - down.waypoints[-2][0] == pytest.approx(30.0)  # 30 m down at 1 m/s
+    assert airspace.hold("b", Point(north=80, east=5, alt=5), t0=10.0) == ["a"]  # where a lands, strayed there
+    assert airspace.hold("b", Point(north=0, east=300, alt=30), t0=11.0) == []
+    assert airspace.release("a") == 1 and airspace.release("a") == 0 and "a" not in airspace.reserved
+    with pytest.raises(ValueError):
+        airspace.prefer("a", 35.0)  # not a layer
+
+
 def test_the_minimum_separation_flown_is_measured() -> None:
     tracks = {
         "a": [(0.0, Point(north=0, east=0, alt=30)), (1.0, Point(north=0, east=10, alt=30))],
@@ -89,15 +102,22 @@ def requests(draw: st.DrawFn) -> list[tuple[str, Point, float]]:
 
 
 @settings(max_examples=60, deadline=None)
-@given(requests(), st.sampled_from([(30.0,), (30.0, 40.0), (30.0, 40.0, 50.0)]))
-def test_granted_legs_never_lose_separation(legs: list[tuple[str, Point, float]], layers: tuple[float, ...]) -> None:
+@given(
+    requests(),
+    st.sampled_from([(30.0,), (30.0, 40.0), (30.0, 40.0, 50.0)]),
+    st.lists(st.booleans(), min_size=11, max_size=11),
+)
+def test_granted_legs_never_lose_separation(
+    legs: list[tuple[str, Point, float]], layers: tuple[float, ...], lands: list[bool]
+) -> None:
+    """Legs that land (come down over their goal) among them."""
     airspace = Airspace(layers=layers, horizontal_m=H, vertical_m=V, hold_s=20.0, delay_step_s=4.0, max_delay_s=80.0)
     where = {f"u{i}": Point(north=-400.0, east=40.0 * i, alt=0.0) for i in range(6)}  # a launch line, 40 m apart
     free_at = dict.fromkeys(where, 0.0)
     granted = 0
-    for uav, goal, wait in legs:
+    for i, (uav, goal, wait) in enumerate(legs):
         try:
-            leg = airspace.reserve(uav, where[uav], goal, t0=free_at[uav] + wait)
+            leg = airspace.reserve(uav, where[uav], goal, t0=free_at[uav] + wait, land=lands[i % len(lands)])
         except NoSafeLeg:
             continue
         granted += 1
