@@ -20,6 +20,7 @@ Files: ``runs/<swarm-id>/`` holds ``swarm.jsonl`` (rounds, awards, claims, verif
 from __future__ import annotations
 
 import json
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -54,7 +55,7 @@ from .settings import RunError, RunResult, RunSettings, default_scene
 from .swarm_airspace import swarm_airspace
 from .swarm_backend import LockstepBackend
 from .swarm_connect import ConnectedBackend, find_fleet
-from .swarm_operator import ask_on_port
+from .swarm_operator import SharedTerminal, ask_on_port
 from .swarm_outcome import outcome_of, write_summary
 
 MONITOR_S = 0.2
@@ -229,10 +230,14 @@ class SwarmRun:
             a2a=settings.a2a, airspace=swarm_airspace(plan.swarm),
         )  # fmt: skip
         self.sectors = sectors
+        terminal = SharedTerminal(
+            sys.stdin, sys.stderr, timeout_s=RunSettings.model_fields["approval_timeout_s"].default
+        )
         try:
             for seat in self.seats:
                 said = cast(TextIO, _Prefixed(progress, seat.uav)) if progress is not None else None
-                seat.run = MissionRun(self._settings_of(seat), progress=said, fleet=seat, operator=settings.operator)
+                operator = settings.operator or terminal.for_uav(seat.uav)  # one terminal, not one reader per UAV
+                seat.run = MissionRun(self._settings_of(seat), progress=said, fleet=seat, operator=operator)
                 seat.run.backend.on_sample(seat.on_sample)
         except Exception:
             self.close()
