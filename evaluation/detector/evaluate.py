@@ -1,6 +1,8 @@
 """The person detector on held-out renders: run it on labelled frames, then precision, recall and AP@0.5 over
 all persons and by pose. A detection counts as a hit when it matches any person (IoU ≥ 0.5); a pose's recall is
-the share of that pose's persons found.
+the share of that pose's persons found. Persons seen less than half (``visible`` < :data:`MIN_SEEN`: under other
+persons or mostly out of the image) are ignored, neither to be found nor a false alarm when found
+(:mod:`evaluation.detector.scoring`).
 
 >>> import numpy as np
 >>> from evaluation.detector.scoring import match
@@ -20,8 +22,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agentic_core.perception.detectors import OnnxDetector
+from flight.sim.render.dataset import MIN_SEEN
 
-from .scoring import Matched, average_precision, match, recall_of
+from .scoring import Matched, average_precision, match, precision_at, recall_of
 from .train import Labelled
 
 POSES = ("standing", "walking", "sitting", "lying")
@@ -55,8 +58,13 @@ def detect_all(
 
 
 def evaluate(detector: OnnxDetector, frames: Sequence[Labelled]) -> Matched:
-    """Run ``detector`` on ``frames`` and match its detections to their labels."""
-    return match(detect_all(detector, frames), [f.boxes for f in frames])
+    """Run ``detector`` on ``frames`` and match its detections to their labels (the barely seen ignored)."""
+    return match(detect_all(detector, frames), [f.boxes for f in frames], ignored(frames))
+
+
+def ignored(frames: Sequence[Labelled]) -> list[NDArray[np.bool_]]:
+    """Per frame, which labels are ignored: persons seen less than :data:`MIN_SEEN`."""
+    return [np.asarray(f.visible < MIN_SEEN, bool) for f in frames]
 
 
 def pose_masks(frames: Sequence[Labelled], pose: str | None) -> list[NDArray[np.bool_]]:
@@ -66,17 +74,17 @@ def pose_masks(frames: Sequence[Labelled], pose: str | None) -> list[NDArray[np.
 
 def scores_at(m: Matched, threshold: float, subset: Sequence[NDArray[np.bool_]]) -> Scores:
     """Precision of all detections scoring ≥ ``threshold``; recall and AP of the ``subset`` persons."""
-    kept = m.scores >= threshold
-    precision = float(np.mean(m.hit[kept])) if kept.any() else float("nan")
-    truth = int(sum(int(np.sum(s)) for s in subset))
-    return Scores(precision, recall_of(m, threshold, subset), average_precision(m, subset), truth)
+    truth = int(sum(int(np.sum(s & c)) for s, c in zip(subset, m.counted, strict=True)))
+    return Scores(precision_at(m, threshold), recall_of(m, threshold, subset), average_precision(m, subset), truth)
 
 
 def best_threshold(m: Matched) -> float:
-    """The raw score threshold with the best F1 over all persons (chosen on calibration renders, never the test)."""
+    """The raw score threshold with the best F1 over all counted persons (chosen on calibration renders, never the
+    test)."""
     order = np.argsort(-m.scores, kind="stable")
+    order = order[~m.ignored[order]]
     hits = m.hit[order]
-    positives = sum(len(s) for s in m.truth_score)
+    positives = sum(int(np.sum(c)) for c in m.counted)
     tp = np.cumsum(hits)
     precision = tp / np.arange(1, len(hits) + 1)
     recall = tp / max(positives, 1)
@@ -95,6 +103,7 @@ __all__ = [
     "best_threshold",
     "detect_all",
     "evaluate",
+    "ignored",
     "pose_masks",
     "scores_at",
 ]

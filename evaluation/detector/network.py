@@ -1,9 +1,12 @@
-"""The person detector's network (torch): a small single-class anchor-free detector, stride 4, and the wrapper that
-exports it in the YOLOv8 layout ``(1, 5, N)`` (``cx, cy, w, h, score``) so :class:`OnnxDetector` runs it.
+"""The person detector's network (torch): a small single-class anchor-free detector with its head at stride 4, and
+the wrapper that exports it in the YOLOv8 layout ``(1, 5, N)`` (``cx, cy, w, h, score``) so :class:`OnnxDetector`
+runs it.
 
-Each cell of the stride-4 grid predicts a score logit (is a person's centre here?), the centre's offset in the cell
-and the box's log size. The export keeps only local maxima of the score (a 3×3 max-pool), the usual way a
-centre-point detector avoids a crowd of neighbours each claiming one person.
+The stem reaches stride 4 through two 3×3 convolutions of stride 2, so the detail of a person five pixels wide
+survives; context comes from stride 8 and stride 16 branches added back (a small feature pyramid), wide enough for a
+person 60 pixels long at 10 m. Each cell of the stride-4 grid predicts a score logit (is a person's centre here?),
+the centre's offset in the cell and the box's log size. The export keeps only local maxima of the score (a 3×3
+max-pool), the usual way a centre-point detector avoids a crowd of neighbours each claiming one person.
 """
 
 from __future__ import annotations
@@ -29,29 +32,29 @@ def _conv(cin: int, cout: int, stride: int = 1, dilation: int = 1) -> Any:
 
 
 class PersonNet(nn.Module):  # type: ignore[misc]
-    """Stem to stride 4, a stride-8 context branch added back, and a head at stride 4."""
+    """Stem to stride 4 (two stride-2 3×3 convolutions), stride 8 and 16 context added back, a head at stride 4."""
 
-    def __init__(self, width: int = 32) -> None:
+    def __init__(self, width: int = 24) -> None:
         super().__init__()
         w = width
-        self.stem = nn.Sequential(
-            nn.Conv2d(3, w, 4, 4, bias=False), nn.BatchNorm2d(w), nn.ReLU(inplace=True), _conv(w, w)
-        )
-        self.body = nn.Sequential(_conv(w, w), _conv(w, w))
-        self.down = nn.Sequential(_conv(w, 2 * w, 2), _conv(2 * w, 2 * w, dilation=2))
-        self.up = nn.Conv2d(2 * w, w, 1)
+        self.stem = nn.Sequential(_conv(3, 16, 2), _conv(16, w, 2), _conv(w, w))
+        self.down8 = nn.Sequential(_conv(w, 2 * w, 2), _conv(2 * w, 2 * w))
+        self.down16 = nn.Sequential(_conv(2 * w, 64, 2), _conv(64, 64, dilation=2))
+        self.up16 = nn.Conv2d(64, 2 * w, 1)
+        self.up8 = nn.Conv2d(2 * w, w, 1)
         self.head = nn.Sequential(_conv(w, w), nn.Conv2d(w, OUTPUTS, 1))
         nn.init.constant_(self.head[-1].bias, 0.0)
         with torch.no_grad():
             self.head[-1].bias[0] = -4.6  # a prior of 1% persons per cell, so early training is not swamped
 
     def forward(self, images: Any) -> Any:
-        """``images`` N×3×H×W in 0–1 → N×5×(H/4)×(W/4) raw outputs."""
-        x = self.stem(images - 0.5)
-        x = x + self.body(x)
-        context = self.down(x)
-        x = x + nn.functional.interpolate(self.up(context), size=x.shape[-2:], mode="nearest")
-        return self.head(x)
+        """``images`` N×3×H×W in 0–1 (H and W multiples of 16) → N×5×(H/4)×(W/4) raw outputs."""
+        x4 = self.stem(images - 0.5)
+        x8 = self.down8(x4)
+        x16 = self.down16(x8)
+        x8 = x8 + nn.functional.interpolate(self.up16(x16), size=x8.shape[-2:], mode="nearest")
+        x4 = x4 + nn.functional.interpolate(self.up8(x8), size=x4.shape[-2:], mode="nearest")
+        return self.head(x4)
 
 
 def decode_grid(raw: Any) -> tuple[Any, Any, Any, Any, Any]:

@@ -43,6 +43,8 @@ class Labelled(Protocol):
     def poses(self) -> tuple[str, ...]: ...
     @property
     def altitude_m(self) -> float: ...
+    @property
+    def visible(self) -> NDArray[np.float32]: ...
 
 
 @dataclass(frozen=True)
@@ -50,19 +52,20 @@ class TrainConfig:
     """Everything that decides the weights; written into the recipe."""
 
     data_seed: int = 1
-    frames: int = 900
+    frames: int = 1200
     width_px: int = 640
     height_px: int = 480
     altitudes_m: tuple[float, ...] = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
-    crop_px: int = 160
+    crop_px: int = 224
     crops_per_frame: int = 4
-    batch: int = 32
-    epochs: int = 8
-    max_minutes: float = 20.0
+    batch: int = 16
+    epochs: int = 12
+    max_minutes: float = 60.0
+    max_cpu_minutes: float = 40.0
     net_width: int = 24
     learning_rate: float = 2e-3
     torch_seed: int = 0
-    threads: int = 1
+    threads: int = 2
 
 
 @dataclass
@@ -72,6 +75,7 @@ class TrainStats:
     epochs_done: int = 0
     steps: int = 0
     seconds: float = 0.0
+    cpu_seconds: float = 0.0
     loss_by_epoch: list[float] = field(default_factory=list)
 
 
@@ -97,6 +101,7 @@ class CachedFrame:
     boxes: NDArray[np.float32]
     poses: tuple[str, ...]
     altitude_m: float
+    visible: NDArray[np.float32]
 
 
 def save_frames(path: Path, frames: Sequence[Labelled]) -> None:
@@ -106,51 +111,94 @@ def save_frames(path: Path, frames: Sequence[Labelled]) -> None:
     poses = np.array([p for f in frames for p in f.poses], dtype="U8")
     altitudes = np.array([f.altitude_m for f in frames])
     images = np.stack([f.image for f in frames])
-    np.savez(path, images=images, boxes=boxes, counts=counts, poses=poses, altitudes=altitudes)
+    visible = np.concatenate([f.visible for f in frames] or [np.zeros(0, np.float32)])
+    np.savez(path, images=images, boxes=boxes, counts=counts, poses=poses, altitudes=altitudes, visible=visible)
 
 
 def load_frames(path: Path) -> list[Labelled]:
-    """The frames :func:`save_frames` kept."""
+    """The frames :func:`save_frames` kept (each array read once: an ``.npz`` member is read again on every access);
+    :class:`ValueError` for a cache written before labels had a visible share (render it again)."""
     data = np.load(path)
+    if "visible" not in data.files:
+        raise ValueError(f"{path}: a frame cache without visible shares (from an older version); delete it")
+    images, boxes, visible, altitudes = data["images"], data["boxes"], data["visible"], data["altitudes"]
     ends = np.cumsum(data["counts"])
     starts = ends - data["counts"]
     poses = [str(p) for p in data["poses"]]
     return [
-        CachedFrame(data["images"][k], data["boxes"][a:b], tuple(poses[a:b]), float(data["altitudes"][k]))
+        CachedFrame(images[k], boxes[a:b], tuple(poses[a:b]), float(altitudes[k]), visible[a:b])
         for k, (a, b) in enumerate(zip(starts.tolist(), ends.tolist(), strict=True))
     ]
 
 
-def focal_loss(torch: Any, logits: Any, heat: Any) -> Any:
-    """The centre-point focal loss: positives where the target is 1, negatives down-weighted near a centre."""
+def focal_loss(torch: Any, logits: Any, heat: Any, weight: Any) -> Any:
+    """The centre-point focal loss: positives where the target is 1, negatives down-weighted near a centre and
+    left out where ``weight`` is 0 (around ignored persons)."""
     p = torch.sigmoid(logits).clamp(1e-4, 1 - 1e-4)
     pos = heat.eq(1.0).float()
     pos_loss = -torch.log(p) * (1 - p) ** 2 * pos
-    neg_loss = -torch.log(1 - p) * p**2 * (1 - heat) ** 4 * (1 - pos)
+    neg_loss = -torch.log(1 - p) * p**2 * (1 - heat) ** 4 * (1 - pos) * weight
     return (pos_loss.sum() + neg_loss.sum()) / pos.sum().clamp(min=1.0)
+
+
+def giou_loss(torch: Any, pred: Any, true: Any) -> Any:
+    """Mean of 1 − generalised IoU between corner boxes (K×4 each): scale-free, so a 5-pixel person's box counts
+    as much as a 60-pixel one's."""
+    ix = (torch.minimum(pred[:, 2], true[:, 2]) - torch.maximum(pred[:, 0], true[:, 0])).clamp(min=0)
+    iy = (torch.minimum(pred[:, 3], true[:, 3]) - torch.maximum(pred[:, 1], true[:, 1])).clamp(min=0)
+    inter = ix * iy
+    area_p = (pred[:, 2] - pred[:, 0]) * (pred[:, 3] - pred[:, 1])
+    area_t = (true[:, 2] - true[:, 0]) * (true[:, 3] - true[:, 1])
+    union = area_p + area_t - inter
+    hull = (torch.maximum(pred[:, 2], true[:, 2]) - torch.minimum(pred[:, 0], true[:, 0])) * (
+        torch.maximum(pred[:, 3], true[:, 3]) - torch.minimum(pred[:, 1], true[:, 1])
+    )
+    giou = inter / union.clamp(min=1e-6) - (hull - union) / hull.clamp(min=1e-6)
+    return (1.0 - giou).mean()
+
+
+def detection_loss(torch: Any, raw: Any, batch: tuple[Any, ...]) -> Any:
+    """Focal loss on the score, and at each person's centre cell L1 on offset and log size plus GIoU on the box."""
+    from .network import decode_grid
+
+    heat, weight, reg, box, mask = (torch.from_numpy(a) for a in batch[1:])
+    loss = focal_loss(torch, raw[:, 0], heat, weight)
+    cells = mask.bool()
+    if cells.any():
+        offsets = torch.sigmoid(raw[:, 1:3]) * 2.0 - 0.5
+        pred = torch.cat([offsets, raw[:, 3:5]], 1).permute(0, 2, 3, 1)[cells]
+        loss = loss + torch.nn.functional.l1_loss(pred, reg.permute(0, 2, 3, 1)[cells])
+        _, cx, cy, w, h = decode_grid(raw)
+        corners = torch.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], 1).permute(0, 2, 3, 1)[cells]
+        loss = loss + 2.0 * giou_loss(torch, corners, box.permute(0, 2, 3, 1)[cells])
+    return loss
 
 
 def _batches(frames: Sequence[Labelled], config: TrainConfig, rng: np.random.Generator) -> Iterable[tuple[Any, ...]]:
     """One epoch's batches: crops of every frame, turned, shuffled; images N×3×S×S in 0–1 and the targets."""
-    samples: list[tuple[NDArray[np.uint8], NDArray[np.float32]]] = []
+    from .network import STRIDE
+
+    samples: list[tuple[NDArray[np.uint8], NDArray[np.float32], NDArray[np.float32]]] = []
     for frame in frames:
-        for crop, boxes in sample_crops(
-            frame.image, frame.boxes, rng, size=config.crop_px, count=config.crops_per_frame
+        for crop, boxes, visible in sample_crops(
+            frame.image, frame.boxes, frame.visible, rng, size=config.crop_px, count=config.crops_per_frame
         ):
-            samples.append(turn(crop, boxes, int(rng.integers(8))))
+            samples.append((*turn(crop, boxes, int(rng.integers(8))), visible))
     order = rng.permutation(len(samples))
     for start in range(0, len(order) - config.batch + 1, config.batch):
         chosen = [samples[i] for i in order[start : start + config.batch]]
-        images = np.stack([c for c, _ in chosen]).astype(np.float32).transpose(0, 3, 1, 2) / 255.0
+        images = np.stack([c for c, _, _ in chosen]).astype(np.float32).transpose(0, 3, 1, 2) / 255.0
         gain = rng.uniform(0.85, 1.15, (len(chosen), 1, 1, 1)).astype(np.float32)
         images = np.clip(images * gain, 0.0, 1.0)
-        made = [targets(b, size=config.crop_px, stride=4) for _, b in chosen]
-        yield images, np.stack([m[0] for m in made]), np.stack([m[1] for m in made]), np.stack([m[2] for m in made])
+        made = [targets(b, v, size=config.crop_px, stride=STRIDE) for _, b, v in chosen]
+        names = ("heat", "weight", "reg", "box", "mask")
+        yield (images, *(np.stack([getattr(t, name) for t in made]) for name in names))
 
 
 def learning_rate(peak: float, progress: float) -> float:
     """A short warm-up, then a cosine down to 1 % of ``peak``; ``progress`` (0–1) is the larger of the steps' and
-    the time budget's share used, so a run cut short by ``max_minutes`` still ends on a low rate.
+    the time budgets' shares used, so a run cut short by ``max_minutes`` or ``max_cpu_minutes`` still ends on a low
+    rate.
 
     >>> [round(learning_rate(1.0, p), 3) for p in (0.0, 0.05, 0.5, 1.0)]
     [0.1, 1.0, 0.546, 0.01]
@@ -159,6 +207,25 @@ def learning_rate(peak: float, progress: float) -> float:
         return peak * (0.1 + 0.9 * progress / 0.05)
     t = min(1.0, (progress - 0.05) / 0.95)
     return peak * (0.01 + 0.99 * 0.5 * (1.0 + math.cos(math.pi * t)))
+
+
+class _Budget:
+    """Training's two time budgets: wall-clock seconds, and CPU seconds of this process (all its threads), the
+    one that says what training costs on a machine shared with others."""
+
+    def __init__(self, wall_s: float, cpu_s: float) -> None:
+        self._wall0, self._cpu0 = time.monotonic(), time.process_time()
+        self._wall_s, self._cpu_s = max(wall_s, 1e-9), max(cpu_s, 1e-9)
+
+    def wall(self) -> float:
+        return time.monotonic() - self._wall0
+
+    def cpu(self) -> float:
+        return time.process_time() - self._cpu0
+
+    def used(self) -> float:
+        """The larger share used of the two budgets (1 or more: spent)."""
+        return max(self.wall() / self._wall_s, self.cpu() / self._cpu_s)
 
 
 def train(
@@ -176,21 +243,14 @@ def train(
     total = per_epoch * config.epochs if max_steps is None else min(max_steps, per_epoch * config.epochs)
     optimiser = torch.optim.AdamW(net.parameters(), lr=config.learning_rate, weight_decay=1e-4)
     stats = TrainStats()
-    start = time.monotonic()
-    deadline = start + config.max_minutes * 60.0
+    budget = _Budget(config.max_minutes * 60.0, config.max_cpu_minutes * 60.0)
     net.train()
-    while stats.steps < total and time.monotonic() < deadline:
+    while stats.steps < total and budget.used() < 1.0:
         losses: list[float] = []
-        for images, heat, reg, mask in _batches(frames, config, rng):
-            raw = net(torch.from_numpy(images))
-            heat_t, reg_t, mask_t = torch.from_numpy(heat), torch.from_numpy(reg), torch.from_numpy(mask).bool()
-            loss = focal_loss(torch, raw[:, 0], heat_t)
-            if mask_t.any():
-                offsets = torch.sigmoid(raw[:, 1:3]) * 2.0 - 0.5
-                sizes = raw[:, 3:5]
-                pred = torch.cat([offsets, sizes], 1).permute(0, 2, 3, 1)[mask_t]
-                loss = loss + torch.nn.functional.l1_loss(pred, reg_t.permute(0, 2, 3, 1)[mask_t])
-            progress = max(stats.steps / total, (time.monotonic() - start) / (deadline - start))
+        for batch in _batches(frames, config, rng):
+            raw = net(torch.from_numpy(batch[0]))
+            loss = detection_loss(torch, raw, batch)
+            progress = max(stats.steps / total, budget.used())
             for group in optimiser.param_groups:
                 group["lr"] = learning_rate(config.learning_rate, progress)
             optimiser.zero_grad()
@@ -198,13 +258,13 @@ def train(
             optimiser.step()
             losses.append(float(loss.detach()))
             stats.steps += 1
-            if stats.steps >= total or time.monotonic() >= deadline:
+            if stats.steps >= total or budget.used() >= 1.0:
                 break
         stats.epochs_done += 1
         stats.loss_by_epoch.append(round(float(np.mean(losses)) if losses else math.nan, 4))
         log(f"epoch {stats.epochs_done}: {stats.steps}/{total} steps, loss {stats.loss_by_epoch[-1]}, "
-            f"{time.monotonic() - start:.0f} s")  # fmt: skip
-    stats.seconds = round(time.monotonic() - start, 1)
+            f"{budget.wall():.0f} s, {budget.cpu():.0f} CPU s")  # fmt: skip
+    stats.seconds, stats.cpu_seconds = round(budget.wall(), 1), round(budget.cpu(), 1)
     net.eval()
     return net, stats
 
@@ -257,13 +317,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     defaults = TrainConfig()
     for name in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width", "threads"):
         parser.add_argument(f"--{name.replace('_', '-')}", type=int, default=getattr(defaults, name))
-    parser.add_argument("--max-minutes", type=float, default=defaults.max_minutes)
+    parser.add_argument("--max-minutes", type=float, default=defaults.max_minutes, help="wall-clock budget")
+    parser.add_argument(
+        "--max-cpu-minutes", type=float, default=defaults.max_cpu_minutes, help="CPU budget, all threads together"
+    )
     parser.add_argument("--cache", type=Path, help="an .npz of the rendered frames: read if it exists, else written")
     args = parser.parse_args(argv)
     config = TrainConfig(
         **{k: getattr(args, k) for k in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width")},
         threads=args.threads,
         max_minutes=args.max_minutes,
+        max_cpu_minutes=args.max_cpu_minutes,
     )
     started = time.monotonic()
     if args.cache is not None and args.cache.is_file():

@@ -9,16 +9,21 @@ time. Clothing is mostly white. Each view looks down from an altitude drawn from
 the ground), at any heading, with the gimbal tilted up to 12° from straight down, over a point within 25 m of the
 scene's centre.
 
-A label is a person's box clipped to the image (the projected extent of legs, body and head; shadows excluded)
-and their pose (``standing``, ``walking``, ``sitting``, ``lying``). Persons with less than
-:data:`MIN_VISIBLE` of their box inside the image, or whose clipped box is under :data:`MIN_SIZE_PX` pixels on its
-longer side, are left out of the labels (they are still drawn). Occlusion by other persons is not considered.
+A label is a person's box clipped to the image (the projected extent of legs, body and head; shadows excluded),
+their pose (``standing``, ``walking``, ``sitting``, ``lying``) and the share of them a camera sees (``visible``):
+the share of their box inside the image times the share of their drawn pixels no person drawn after them covers
+(exact, from the renderer's drawing order). Persons seen less than :data:`MIN_SEEN` are still labelled, so a
+detector that finds them is not blamed, but are neither trained on nor counted in recall: they are *ignored*, as
+KITTI and COCO ignore heavily occluded and crowd boxes. Persons not seen at all, or whose clipped box is under
+:data:`MIN_SIZE_PX` pixels on its longer side, are left out of the labels (they are still drawn).
 
 >>> frames = list(labelled_frames(seed=3, count=2, altitudes_m=(30,), width=160, height=120))
 >>> [f.image.shape for f in frames], frames[0].altitude_m
 ([(120, 160, 3), (120, 160, 3)], 30.0)
->>> frames[0].boxes.dtype.name, len(frames[0].poses) == len(frames[0].boxes)
+>>> frames[0].boxes.dtype.name, len(frames[0].poses) == len(frames[0].boxes) == len(frames[0].visible)
 ('float32', True)
+>>> bool(((frames[0].visible > 0) & (frames[0].visible <= 1)).all())
+True
 """
 
 from __future__ import annotations
@@ -35,7 +40,8 @@ from flight.sim.scene_model import NE, Actor, Circle, GroundTruth, Landmark, Sce
 
 from .renderer import SceneRenderer
 
-MIN_VISIBLE = 0.3
+MIN_SEEN = 0.5
+"""A person seen less than this (:attr:`LabelledFrame.visible`) is ignored: neither a target nor a false alarm."""
 MIN_SIZE_PX = 3.0
 VIEWS_PER_SCENE = 4
 HFOV_DEG = 84.0
@@ -44,12 +50,13 @@ HFOV_DEG = 84.0
 @dataclass(frozen=True)
 class LabelledFrame:
     """One rendered frame and its labels: boxes (K×4 float32 x0, y0, x1, y1 pixels, clipped to the image), each
-    box's pose, and the camera's height above the ground."""
+    box's pose, the camera's height above the ground, and the share of each person seen (0–1)."""
 
     image: NDArray[np.uint8]
     boxes: NDArray[np.float32]
     poses: tuple[str, ...]
     altitude_m: float
+    visible: NDArray[np.float32]
 
 
 def labelled_frames(
@@ -79,15 +86,18 @@ def labelled_frames(
         pose = CameraPose(
             north_m=float(north), east_m=float(east), down_m=-altitude, yaw_rad=float(rng.uniform(-math.pi, math.pi))
         )
-        out = renderer.render(spec, pose, frame_index=k)
+        out = renderer.render(spec, pose, frame_index=k, occlusion=True)
         p = out.persons
+        assert p.shown is not None
+        seen = p.visible * p.shown
         size = np.maximum(p.boxes[:, 2] - p.boxes[:, 0], p.boxes[:, 3] - p.boxes[:, 1])
-        keep = np.flatnonzero((p.visible >= MIN_VISIBLE) & (size >= MIN_SIZE_PX))
+        keep = np.flatnonzero((seen > 0) & (size >= MIN_SIZE_PX))
         yield LabelledFrame(
             image=out.image,
             boxes=p.boxes[keep].astype(np.float32).reshape(-1, 4),
             poses=tuple(p.poses[i] for i in keep),
             altitude_m=altitude,
+            visible=seen[keep].astype(np.float32),
         )
 
 
@@ -172,4 +182,4 @@ def _ne(points: NDArray[np.float64]) -> list[NE]:
     return [NE(north=float(n), east=float(e)) for n, e in points]
 
 
-__all__ = ["MIN_SIZE_PX", "MIN_VISIBLE", "VIEWS_PER_SCENE", "LabelledFrame", "labelled_frames", "random_scene"]
+__all__ = ["MIN_SEEN", "MIN_SIZE_PX", "VIEWS_PER_SCENE", "LabelledFrame", "labelled_frames", "random_scene"]

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from .coverage import Coverage
 from .palette import SHADE_FACTOR
 
 FloatArray = NDArray[np.float64]
@@ -36,9 +37,18 @@ def capsule_boxes(a: FloatArray, b: FloatArray, r: FloatArray) -> FloatArray:
     return box
 
 
-def draw_capsules(image: Image, a: FloatArray, b: FloatArray, r: FloatArray, rgb: FloatArray, mode: int) -> None:
+def draw_capsules(
+    image: Image,
+    a: FloatArray,
+    b: FloatArray,
+    r: FloatArray,
+    rgb: FloatArray,
+    mode: int,
+    cover: tuple[Coverage, IntArray] | None = None,
+) -> None:
     """Draw K capsules into ``image`` (H×W×3, in place), all in one ``mode``; where capsules of one size group
-    overlap, the later one shows."""
+    overlap, the later one shows. With ``cover`` (a :class:`Coverage` and each capsule's owner), the pixels each
+    capsule covers at least half are handed to its owner in the same order."""
     if len(a) == 0:
         return
     if not image.flags.c_contiguous:
@@ -55,7 +65,7 @@ def draw_capsules(image: Image, a: FloatArray, b: FloatArray, r: FloatArray, rgb
     bw = np.searchsorted(_BUCKETS, x1[live] - x0[live])
     bh = np.searchsorted(_BUCKETS, y1[live] - y0[live])
     key = bw * 16 + bh
-    shape = _Shapes(a, b, r, rgb, mode, x0, y0, x1, y1)
+    shape = _Shapes(a, b, r, rgb, mode, x0, y0, x1, y1, cover)
     for k in np.unique(key):
         members = live[key == k]
         i, j = divmod(int(k), 16)
@@ -80,8 +90,10 @@ class _Shapes:
         y0: IntArray,
         x1: IntArray,
         y1: IntArray,
+        cover: tuple[Coverage, IntArray] | None = None,
     ) -> None:
         f = np.float32
+        self.cover = cover
         self.a, self.ab, self.r = a.astype(f), (b - a).astype(f), r.astype(f)
         self.rgb, self.mode = rgb.astype(f), mode
         self.x0, self.y0, self.x1, self.y1 = x0, y0, x1, y1
@@ -128,6 +140,9 @@ def _draw_group(image: Image, k: IntArray, w: int, h: int, s: _Shapes) -> None:
     else:
         colour = s.rgb[kk]
     flat[at] = (under + (colour - under) * al).astype(np.uint8)
+    if s.cover is not None:
+        solid = al[:, 0] >= f(0.5)
+        s.cover[0].paint(at[solid], s.cover[1][kk[solid]])
 
 
 def draw_quads(image: Image, corners: FloatArray, rgb: FloatArray) -> None:

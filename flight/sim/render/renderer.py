@@ -6,7 +6,9 @@ shadows, vehicles, then people layer by layer (legs, bodies, heads; farther ones
 sensor (:class:`~flight.sim.render.sensor.Sensor`: motion blur from the camera's velocity, exposure wobble,
 noise). A person's box is the projected extent of their drawn body (legs, body, head; not the shadow), before
 clipping (``full_boxes``) and clipped to the image (``boxes``), with the share of it inside the image
-(``visible``). A camera at or below the ground is drawn as if 5 cm above it.
+(``visible``) and, when asked (``occlusion=True``), the share of their drawn pixels in the image no one drawn after
+them covers (``shown``, from the drawing order itself: :class:`~flight.sim.render.coverage.Coverage`). A camera at
+or below the ground is drawn as if 5 cm above it.
 
 >>> from flight.sim.scene_file import load_scene
 >>> from agentic_core.contracts.camera import CameraPose, CameraSpec
@@ -31,6 +33,7 @@ from flight.sim.scene import SceneState
 from flight.sim.scene_model import Scene
 
 from .bodies import BODY_LAYER, POSES, SHADOW_LAYER, Looks, person_parts, pose_codes, sun_offset, vehicle_quads
+from .coverage import Coverage
 from .ground import MIN_HEIGHT_M, GroundMap
 from .palette import SHADE_FACTOR
 from .raster import capsule_boxes, draw_capsules, draw_quads
@@ -45,7 +48,8 @@ NEAR_M = 0.05
 @dataclass(frozen=True)
 class PersonView:
     """The persons a frame shows, one row each: scene rows and ids, pixel boxes (x0, y0, x1, y1) clipped to the
-    image and unclipped, the share of each unclipped box inside the image, and each one's pose (:data:`POSES`)."""
+    image and unclipped, the share of each unclipped box inside the image, each one's pose (:data:`POSES`) and,
+    when the frame was rendered with ``occlusion=True``, the share of each one's drawn pixels left uncovered."""
 
     rows: IntArray
     ids: list[str]
@@ -53,6 +57,7 @@ class PersonView:
     full_boxes: FloatArray
     visible: FloatArray
     poses: tuple[str, ...]
+    shown: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -88,8 +93,10 @@ class SceneRenderer:
         time_s: float | None = None,
         frame_index: int = 0,
         velocity_ned: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        occlusion: bool = False,
     ) -> Rendered:
-        """The frame ``spec`` takes from ``pose`` (the scene advanced to ``time_s`` first, when given)."""
+        """The frame ``spec`` takes from ``pose`` (the scene advanced to ``time_s`` first, when given); with
+        ``occlusion``, each person's uncovered share too (``PersonView.shown``; it costs a few ms)."""
         if time_s is not None:
             self.state.advance_to(time_s)
         if pose.down_m > -MIN_HEIGHT_M:
@@ -100,7 +107,9 @@ class SceneRenderer:
         vehicles = rows[self._poses[rows] < 0]
         if len(vehicles):
             self._draw_vehicles(image, camera, vehicles)
-        persons = self._draw_people(image, camera, rows[self._poses[rows] >= 0])
+        people = rows[self._poses[rows] >= 0]
+        cover = Coverage(spec.width_px, spec.height_px) if occlusion else None
+        persons = self._draw_people(image, camera, people, cover)
         blur = _blur_px(spec, pose, velocity_ned, self.sensor.exposure_s)
         return Rendered(self.sensor.expose(image, frame_index, blur), persons)
 
@@ -119,7 +128,9 @@ class SceneRenderer:
                 rgb = np.tile(mean, (len(rows), 1))
             draw_quads(image, pixels.reshape(len(rows), 4, 2), rgb)
 
-    def _draw_people(self, image: NDArray[np.uint8], camera: _Camera, rows: IntArray) -> PersonView:
+    def _draw_people(
+        self, image: NDArray[np.uint8], camera: _Camera, rows: IntArray, cover: Coverage | None = None
+    ) -> PersonView:
         spec = camera.spec
         parts = person_parts(self.state, rows, self.looks, self.sun)
         a_px, a_ok = camera.project(parts.a)
@@ -132,7 +143,8 @@ class SceneRenderer:
             sel = sel[np.argsort(-depth[sel], kind="stable")]
             for mode in np.unique(parts.mode[sel]):
                 m = sel[parts.mode[sel] == mode]
-                draw_capsules(image, a_px[m], b_px[m], radius[m], parts.rgb[m], int(mode))
+                owned = None if cover is None or layer == SHADOW_LAYER else (cover, parts.owner[m])
+                draw_capsules(image, a_px[m], b_px[m], radius[m], parts.rgb[m], int(mode), owned)
         body = ok & (parts.layer != SHADOW_LAYER)
         shown = np.zeros(len(rows), dtype=bool)
         shown[parts.owner[parts.layer == BODY_LAYER][ok[parts.layer == BODY_LAYER]]] = True
@@ -164,6 +176,7 @@ class SceneRenderer:
             full_boxes=full[keep],
             visible=visible[keep],
             poses=tuple(POSES[c] for c in codes),
+            shown=None if cover is None else cover.shown_share(len(rows))[keep],
         )
 
 

@@ -1,0 +1,66 @@
+"""Scoring with ignored persons (seen less than half): a detection on one is neither a hit nor a false alarm, an
+ignored person is never one to find, a detection over both a counted and an ignored person is the counted one's,
+and no detection hides behind an ignored person it does not overlap."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from evaluation.detector.crops import targets
+from evaluation.detector.evaluate import best_threshold, scores_at
+from evaluation.detector.scoring import average_precision, match, precision_at, recall_of
+
+TRUTH = np.array([[0, 0, 10, 10], [40, 40, 50, 50], [80, 0, 90, 10]], np.float32)
+IGNORE = [np.array([False, True, False])]
+
+
+def _found(*rows: tuple[float, float, float, float, float]) -> list[tuple[np.ndarray, np.ndarray]]:
+    boxes = np.array([r[:4] for r in rows], np.float32).reshape(-1, 4)
+    return [(boxes, np.array([r[4] for r in rows], np.float32))]
+
+
+def test_a_detection_on_an_ignored_person_is_neither_hit_nor_false_alarm() -> None:
+    found = _found((0, 0, 10, 10, 0.9), (40, 40, 50, 50, 0.8), (41, 41, 51, 51, 0.7))
+    m = match(found, [TRUTH], IGNORE)
+    assert m.hit.tolist() == [True, False, False] and m.ignored.tolist() == [False, True, True]
+    assert precision_at(m, 0.5) == 1.0
+    assert recall_of(m, 0.5) == 0.5  # of the two counted persons, one found; the ignored one is not a target
+    plain = match(found, [TRUTH])
+    assert precision_at(plain, 0.5) == pytest.approx(2 / 3) and recall_of(plain, 0.5) == pytest.approx(2 / 3)
+
+
+def test_an_ignored_person_missed_costs_nothing_and_a_stray_detection_still_does() -> None:
+    m = match(_found((0, 0, 10, 10, 0.9), (80, 0, 90, 10, 0.8), (60, 60, 70, 70, 0.95)), [TRUTH], IGNORE)
+    assert m.ignored.tolist() == [False, False, False]
+    assert recall_of(m, 0.5) == 1.0 and precision_at(m, 0.5) == pytest.approx(2 / 3)
+    assert scores_at(m, 0.5, [np.ones(3, bool)]).truth == 2
+
+
+def test_a_detection_over_a_counted_and_an_ignored_person_is_the_counted_ones() -> None:
+    truth = np.array([[0, 0, 10, 10], [0, 1, 10, 11]], np.float32)
+    m = match(_found((0, 0.5, 10, 10.5, 0.9)), [truth], [np.array([True, False])])
+    assert m.hit.tolist() == [True] and m.truth_index[0].tolist() == [1]
+    assert average_precision(m) == 1.0
+
+
+def test_the_threshold_is_chosen_without_ignored_detections() -> None:
+    # the ignored detections score highest: counted as false alarms they would drag the best F1 below them
+    found = _found((40, 40, 50, 50, 0.99), (40, 41, 50, 51, 0.98), (0, 0, 10, 10, 0.5), (80, 0, 90, 10, 0.4))
+    m = match(found, [TRUTH], IGNORE)
+    assert best_threshold(m) == pytest.approx(0.4)
+    assert precision_at(m, 0.4) == 1.0 and recall_of(m, 0.4) == 1.0
+
+
+def test_ignore_flags_must_name_every_true_box() -> None:
+    with pytest.raises(ValueError, match="frame 0: 2 ignore flags for 3 true boxes"):
+        match(_found((0, 0, 10, 10, 0.9)), [TRUTH], [np.array([False, True])])
+
+
+def test_training_targets_neither_teach_nor_punish_an_ignored_person() -> None:
+    boxes = np.array([[8.0, 8.0, 24.0, 16.0], [40.0, 40.0, 56.0, 48.0]], np.float32)
+    t = targets(boxes, np.array([0.9, 0.3], np.float32), size=64, stride=4)
+    assert int(t.mask.sum()) == 1 and t.mask[3, 4] == 1 and t.heat[3, 4] == 1.0
+    assert t.heat[11, 12] < 1e-3 and t.mask[11, 12] == 0  # the ignored one: no positive ...
+    assert (t.weight[10:13, 11:14] == 0).all()  # ... and no penalty for finding it
+    assert t.weight[3, 4] == 1.0 and t.weight[0, 15] == 1.0
