@@ -24,7 +24,7 @@ import numpy as np
 
 from ..contracts.camera import CameraSpec, Detection, Detector, Frame
 from ..contracts.errors import InputError
-from ..perception.detectors.yolo_decode import iou
+from ..perception.detectors.suppression import iou_matrix
 
 if TYPE_CHECKING:
     from flight.sim.detector import SimulatedDetector
@@ -95,12 +95,13 @@ def _link(found: list[Detection], sim: SimulatedDetector, frame: Frame) -> list[
     if not len(view.rows):
         return found
     ids = [sim.state.ids[int(r)] for r in view.rows]
-    out = []
-    for d in found:
-        overlap = iou(np.array([d.box.x_min, d.box.y_min, d.box.x_max, d.box.y_max]), view.boxes)
-        best = int(np.argmax(overlap))
-        out.append(d.model_copy(update={"truth_id": ids[best]}) if overlap[best] >= 0.3 else d)
-    return out
+    boxes = np.array([[d.box.x_min, d.box.y_min, d.box.x_max, d.box.y_max] for d in found])
+    overlap = iou_matrix(boxes, view.boxes)  # every detection against every person in view at once
+    best = np.argmax(overlap, axis=1).tolist()
+    linked = (overlap[np.arange(len(found)), best] >= 0.3).tolist()
+    return [
+        d.model_copy(update={"truth_id": ids[b]}) if ok else d for d, b, ok in zip(found, best, linked, strict=True)
+    ]
 
 
 def pixel_detector(choice: str, sim: SimulatedDetector, *, seed: int = 0) -> PixelDetector | None:

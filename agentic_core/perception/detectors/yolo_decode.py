@@ -1,5 +1,5 @@
 """YOLO-style model arithmetic in numpy: letterboxing a frame into the model's input, decoding the two export
-layouts, non-maximum suppression, and mapping boxes back to the frame's pixels.
+layouts, non-maximum suppression (:mod:`.suppression`), and mapping boxes back to the frame's pixels.
 
 Layouts (``layout``): ``"v8"`` is the YOLOv8/YOLO11 export, one output ``(1, 4 + nc, N)`` of rows
 ``cx, cy, w, h, score_0 … score_nc-1``; ``"v5"`` is the YOLOv5 export ``(1, N, 5 + nc)``: ``cx, cy, w, h,
@@ -23,6 +23,8 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+
+from .suppression import iou, nms
 
 Layout = Literal["v8", "v5"]
 FloatArray = NDArray[np.float32]
@@ -114,44 +116,6 @@ def decode(output: NDArray[np.floating], layout: Layout) -> Decoded:
     cx, cy, w, h = rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3]
     boxes = np.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], axis=1).astype(np.float32)
     return Decoded(boxes=boxes, scores=scores.astype(np.float32), classes=classes)
-
-
-def iou(box: NDArray[np.floating], boxes: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Intersection over union of one box with each of ``boxes`` (corner form)."""
-    x0 = np.maximum(box[0], boxes[:, 0])
-    y0 = np.maximum(box[1], boxes[:, 1])
-    x1 = np.minimum(box[2], boxes[:, 2])
-    y1 = np.minimum(box[3], boxes[:, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    area = (box[2] - box[0]) * (box[3] - box[1])
-    areas = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
-    union = area + areas - inter
-    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0).astype(np.float64)
-
-
-def nms(
-    boxes: NDArray[np.floating],
-    scores: NDArray[np.floating],
-    iou_threshold: float,
-    classes: NDArray[np.int64] | None = None,
-    max_keep: int = 300,
-) -> list[int]:
-    """Greedy non-maximum suppression: indices kept, best score first; a box is dropped when it overlaps a kept
-    one of the same class (all one class when ``classes`` is None) by more than ``iou_threshold``."""
-    if len(boxes) == 0:
-        return []
-    work = boxes.astype(np.float64)
-    if classes is not None:
-        span = float(np.max(work[:, 2:]) - np.min(work[:, :2])) + 1.0
-        work = work + (classes.astype(np.float64) * span)[:, None]
-    order = np.argsort(-scores, kind="stable")
-    keep: list[int] = []
-    while order.size and len(keep) < max_keep:
-        best = int(order[0])
-        keep.append(best)
-        rest = order[1:]
-        order = rest[iou(work[best], work[rest]) <= iou_threshold]
-    return keep
 
 
 def to_frame(boxes: NDArray[np.floating], box: Letterbox) -> FloatArray:
