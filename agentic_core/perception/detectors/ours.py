@@ -22,6 +22,9 @@ from .onnx import OnnxDetector
 
 WEIGHTS = "person.onnx"
 RECIPE = "person.json"
+MAX_DETECTIONS = 2000
+"""Detections kept a frame: a crowd seen from 60 m holds up to about 1,400 persons, and YOLO's customary 300 would
+silently drop the rest (at 30 m it cost a third of the persons found)."""
 
 
 def weights_dir() -> Path:
@@ -66,7 +69,8 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
         score_threshold=float(recipe.get("score_threshold", 0.25)),
         calibration=calibration,
         threads=threads,
+        max_detections=MAX_DETECTIONS,
     )
 
 
-__all__ = ["RECIPE", "WEIGHTS", "load_ours", "read_recipe", "weights_dir"]
+__all__ = ["MAX_DETECTIONS", "RECIPE", "WEIGHTS", "load_ours", "read_recipe", "weights_dir"]
