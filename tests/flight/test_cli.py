@@ -2,6 +2,7 @@
 
 import argparse
 import asyncio
+import contextlib
 import os
 import re
 import signal
@@ -22,6 +23,15 @@ def free_udp_port():
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+@contextlib.contextmanager
+def mute_udp_port():
+    """A port on 127.0.0.1 where nobody answers, held for the ``with`` block by a socket that never reads: a port
+    merely found free may be taken meanwhile by another test's vehicle, which would then hear what is sent there."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        yield s.getsockname()[1]
 
 
 def test_arguments_parse():

@@ -12,7 +12,7 @@ from typing import Any
 from agentic_core.cli import main
 from agentic_core.run.runner import RunSettings, run_mission
 from flight.signing import new_key, write_key_file
-from tests.flight.test_cli import free_udp_port
+from tests.flight.test_cli import free_udp_port, mute_udp_port
 from tests.flight.test_cli_vehicle import listening_port, stop
 from tests.tlogs import read_tlog
 
@@ -61,9 +61,9 @@ def test_the_emergency_mission_flies_on_a_vehicle_in_another_process(tmp_path: P
 
 
 def test_a_vehicle_that_does_not_answer_stops_the_run_before_take_off(tmp_path: Path, capsys: Any) -> None:
-    port = free_udp_port()  # nobody listens there
-    code = main(["run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path), "--quiet",
-                 "--connect", f"udp://127.0.0.1:{port}"])  # fmt: skip
+    with mute_udp_port() as port:  # nobody answers there
+        code = main(["run", str(EMERGENCY), "--scene", str(NEAR), "--runs-dir", str(tmp_path), "--quiet",
+                     "--connect", f"udp://127.0.0.1:{port}"])  # fmt: skip
     err = capsys.readouterr().err
     assert code == 1 and "cannot reach the vehicle" in err and "Traceback" not in err
     records = trace(next(tmp_path.iterdir()))

@@ -23,7 +23,7 @@ from agentic_core.run import swarm_connect
 from agentic_core.run.swarm_connect import find_fleet
 from flight.cli import main as sim_main
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
-from tests.flight.test_cli import free_udp_port, read_line
+from tests.flight.test_cli import free_udp_port, mute_udp_port, read_line
 from tests.flight.test_cli_vehicle import listening_port, start_sim, stop
 
 ORIGIN = Home()
@@ -129,10 +129,11 @@ def test_vehicles_of_their_own_fly_the_swarm_named_by_system_id_in_the_missions_
 
 
 def test_a_url_nobody_answers_is_a_clear_error_at_once(mission: Path, tmp_path: Path, capsys: Any) -> None:
-    silent = f"udp://127.0.0.1:{free_udp_port()}"
-    began = time.monotonic()
-    code = main(["swarm", "run", str(mission), "--connect", silent, "--runs-dir", str(tmp_path / "runs")])
-    took = time.monotonic() - began
+    with mute_udp_port() as port:
+        silent = f"udp://127.0.0.1:{port}"
+        began = time.monotonic()
+        code = main(["swarm", "run", str(mission), "--connect", silent, "--runs-dir", str(tmp_path / "runs")])
+        took = time.monotonic() - began
     err = capsys.readouterr().err
     assert code == 1 and f"--connect {silent}: no vehicle answered" in err and "Traceback" not in err
     assert took < 10.0 and not (tmp_path / "runs").exists()  # no swarm directory for a swarm that never was
