@@ -238,13 +238,19 @@ def _signals_stop(run: MissionRun) -> Iterator[None]:
         yield
         return
 
+    signalled: list[str] = []
+
     def stop(signum: int, _frame: Any) -> None:
-        if run.control.stop_requested() is not None:
-            print(f"\n{PROG}: stopped at once", file=sys.stderr, flush=True)
+        # A handler runs in the main thread between two of its bytecodes, perhaps while it holds a lock the stop
+        # needs (the bus's, the trace's): it only writes straight to the descriptor and hands the stop to a thread.
+        if signalled or run.control.stop_requested() is not None:
+            os.write(2, f"\n{PROG}: stopped at once\n".encode())
             os._exit(130)
         name = signal.Signals(signum).name
-        print(f"\n{PROG}: {name}: stopping the run (again to stop at once)", file=sys.stderr, flush=True)
-        run.control.abort(f"{name} received", by="signal")
+        signalled.append(name)
+        os.write(2, f"\n{PROG}: {name}: stopping the run (again to stop at once)\n".encode())
+        threading.Thread(target=run.control.abort, args=(f"{name} received",), kwargs={"by": "signal"},
+                         name="signal-stop", daemon=True).start()  # fmt: skip
 
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
