@@ -136,19 +136,33 @@ def as_landmark(record: Any) -> Landmark:
     )
 
 
-def _landmark_geometry(lm: Landmark, points: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """Distance from points to a landmark (its point, or its area's edge; 0 inside) and which are inside."""
+def _landmark_geometry(lm: Landmark, points: FloatArray, reach: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Distance from points to a landmark (its point, or its area's edge; 0 inside) and which are inside. A point
+    farther than its ``reach`` from the landmark's bounding box is neither, whatever its distance: it is given +inf
+    without the polygon tests (most tracks are far from most landmarks)."""
     if lm.polygon is not None:
         poly = np.asarray(lm.polygon, dtype=float)
-        inside = points_in_polygon(points, poly)
-        dist = np.zeros(len(points))
-        dist[~inside] = distance_to_edge(points[~inside], poly)
-        return dist, inside
-    d = np.hypot(points[:, 0] - lm.north, points[:, 1] - lm.east)
-    if lm.radius_m is not None:
-        inside = d <= lm.radius_m
-        return np.maximum(d - lm.radius_m, 0.0), inside
-    return d, np.zeros(len(points), dtype=bool)
+        lo, hi = poly.min(axis=0), poly.max(axis=0)
+    else:
+        centre, radius = np.array([lm.north, lm.east]), lm.radius_m or 0.0
+        lo, hi = centre - radius, centre + radius
+    close = np.flatnonzero(
+        np.all(points >= lo - reach[:, None], axis=1) & np.all(points <= hi + reach[:, None], axis=1)
+    )
+    dist = np.full(len(points), np.inf)
+    inside = np.zeros(len(points), dtype=bool)
+    pts = points[close]
+    if lm.polygon is not None:
+        within = points_in_polygon(pts, poly)
+        d = np.zeros(len(pts))
+        d[~within] = distance_to_edge(pts[~within], poly)
+    else:
+        d = np.hypot(pts[:, 0] - lm.north, pts[:, 1] - lm.east)
+        within = d <= lm.radius_m if lm.radius_m is not None else np.zeros(len(pts), dtype=bool)
+        if lm.radius_m is not None:
+            d = np.maximum(d - lm.radius_m, 0.0)
+    dist[close], inside[close] = d, within
+    return dist, inside
 
 
 class SceneGraph:
@@ -262,9 +276,10 @@ class SceneGraph:
         vel = tracks.x[subj, 2:4]
         moving = speed - 2.0 * sigma > cfg.moving_min_speed_mps
         cos_limit = math.cos(math.radians(cfg.toward_angle_deg))
+        reach = np.where(moving, max(cfg.near_landmark_m, cfg.toward_max_m), cfg.near_landmark_m)
         rels: list[Rel] = []
         for lm in landmarks:
-            dist, inside = _landmark_geometry(lm, pts)
+            dist, inside = _landmark_geometry(lm, pts, reach)
             for a in np.flatnonzero(inside):
                 rels.append(Rel(tracks.ids[subj[a]], "inside", lm.id, None))
             for a in np.flatnonzero(~inside & (dist <= cfg.near_landmark_m)):

@@ -7,6 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from agentic_core.contracts.polygon import distance_to_edge, points_in_polygon
+from agentic_core.contracts.world_model import Landmark as LandmarkContract
 from agentic_core.perception.scene_graph import Rel, RelationConfig, SceneGraph, as_landmark
 from agentic_core.perception.tracker import CONFIRMED, LOST, TENTATIVE, TrackTable
 from flight.sim.scene_model import NE, Circle, Landmark, Zone
@@ -188,3 +190,62 @@ def test_as_landmark_reads_zones_and_refuses_junk() -> None:
     assert (square.north, square.east, square.kind) == (1.0, 1.0, "landmark")
     with pytest.raises(ValueError, match="not a landmark"):
         as_landmark({"kind": "exit", "north": 1, "east": 2})
+
+
+def _landmark_relations_by_brute_force(
+    people: list[tuple[str, float, float]],
+    vel: dict[str, tuple[float, float]],
+    landmarks: list[LandmarkContract],
+    cfg: RelationConfig,
+) -> set[tuple[str, str, str | None, float | None]]:
+    """inside / near / moving_toward from their definitions, each track against each landmark, no shortcut."""
+    out: set[tuple[str, str, str | None, float | None]] = set()
+    for ident, north, east in people:
+        vn, ve = vel.get(ident, (0.0, 0.0))
+        speed = float(np.hypot(vn, ve))
+        moving = speed - 2.0 * 0.05 > cfg.moving_min_speed_mps  # the table's velocity sigma is 0.05
+        for lm in landmarks:
+            point = np.array([[north, east]])
+            if lm.polygon is not None:
+                poly = np.asarray(lm.polygon, dtype=float)
+                inside = bool(points_in_polygon(point, poly)[0])
+                dist = 0.0 if inside else float(distance_to_edge(point, poly)[0])
+            else:
+                d = float(np.hypot(north - lm.north, east - lm.east))
+                inside = lm.radius_m is not None and d <= lm.radius_m
+                dist = d if lm.radius_m is None else max(d - lm.radius_m, 0.0)
+            if inside:
+                out.add((ident, "inside", lm.id, None))
+                continue
+            if dist <= cfg.near_landmark_m:
+                out.add((ident, "near", lm.id, round(dist, 2)))
+            if moving and dist <= cfg.toward_max_m:
+                bearing = np.array([lm.north - north, lm.east - east])
+                cos = float(bearing @ np.array([vn, ve])) / max(float(np.hypot(*bearing)) * speed, 1e-9)
+                if cos >= np.cos(np.radians(cfg.toward_angle_deg)):
+                    out.add((ident, "moving_toward", lm.id, round(dist, 2)))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_landmark_relations_skip_far_tracks_without_changing_any(seed: int) -> None:
+    """The bounding-box shortcut (far tracks are not measured against a landmark) gives every relation the full
+    computation gives: tracks placed at random, and exactly on, just inside and just beyond each reach."""
+    rng = np.random.default_rng(seed)
+    cfg = RelationConfig(near_landmark_m=float(rng.uniform(3, 15)), toward_max_m=float(rng.uniform(5, 60)))
+    landmarks = [
+        as_landmark({"id": "pt", "kind": "exit", "north": 0.0, "east": 0.0}),
+        as_landmark({"id": "circ", "kind": "plaza", "north": 40.0, "east": -30.0, "radius_m": 12.0}),
+        as_landmark({"id": "poly", "kind": "shade", "polygon": [[-50, 40], [-20, 55], [-35, 80], [-60, 70]]}),
+    ]
+    spots = rng.uniform(-140.0, 140.0, (400, 2))
+    people = [(f"p{k}", float(n), float(e)) for k, (n, e) in enumerate(spots)]
+    for k, reach in enumerate((cfg.near_landmark_m, cfg.toward_max_m)):  # on each reach from the point
+        people += [(f"edge{k}{j}", reach + off, 0.0) for j, off in enumerate((-1e-6, 0.0, 1e-6))]
+    vel = {ident: (float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2))) for ident, _, _ in people}
+    vel = {ident: v for ident, v in vel.items() if rng.random() < 0.6}
+    vel |= {f"edge1{j}": (-1.5, 0.0) for j in range(3)}  # heading for the point from its toward reach
+    found = SceneGraph(cfg).update(table(people, vel=vel), landmarks=landmarks)
+    got = {(r.subj, r.pred, r.obj, r.value) for r in found if r.obj in ("pt", "circ", "poly")}
+    assert got == _landmark_relations_by_brute_force(people, vel, landmarks, cfg)
+    assert {p for _, p, _, _ in got} == {"inside", "near", "moving_toward"}
