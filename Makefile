@@ -33,8 +33,10 @@ lint: $(VENV)/.installed-dev
 typecheck: $(VENV)/.installed-dev
 	$(PY) -m mypy
 
+# Bytecode caches on, whatever the environment says (PYTHONDONTWRITEBYTECODE=1 here): otherwise each of the
+# three workers re-rewrites all 300 test modules' asserts and every process a test starts compiles our packages anew.
 pytest: $(VENV)/.installed-dev
-	$(PY) -m pytest -n 3 --dist worksteal
+	PYTHONDONTWRITEBYTECODE= $(PY) -m pytest -n 3 --dist worksteal
 
 test: lint typecheck pytest
 
