@@ -8,11 +8,12 @@ from here, with
 * pacing: the simulation runs at full speed while a flight action flies and at real time while anything else is
   awaited;
 * the watch during a long flight action (``flight.fly_to``, ``orbit``, ``hover``): the control port (pause, abort,
-  rtl, land) and the triggers' rules, evaluated on the mission state the step started from. When a rule holds for an
-  object the reasoner has not judged, the aircraft goes to hold over it (``hold_over`` names where; else it holds
-  where it is) while the reasoner thinks, so the object stays in view however slow the model; if the reasoner lets
-  the trigger act the action ends :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the
-  object, else the action is sent again and flies on.
+  rtl, land) and the triggers' rules, evaluated on the mission state the step started from (during ``takeoff`` and
+  ``start_mission``, the control port alone). When a rule holds for an object the reasoner has not judged, the
+  aircraft goes to hold over it (``hold_over`` names where; else it holds where it is) while the reasoner thinks,
+  so the object stays in view however slow the model; if the reasoner lets the trigger act the action ends
+  :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the object, else the action is sent
+  again and flies on.
 
 Every call and every interruption is published as a ``tool`` event.
 """
@@ -37,6 +38,10 @@ from .ports import Publish
 
 WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
 """Long flight actions during which the control port and the triggers are watched."""
+CONTROLLED_TOOLS = frozenset({"flight.takeoff", "flight.start_mission"})
+"""Long flight actions during which only the control port is watched: a stop or a pause ends them with a hold at
+once (a take-off climbs for tens of seconds, a MAVLink mission may fly for an hour). The triggers wait for the next
+barrier: sent again after a declined trigger, a take-off would be refused in the air and a mission start over."""
 
 VEHICLE_WAITS = ("flight.", "swarm.")
 """Tools whose wait is a wait on vehicles (its own, or the swarm's flying a task): the simulation runs at full speed."""
@@ -95,6 +100,8 @@ class Dispatcher:
         state = call.state if call is not None else None
         if tool in WATCHED_TOOLS and state is not None and not state.get("preempted_by"):
             return self._watched(tool, args, timeout_s, state, key)
+        if tool in CONTROLLED_TOOLS:
+            return self._controlled(tool, args, timeout_s, key)
         return self.call(tool, args, timeout_s, key=key)
 
     def call(
@@ -169,6 +176,19 @@ class Dispatcher:
                 reason = f"{trigger.id} acts on {_name(event)}"
                 return self._interrupted(tool, hold, Interrupted(reason, trigger=trigger.id, event=event))
             self.publish("tool", name=tool, status="resumed", summary=f"{tool} flies on: {trigger.id} declined")
+
+    def _controlled(
+        self, tool: str, args: dict[str, Any], timeout_s: float | None, key: str | None
+    ) -> ToolResult | Interrupted:
+        """A :data:`CONTROLLED_TOOLS` action on a thread of its own, the control port watched while it flies."""
+        worker = _Flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
+        while worker.running(self.poll_s):
+            stop = self._control_stop()
+            if stop is not None:
+                return self._interrupted(tool, self._stop(worker), Interrupted(stop))
+        result = worker.result()
+        self.published(tool, args, result, key)
+        return result
 
     def _stop(self, flight: _Flight) -> ToolResult:
         """Send ``flight.hold`` until ``flight``'s action has ended (a command still on its way when the first hold
@@ -277,4 +297,4 @@ def _name(event: Any) -> str:
     return str(found) if found is not None else "the event"
 
 
-__all__ = ["HOLD", "WATCHED_TOOLS", "Dispatcher", "Prepare", "Watch"]
+__all__ = ["CONTROLLED_TOOLS", "HOLD", "WATCHED_TOOLS", "Dispatcher", "Prepare", "Watch"]
