@@ -57,13 +57,14 @@ from .perception_loop import PerceptionLoop
 from .plan_review import review
 from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
-from .report import RunSummary, TrackPoint, write_report
+from .report import TrackPoint, write_report
 from .responses import ResponseLedger
 from .run_memory import start_memory, with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
 from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
 from .stops import STOP_OUTCOMES, carry_out, go_back, where_it_ended
+from .summary import summarise
 from .trace import TelemetryLog, TraceWriter
 from .world_map import WORLD_MAP_FILE, WorldMapLog
 
@@ -427,7 +428,7 @@ class MissionRun:
                 self.memory.finish(self.bus)
             self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
-        summary = self._summary(outcome, time.monotonic() - wall0)
+        summary = summarise(self, outcome, time.monotonic() - wall0)
         summary.notes += [*self.responses.notes(), f"The aircraft ended {ended}."]
         summary.notes += [self.model_note] if self.model_note else []
         track = self.track()
@@ -456,36 +457,6 @@ class MissionRun:
         self._world_log.close()
         self.telemetry.close()
         self.trace.close()
-
-    def _summary(self, outcome: str, wall_s: float) -> RunSummary:
-        decisions = self.trace.of_kind("decision")
-        exchanges = self.trace.of_kind("plan") + self.trace.of_kind("reflection")  # one model call each
-        alerts = sorted(str(p) for p in self.alerts_dir.glob("*") if p.is_file()) if self.alerts_dir.exists() else []
-        sent = [r for r in self.trace.of_kind("tool") if r.get("name") == "alerts.notify" and r.get("status") == "ok"]
-        return RunSummary(
-            run_id=self.run_id,
-            mission=str(self.settings.mission),
-            scene=self.scene.id if self.scene else None,
-            reasoner=self.reasoner.name,
-            outcome=outcome,
-            sim_duration_s=self.clock(),
-            wall_duration_s=wall_s,
-            alerts=alerts,
-            decisions=len(decisions),
-            llm_calls=sum(int(d.get("llm_calls", 0)) for d in decisions) + len(exchanges),
-            tokens=sum(int(d.get("prompt_tokens", 0)) + int(d.get("completion_tokens", 0)) for d in decisions)
-            + sum(int(e.get("tokens", 0)) for e in exchanges),
-            llm_calls_saved=getattr(self.reasoner, "saved", None),
-            frames=self.loop.frames if self.loop else 0,
-            perception_ms_per_frame=1000 * self.loop.busy_s / self.loop.frames
-            if self.loop and self.loop.frames
-            else None,
-            casualties=list(self.scene.ground_truth.casualties) if self.scene else [],
-            first_detected_s={k: v for k, v in (self.loop.first_detected.items() if self.loop else [])
-                              if self.scene and k in self.scene.ground_truth.casualties},
-            alert_sent_s=sent[0].get("sim_t") if sent else None,
-            truth_ids=dict(self.links),
-        )  # fmt: skip
 
 
 def run_mission(
