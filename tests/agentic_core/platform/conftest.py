@@ -6,10 +6,13 @@ from __future__ import annotations
 
 import json
 import math
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from agentic_core.run.runner import MissionRun, RunResult
 from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
 
@@ -91,3 +94,12 @@ def distance_to_casualty(sample: dict[str, Any]) -> float:
     casualty = scene.actor("P-12").position
     north, east = local_offset(scene.home.lat_deg, scene.home.lon_deg, sample["lat_deg"], sample["lon_deg"])
     return math.hypot(north - casualty.north, east - casualty.east)
+
+
+def fly_steered(run: MissionRun, operator: Callable[[], None]) -> RunResult:
+    """Fly ``run`` while ``operator`` steers it from another thread, as a person at the console would."""
+    steer = threading.Thread(target=operator, daemon=True)
+    steer.start()
+    result = run.execute()
+    steer.join(timeout=10.0)
+    return result

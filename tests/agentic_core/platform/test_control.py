@@ -5,7 +5,6 @@ every command is a ``control`` event naming who sent it."""
 from __future__ import annotations
 
 import math
-import threading
 from pathlib import Path
 
 import pytest
@@ -13,7 +12,7 @@ import pytest
 from agentic_core.run.runner import MissionRun, RunSettings
 from tests.waiting import wait_for
 
-from .conftest import REPO, of_kind, telemetry, trace
+from .conftest import REPO, fly_steered, of_kind, telemetry, trace
 
 PATROL = REPO / "missions" / "hajj_patrol.yaml"
 NORMAL = REPO / "tests" / "agentic_core" / "run" / "scenes" / "small_normal.yaml"
@@ -46,10 +45,7 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
         finally:
             run.control.resume(by="tester")
 
-    steer = threading.Thread(target=operator, daemon=True)
-    steer.start()
-    result = run.execute()
-    steer.join(timeout=10.0)
+    result = fly_steered(run, operator)
     assert held, "the operator thread never resumed"
     assert result.summary.outcome == "completed"
     start, end = held[0]
@@ -79,8 +75,7 @@ def test_an_abort_from_another_thread_does_what_the_mission_says(tmp_path: Path,
         wait_for(lambda: flying_a_leg(run), timeout_s=120.0, what="the first leg")
         run.control.abort("the operator saw smoke", by="tester")
 
-    threading.Thread(target=operator, daemon=True).start()
-    result = run.execute()
+    result = fly_steered(run, operator)
     assert result.summary.outcome == "aborted"
     records = trace(result.run_dir)
     (command,) = of_kind(records, "control")

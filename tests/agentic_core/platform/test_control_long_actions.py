@@ -5,7 +5,6 @@ mission (up to an hour); now it ends them with a hold at once and the mission's 
 from __future__ import annotations
 
 import math
-import threading
 from pathlib import Path
 
 import pytest
@@ -13,7 +12,7 @@ import pytest
 from agentic_core.run.runner import MissionRun, RunSettings
 from tests.waiting import wait_for
 
-from .conftest import REPO, of_kind, telemetry, trace
+from .conftest import REPO, fly_steered, of_kind, telemetry, trace
 
 NORMAL = REPO / "tests" / "agentic_core" / "run" / "scenes" / "small_normal.yaml"
 FENCE = """
@@ -60,8 +59,7 @@ def test_an_abort_during_a_mavlink_mission_ends_it_at_once_and_the_aircraft_come
         asked.append(run.clock())
         run.control.abort("a helicopter in the area", by="tester")
 
-    threading.Thread(target=operator, daemon=True).start()
-    result = run.execute()
+    result = fly_steered(run, operator)
     assert asked and result.summary.outcome == "aborted"
     records = trace(result.run_dir)
     tools = of_kind(records, "tool")
@@ -100,10 +98,7 @@ def test_the_operator_is_heard_during_the_climb(tmp_path: Path, command: str) ->
         finally:
             run.control.resume(by="tester")
 
-    steer = threading.Thread(target=operator, daemon=True)
-    steer.start()
-    result = run.execute()
-    steer.join(timeout=10.0)
+    result = fly_steered(run, operator)
     flown = telemetry(result.run_dir)
     climb = [r for r in of_kind(trace(result.run_dir), "tool") if r.get("name") == "flight.takeoff"]
     assert climb[0]["status"] == "interrupted", climb
