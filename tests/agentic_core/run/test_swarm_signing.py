@@ -2,12 +2,14 @@
 (``agentic-uav sim --signing-key K --require-signing``) fly the swarm with the key, one key for every link; without
 it, or with another key, the run stops before anything flies (exit 1, one line naming the vehicle and why), the
 vehicles stay on the ground, and nothing waits; ``--signing-key`` without ``--connect`` and a bad key file are
-usage errors (exit 2, naming the file)."""
+usage errors (exit 2, naming the file). With a key the probe believes only frames signed with it."""
 
 from __future__ import annotations
 
 import asyncio
 import json
+import select
+import socket
 import subprocess
 import textwrap
 import time
@@ -16,14 +18,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from pymavlink.dialects.v20 import common as mavlink2
 
 from agentic_core.cli import main
 from agentic_core.contracts.geodesy import offset_position
-from agentic_core.run.swarm_connect import SigningMismatch, find_fleet
-from flight.signing import new_key, write_key_file
+from agentic_core.run.swarm_connect import SigningMismatch, _Probe, find_fleet
+from flight.signing import Signer, new_key, write_key_file
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
 from flight.vehicle import VehicleClient
-from tests.flight.test_cli import free_udp_port
+from tests.flight.test_cli import free_udp_port, mute_udp_port
 from tests.flight.test_cli_vehicle import listening_port, start_sim, stop
 
 ORIGIN = Home()
@@ -215,3 +218,40 @@ def test_usage_errors_name_the_option_or_the_file(mission: Path, key: Path, tmp_
         assert f"{path}: {says}" in err and "Traceback" not in err, err
         assert time.monotonic() - began < 5.0
     assert not runs.exists()
+
+
+def test_with_a_key_the_probe_believes_only_frames_signed_with_it(key: Path) -> None:
+    secret = bytes.fromhex(key.read_text())
+
+    def frames(signing: bytes | None, *messages: Any) -> bytes:
+        mav = mavlink2.MAVLink(None, srcSystem=7, srcComponent=1)
+        if signing is not None:
+            Signer(signing).attach(mav)
+        return b"".join(bytes(m.pack(mav)) for m in messages)
+
+    def home(lat: float) -> Any:
+        return mavlink2.MAVLink_home_position_message(int(lat * 1e7), 0, 0, 0.0, 0.0, 0.0, [1.0, 0, 0, 0], 0, 0, 0)
+
+    beat = mavlink2.MAVLink_heartbeat_message(2, 12, 0, 0, 4, 3)
+    with mute_udp_port() as port:
+        probe = _Probe(f"udp://127.0.0.1:{port}", secret)
+        try:
+            probe.ask()  # binds its socket
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as vehicle:
+
+                def hear(data: bytes) -> None:
+                    vehicle.sendto(data, probe.sock.getsockname())
+                    readable, _, _ = select.select([probe.sock], [], [], 5.0)
+                    assert readable
+                    probe.read()
+
+                hear(frames(secret, beat))
+                hear(frames(None, home(10.0)))  # a spoofer's home, unsigned
+                hear(frames(new_key(), home(20.0)))  # and one signed with another key
+                assert (probe.system_id, probe.home) == (7, None)  # as a tuple: mypy must not think home stays None
+                assert probe.signed == {"ours", "unsigned", "other"} and probe.mismatch() is None
+                hear(frames(secret, home(21.5)))
+                hear(frames(None, home(10.0)))
+                assert probe.home is not None and probe.home[0] == pytest.approx(21.5)
+        finally:
+            probe.sock.close()
