@@ -21,6 +21,9 @@ NOT_RUN_HERE = {
     "agentic-uav swarm run missions/hajj_swarm.yaml --connect udp://127.0.0.1:18570,udp://127.0.0.1:18571": "needs "
     "vehicles running in other processes on fixed ports; tests/agentic_core/run/test_swarm_connect.py flies two "
     "agentic-uav sim on free ports",
+    "agentic-uav swarm run missions/hajj_swarm.yaml --connect udp://127.0.0.1:18570,udp://127.0.0.1:18571 "
+    "--signing-key key.hex": "needs signed vehicles in other processes on fixed ports; "
+    "tests/agentic_core/run/test_swarm_signing.py flies two on free ports",
     "agentic-uav sim --sysid 1 --bind 127.0.0.1:18570 --api 127.0.0.1:14540 --home 21.413300,39.893203": "serves "
     "until stopped; tests/agentic_core/run/test_swarm_connect.py starts vehicles with --sysid and --home",
     "agentic-uav sim --sysid 2 --bind 127.0.0.1:18571 --api 127.0.0.1:14541 --home 21.413300,39.893397": "serves "

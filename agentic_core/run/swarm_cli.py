@@ -1,15 +1,16 @@
 """``agentic-uav swarm run MISSION --vehicles N``: fly a swarm mission with N simulated F450s on one clock (or,
-with ``--connect URL,URL,...``, the vehicles at those MAVLink addresses, one per UAV) and write
-``runs/<swarm-id>/`` (see :mod:`agentic_core.run.swarm_run`); ``--fault ground_link@t=60s`` loses the ground link
-then (the UAVs allocate the rest by consensus, judging each other alive by signed heartbeats); ``--approval
-ask|approve|decline`` answers approvals and, for a mission whose operator verifies casualties (``verify: {by:
-operator}``, which asks by default), that question too. Exit status: 0 when every sector was covered and
-every casualty found, verified, alerted and served with the separation kept; 3 when all that held but a UAV was
-lost (its work moved) or an alert reached only the outbox; 1 when anything fell short; 2 for bad input.
+with ``--connect URL,URL,...``, the vehicles at those MAVLink addresses, one per UAV, every link signed with
+``--signing-key FILE`` when given) and write ``runs/<swarm-id>/`` (see :mod:`agentic_core.run.swarm_run`);
+``--fault ground_link@t=60s`` loses the ground link then (the UAVs allocate the rest by consensus, judging each
+other alive by signed heartbeats); ``--approval ask|approve|decline`` answers approvals and, for a mission whose
+operator verifies casualties (``verify: {by: operator}``, which asks by default), that question too. Exit status:
+0 when every sector was covered and every casualty found, verified, alerted and served with the separation kept;
+3 when all that held but a UAV was lost (its work moved) or an alert reached only the outbox; 1 when anything fell
+short; 2 for bad input.
 
 >>> args = build_parser().parse_args(["run", "missions/hajj_swarm.yaml", "--vehicles", "4", "--speed", "max"])
->>> args.vehicles, args.speed, args.connect
-(4, None, [])
+>>> args.vehicles, args.speed, args.connect, args.signing_key
+(4, None, [], None)
 """
 
 from __future__ import annotations
@@ -45,6 +46,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--vehicles", type=int, metavar="N", help="simulated UAVs (default: the mission's vehicles)")
     run.add_argument("--connect", type=_urls, default=[], metavar="URL,URL,...",
                      help="fly the vehicles at these MAVLink addresses, one per UAV")  # fmt: skip
+    run.add_argument("--signing-key", type=Path, metavar="FILE",
+                     help="sign every --connect link with this MAVLink 2 key (32 bytes or 64 hex digits)")  # fmt: skip
     run.add_argument("--scene", type=Path, help="the simulated scene (default: scenes/<mission>.yaml)")
     run.add_argument("--speed", type=parse_speed, default=None, help="times real time, or max (default: max)")
     run.add_argument("--reasoner", default="rules", help="each UAV's reasoner (default: rules)")
@@ -97,12 +100,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if args.vehicles is not None and args.vehicles < 1:
         return report_error(PROG, InputError(f"--vehicles {args.vehicles}: at least 1"), sys.stderr)
+    if args.signing_key is not None and not args.connect:
+        return report_error(PROG, InputError("--signing-key goes with --connect (the simulated vehicles are the "
+                                             "run's own)"), sys.stderr)  # fmt: skip
     try:
         ground_lost_s = ground_link_lost_at(args.fault)
     except InputError as exc:
         return report_error(PROG, exc, sys.stderr)
     settings = SwarmSettings(
-        mission=args.mission, vehicles=args.vehicles, connect=args.connect, scene=args.scene, runs_dir=args.runs_dir,
+        mission=args.mission, vehicles=args.vehicles, connect=args.connect, signing_key=args.signing_key,
+        scene=args.scene, runs_dir=args.runs_dir,
         speed=args.speed, seed=args.seed, reasoner=args.reasoner, gcs=args.gcs, px4_ports=args.px4_ports,
         max_wall_s=args.max_wall_s, rounds=args.rounds, camera_hz=args.camera_hz, ground_link_lost_s=ground_lost_s,
         approval=args.approval,

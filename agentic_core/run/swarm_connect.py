@@ -7,6 +7,11 @@ all at once, a short timeout: a URL nobody answers is a clear error, not a hang)
 system id (two URLs that reach one vehicle are refused), its home read and checked near the mission's area, and its
 samples are converted through WGS-84 into the swarm's frame (:class:`ConnectedBackend`).
 
+Signing (``--signing-key``, one key for every link, as PX4 multi-vehicle setups use it): the probe signs what it
+sends with the key and checks how each vehicle signs what it streams (a vehicle that requires signing still streams
+its heartbeat and home). A vehicle that signs while the run has no key, signs with another key, or does not sign
+while the run has one would refuse (or be refused by) every command: :class:`SigningMismatch` before anything flies.
+
 >>> from flight.sim.environment import Home
 >>> origin = Home(lat_deg=21.4133, lon_deg=39.8933)
 >>> v = Vehicle(url="udp://127.0.0.1:18571", system_id=2, home=(21.4133, 39.89341, 300.0), origin=origin)
@@ -23,6 +28,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 from pymavlink.dialects.v20.common import (
@@ -33,6 +39,7 @@ from pymavlink.dialects.v20.common import (
     MAV_TYPE_ONBOARD_CONTROLLER,
 )
 
+from flight.signing import Signer, Verdict
 from flight.sim.environment import Home
 
 from ..contracts import TelemetrySample
@@ -52,6 +59,11 @@ FAR_M = 2_000.0
 
 class VehicleUnreachable(RunFailure):
     """A ``--connect`` URL whose vehicle did not answer (exit status 1)."""
+
+
+class SigningMismatch(RunFailure):
+    """A ``--connect`` vehicle whose link is not signed as ``--signing-key`` says: it would refuse the run's
+    commands, or its telemetry the run's client (exit status 1)."""
 
 
 @dataclass(frozen=True)
@@ -82,23 +94,42 @@ class _Probe:
     """One URL asked who and where its vehicle is, over a socket of its own. It speaks as an onboard computer, not a
     ground station, so the vehicle never takes it for the commander whose silence is a lost data link."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, signing_key: bytes | None = None) -> None:
         self.url = url
         self.address = parse_link(url)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setblocking(False)
         self.mav = mavlink2.MAVLink(None, srcSystem=PROBE_SYSTEM, srcComponent=MAV_COMP_ID_ONBOARD_COMPUTER)
+        self.plain = mavlink2.MAVLink(None, srcSystem=PROBE_SYSTEM, srcComponent=MAV_COMP_ID_ONBOARD_COMPUTER)
+        self.signer = Signer(signing_key, required=True, allow_unsigned=frozenset()) if signing_key else None
+        if self.signer is not None:
+            self.signer.attach(self.mav)
+        self.signed: set[str] = set()
+        """How the vehicle's frames came: ``ours`` (with the key), ``other`` (another key), ``signed``, ``unsigned``."""
         self.system_id: int | None = None
         self.home: tuple[float, float, float] | None = None
 
+    def _signing_of(self, msg: Any) -> str:
+        if self.signer is None:
+            return "signed" if msg.get_header().incompat_flags & mavlink2.MAVLINK_IFLAG_SIGNED else "unsigned"
+        verdict = self.signer.check(msg)
+        return {Verdict.SIGNED: "ours", Verdict.REPLAYED: "ours", Verdict.BAD_SIGNATURE: "other"}.get(
+            verdict, "unsigned"
+        )
+
     def ask(self) -> None:
         beat = self.mav.heartbeat_encode(MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0, 0)
-        frames = [beat]
+        # the heartbeat goes unsigned (taken unsigned by every vehicle, as PX4 does): a vehicle with another key
+        # still learns the probe and streams to it, so the probe can say what is wrong rather than hear nothing
+        frames = [bytes(beat.pack(self.plain))]
         if self.system_id is not None:
-            frames.append(self.mav.command_long_encode(self.system_id, 0, MAV_CMD_GET_HOME_POSITION, 0, *[0.0] * 7))
+            if self.signer is not None:
+                self.signer.tick()
+            ask = self.mav.command_long_encode(self.system_id, 0, MAV_CMD_GET_HOME_POSITION, 0, *[0.0] * 7)
+            frames.append(bytes(ask.pack(self.mav)))
         for frame in frames:
             with contextlib.suppress(OSError):  # nobody there (ICMP refused): the deadline says so
-                self.sock.sendto(frame.pack(self.mav), self.address)
+                self.sock.sendto(frame, self.address)
 
     def read(self) -> None:
         while True:
@@ -106,23 +137,44 @@ class _Probe:
                 data, _ = self.sock.recvfrom(65535)
             except OSError:
                 return
-            parser = mavlink2.MAVLink(None)
+            parser = mavlink2.MAVLink(None)  # no key: a frame signed with another key is parsed, then judged
             parser.robust_parsing = True
             for msg in parser.parse_buffer(data) or []:
                 kind = msg.get_type()
                 if kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS and self.system_id is None:
                     self.system_id = msg.get_srcSystem()
-                elif kind == "HOME_POSITION" and msg.get_srcSystem() == self.system_id:
+                if kind == "BAD_DATA" or msg.get_srcSystem() != self.system_id:
+                    continue
+                signed = self._signing_of(msg)
+                self.signed.add(signed)
+                trusted = self.signer is None or signed == "ours"
+                if kind == "HOME_POSITION" and trusted:
                     self.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
+
+    def mismatch(self) -> str | None:
+        """Why the run's client and this vehicle could not talk, signing-wise (None: they can)."""
+        who = f"--connect {self.url}: the vehicle (system id {self.system_id})"
+        if self.signer is None:
+            if "signed" in self.signed and "unsigned" not in self.signed:
+                return f"{who} signs its link and refuses unsigned commands: give its key with --signing-key FILE"
+            return None
+        if "ours" in self.signed:
+            return None
+        if "other" in self.signed:
+            return f"{who} signs with another key than --signing-key's: it would refuse every command"
+        return f"{who} does not sign its link (it has no key): give it the key, or fly without --signing-key"
 
     @property
     def answered(self) -> bool:
         return self.system_id is not None and self.home is not None
 
 
-def _probe_all(urls: Sequence[str], timeout_s: float) -> list[tuple[int, tuple[float, float, float]]]:
-    """Every URL's system id and home, all asked at once; :class:`VehicleUnreachable` for the first silent one."""
-    probes = [_Probe(u) for u in urls]
+def _probe_all(
+    urls: Sequence[str], timeout_s: float, signing_key: bytes | None = None
+) -> list[tuple[int, tuple[float, float, float]]]:
+    """Every URL's system id and home, all asked at once; :class:`VehicleUnreachable` for the first silent one,
+    :class:`SigningMismatch` for the first whose link is not signed as ``signing_key`` says."""
+    probes = [_Probe(u, signing_key) for u in urls]
     try:
         deadline = time.monotonic() + timeout_s
         next_ask = 0.0
@@ -138,6 +190,8 @@ def _probe_all(urls: Sequence[str], timeout_s: float) -> list[tuple[int, tuple[f
         for probe in probes:
             if probe.system_id is None:
                 raise VehicleUnreachable(f"--connect {probe.url}: no vehicle answered in {timeout_s:g} s")
+            if (why := probe.mismatch()) is not None:
+                raise SigningMismatch(why)
             if probe.home is None:
                 raise VehicleUnreachable(
                     f"--connect {probe.url}: the vehicle answered but never said where its home is"
@@ -149,13 +203,19 @@ def _probe_all(urls: Sequence[str], timeout_s: float) -> list[tuple[int, tuple[f
 
 
 def find_fleet(
-    urls: Sequence[str], origin: Home, area: Sequence[tuple[float, float]], *, timeout_s: float = PROBE_TIMEOUT_S
+    urls: Sequence[str],
+    origin: Home,
+    area: Sequence[tuple[float, float]],
+    *,
+    timeout_s: float = PROBE_TIMEOUT_S,
+    signing_key: bytes | None = None,
 ) -> list[Vehicle]:
     """Every URL's vehicle, ordered by system id; :class:`VehicleUnreachable` for a URL that does not answer,
-    :class:`InputError` for two URLs that reach one vehicle or a vehicle far from ``area`` (latitude, longitude)."""
+    :class:`SigningMismatch` for a vehicle not signing as ``signing_key`` says (None: no signing), :class:`InputError`
+    for two URLs that reach one vehicle or a vehicle far from ``area`` (latitude, longitude)."""
     for url in urls:
         parse_link(url)  # a malformed URL is the user's to fix before anyone is asked
-    found = _probe_all(urls, timeout_s)
+    found = _probe_all(urls, timeout_s, signing_key)
     fleet: dict[int, Vehicle] = {}
     for url, (system_id, home) in zip(urls, found, strict=True):
         if system_id in fleet:
@@ -177,8 +237,11 @@ class ConnectedBackend(LinkBackend):
     """A connected vehicle whose samples every hook gets in the swarm's frame: north/east from ``origin`` through
     WGS-84 (its own home is its own origin); altitude stays above its own home, as its commands are."""
 
-    def __init__(self, vehicle: Vehicle, *, camera_hz: float = 30.0, tlog: Path | None = None) -> None:
+    def __init__(
+        self, vehicle: Vehicle, *, camera_hz: float = 30.0, tlog: Path | None = None, signing_key: bytes | None = None
+    ) -> None:
         super().__init__(vehicle.url, camera_hz=camera_hz, tlog=tlog)
+        self.signing_key = signing_key  # the run's client signs with it, as a single run's does
         self.vehicle = vehicle
 
     def in_swarm_frame(self, sample: TelemetrySample) -> TelemetrySample:
@@ -191,4 +254,12 @@ class ConnectedBackend(LinkBackend):
         super().on_sample(lambda sample: hook(self.in_swarm_frame(sample)))
 
 
-__all__ = ["FAR_M", "PROBE_TIMEOUT_S", "ConnectedBackend", "Vehicle", "VehicleUnreachable", "find_fleet"]
+__all__ = [
+    "FAR_M",
+    "PROBE_TIMEOUT_S",
+    "ConnectedBackend",
+    "SigningMismatch",
+    "Vehicle",
+    "VehicleUnreachable",
+    "find_fleet",
+]

@@ -30,6 +30,7 @@ from typing import Any, Literal, TextIO, cast
 import yaml
 
 from flight.mavlink.lockstep import Lockstep
+from flight.signing import read_key_file
 from flight.sim.environment import Home
 from tools import ToolRegistry
 
@@ -69,6 +70,8 @@ class SwarmSettings:
     mission: Path
     vehicles: int | None = None
     connect: list[str] = field(default_factory=list)
+    signing_key: Path | None = None
+    """With ``connect``: the MAVLink 2 signing key file every UAV's link is signed with (one key for all)."""
     scene: Path | None = None
     runs_dir: Path = Path("runs")
     speed: float | None = None
@@ -120,9 +123,8 @@ class SwarmSeat:
     def backend(self, run: Any) -> Backend:
         swarm, settings = self.swarm, self.swarm.settings
         if settings.connect:
-            return ConnectedBackend(
-                swarm.fleet[self.index], camera_hz=settings.camera_hz, tlog=run.run_dir / "flight.tlog"
-            )
+            return ConnectedBackend(swarm.fleet[self.index], camera_hz=settings.camera_hz,
+                                    tlog=run.run_dir / "flight.tlog", signing_key=swarm.signing_key)  # fmt: skip
         return LockstepBackend(
             clock=swarm.clock, index=self.index, home=swarm.home, pad_east_m=swarm.pad_east(self.index),
             px4_ports=settings.px4_ports, seed=settings.seed + self.index, pace=self.pace,
@@ -206,8 +208,11 @@ class SwarmRun:
         scene = settings.scene or default_scene(settings.mission)
         self.scene_path = scene
         self.home = self._home(scene)
-        self.fleet = find_fleet(settings.connect, self.home, [(c.lat, c.lon) for c in plan.swarm.area]) if (
-            settings.connect) else []  # fmt: skip
+        if settings.signing_key is not None and not settings.connect:
+            raise RunError("--signing-key goes with --connect (it signs the links to vehicles of their own)")
+        self.signing_key = read_key_file(settings.signing_key) if settings.signing_key is not None else None
+        self.fleet = find_fleet(settings.connect, self.home, [(c.lat, c.lon) for c in plan.swarm.area],
+                                signing_key=self.signing_key) if settings.connect else []  # fmt: skip
         self.swarm_id = f"{time.strftime('%Y%m%d-%H%M%S')}-{settings.mission.stem}-swarm"
         self.dir = settings.runs_dir / self.swarm_id
         (self.dir / "missions").mkdir(parents=True, exist_ok=True)

@@ -198,7 +198,7 @@ def test_far_means_outside_the_area_not_far_from_its_corners(monkeypatch: pytest
     homes = {"udp://127.0.0.1:1": (ORIGIN.lat_deg, ORIGIN.lon_deg), "udp://127.0.0.1:2": offset_position(
         ORIGIN.lat_deg, ORIGIN.lon_deg, 0.0, 7.5e3)}  # fmt: skip
     answers = {url: (n + 1, (*home, 300.0)) for n, (url, home) in enumerate(homes.items())}
-    monkeypatch.setattr(swarm_connect, "_probe_all", lambda urls, _t: [answers[u] for u in urls])
+    monkeypatch.setattr(swarm_connect, "_probe_all", lambda urls, _t, _key: [answers[u] for u in urls])
     (inside,) = find_fleet(["udp://127.0.0.1:1"], ORIGIN, wide)  # 7 km from every corner, but inside
     assert inside.system_id == 1
     with pytest.raises(InputError, match=r"is 2\.5 km from the mission's area"):
