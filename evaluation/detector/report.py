@@ -115,7 +115,8 @@ def _training_line(recipe: dict[str, Any]) -> str:
     return (
         f"{line}, crops of {cfg.get('crop_px')} px, {train.get('epochs_done')} epochs ({train.get('steps')} steps of "
         f"{cfg.get('batch')}, peak learning rate {cfg.get('learning_rate')}) in {train.get('seconds')} s of wall time "
-        f"and {train.get('cpu_seconds', '?')} s of CPU time ({cfg.get('threads')} threads) on a shared 2-core machine"
+        f"and {train.get('cpu_seconds', '?')} s of CPU time ({cfg.get('threads')} thread"
+        f"{'' if cfg.get('threads') == 1 else 's'}) on a shared 2-core machine"
     )
 
 
