@@ -35,13 +35,15 @@ def _png_pixels(data: bytes) -> np.ndarray:
 def test_our_detector_finds_alerts_and_serves_the_casualty(tmp_path: Path, smtp: Any) -> None:
     code = main(
         ["run", str(EMERGENCY), "--scene", str(SCENE), "--runs-dir", str(tmp_path), "--quiet", "--detector", "ours",
-         "--camera-hz", "10", "--param", "rounds=1", "--param", "still_s=4"]
+         "--camera-hz", "5", "--param", "rounds=1", "--param", "still_s=4"]
     )  # fmt: skip
     assert code == 0
     records = assert_served(next(tmp_path.iterdir()), smtp, scene=SCENE)
     acted = [r for r in of_kind(records, "trigger") if r["act"]]
     linked = [r for r in of_kind(records, "log") if r.get("truth") == "P-12"]
     assert linked and acted[0]["event"] in {r["object"] for r in linked}  # the person found is the casualty
+    confirm = [r["assessment"] for r in of_kind(records, "decision") if r.get("assessment")][-1]
+    assert confirm["severity"] == "critical" and confirm["persons_detected"] == 1  # one person at 15 m, not split
     (envelope,) = smtp.inbox.envelopes
     message: Message = email.message_from_bytes(envelope.content)
     pictures = [p for p in message.walk() if p.get_content_type() == "image/png"]
