@@ -32,15 +32,23 @@ def _conv(cin: int, cout: int, stride: int = 1, dilation: int = 1) -> Any:
 
 
 class PersonNet(nn.Module):  # type: ignore[misc]
-    """Stem to stride 4 (two stride-2 3×3 convolutions), stride 8 and 16 context added back, a head at stride 4."""
+    """Stem to stride 4 (two stride-2 3×3 convolutions), stride 8 and 16 context added back, a head at stride 4;
+    ``context32`` adds a stride-32 branch (dilated: it sees about 300 pixels, a whole person lying 10 m below)
+    into the stride-16 one, its way back zero at first so a network fine-tuned from one without it starts as
+    that network."""
 
-    def __init__(self, width: int = 24) -> None:
+    def __init__(self, width: int = 24, context32: bool = False) -> None:
         super().__init__()
         w = width
         self.stem = nn.Sequential(_conv(3, 16, 2), _conv(16, w, 2), _conv(w, w))
         self.down8 = nn.Sequential(_conv(w, 2 * w, 2), _conv(2 * w, 2 * w))
         self.down16 = nn.Sequential(_conv(2 * w, 64, 2), _conv(64, 64, dilation=2))
         self.up16 = nn.Conv2d(64, 2 * w, 1)
+        self.down32: Any = nn.Sequential(_conv(64, 64, 2), _conv(64, 64, dilation=2)) if context32 else None
+        self.up32: Any = nn.Conv2d(64, 64, 1) if context32 else None
+        if self.up32 is not None:
+            nn.init.zeros_(self.up32.weight)
+            nn.init.zeros_(self.up32.bias)
         self.up8 = nn.Conv2d(2 * w, w, 1)
         self.head = nn.Sequential(_conv(w, w), nn.Conv2d(w, OUTPUTS, 1))
         nn.init.constant_(self.head[-1].bias, 0.0)
@@ -48,10 +56,14 @@ class PersonNet(nn.Module):  # type: ignore[misc]
             self.head[-1].bias[0] = -4.6  # a prior of 1% persons per cell, so early training is not swamped
 
     def forward(self, images: Any) -> Any:
-        """``images`` N×3×H×W in 0–1 (H and W multiples of 16) → N×5×(H/4)×(W/4) raw outputs."""
+        """``images`` N×3×H×W in 0–1 (H and W multiples of 16, of 32 with ``context32``) → N×5×(H/4)×(W/4) raw
+        outputs."""
         x4 = self.stem(images - 0.5)
         x8 = self.down8(x4)
         x16 = self.down16(x8)
+        if self.down32 is not None:
+            x32 = self.down32(x16)
+            x16 = x16 + nn.functional.interpolate(self.up32(x32), size=x16.shape[-2:], mode="nearest")
         x8 = x8 + nn.functional.interpolate(self.up16(x16), size=x8.shape[-2:], mode="nearest")
         x4 = x4 + nn.functional.interpolate(self.up8(x8), size=x4.shape[-2:], mode="nearest")
         return self.head(x4)

@@ -39,6 +39,9 @@ from .evaluate import (
 from .train import RECIPE_NAME, WEIGHTS_NAME, Labelled, TrainConfig, load_frames, render_frames, save_frames
 
 ALTITUDES_M = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+"""The calibration renders' altitudes."""
+REPORT_ALTITUDES_M = (10.0, 15.0, 20.0, 30.0, 40.0, 50.0, 60.0)
+"""The held-out test's altitudes: 15 m is where a run's close look is."""
 FLOOR = 0.02
 """Raw scores kept for the precision-recall curve (far below any operating threshold)."""
 
@@ -99,6 +102,65 @@ def _row(label: str, s: Scores) -> str:
     return f"| {label} | {s.truth} | {_fmt(s.precision)} | {_fmt(s.recall)} | {_fmt(s.ap50)} |"
 
 
+def _training_line(recipe: dict[str, Any]) -> str:
+    """One line of how a recipe's weights were trained (and, fine-tuned, from what)."""
+    train, cfg = recipe.get("training", {}), recipe.get("config", {})
+    line = (
+        f"data seed {cfg.get('data_seed')}, {cfg.get('frames')} frames of {cfg.get('width_px')}×{cfg.get('height_px')}"
+        f" at {cfg.get('altitudes_m')} m"
+    )
+    if cfg.get("extra_frames"):
+        extra = cfg.get("extra_altitudes_m")
+        line += f" and seed {cfg.get('extra_seed')}, {cfg.get('extra_frames')} frames at {extra} m"
+    return (
+        f"{line}, crops of {cfg.get('crop_px')} px, {train.get('epochs_done')} epochs ({train.get('steps')} steps of "
+        f"{cfg.get('batch')}, peak learning rate {cfg.get('learning_rate')}) in {train.get('seconds')} s of wall time "
+        f"and {train.get('cpu_seconds', '?')} s of CPU time ({cfg.get('threads')} thread"
+        f"{'' if cfg.get('threads') == 1 else 's'}) on a shared 2-core machine"
+    )
+
+
+def _description(recipe: dict[str, Any], threshold: float) -> list[str]:
+    """The report's opening: the network, its training (and the weights it was fine-tuned from), quantisation,
+    calibration and the test."""
+    cfg = recipe.get("config", {})
+    context = "stride 8, 16 and 32" if cfg.get("context32") else "stride 8 and 16"
+    lines = [
+        "A small single-class anchor-free centre-point network (a stem of two stride-2 3×3 convolutions to stride 4, "
+        f"{context} context added back, `evaluation/detector/network.py`), trained on the CPU on frames "
+        "rendered by `flight.sim.render` with exact labels (focal loss on a Gaussian centre heatmap, L1 and GIoU on "
+        "the box), exported to ONNX in the YOLOv8 layout and run by `OnnxDetector` (`--detector ours`). Weights: "
+        f"`agentic_core/perception/detectors/weights/person.onnx`, SHA-256 `{recipe['sha256']}`; recipe beside them "
+        "(`person.json`).",
+        "",
+        f"- training: {_training_line(recipe)}",
+    ]
+    parent = recipe.get("parent")
+    while isinstance(parent, dict):
+        lines.append(f"  - fine-tuned from weights `{str(parent.get('sha256'))[:12]}…`: {_training_line(parent)}")
+        parent = parent.get("parent")
+    quantised = recipe.get("quantisation")
+    if isinstance(quantised, dict):
+        frames = quantised.get("calibration_frames", {})
+        lines.append(
+            f"- quantised to int8 (`python -m evaluation.detector.quantise`): {quantised.get('method')}; ranges from "
+            f"{frames.get('count')} frames of seed {frames.get('seed')}; the float model's SHA-256 "
+            f"`{quantised.get('float_sha256')}`. The numbers below are the int8 model's, the file a run loads"
+        )
+    return [
+        *lines,
+        f"- calibration and threshold: {recipe['calibration_data']['frames']} renders of seed {CALIBRATION_SEED}; "
+        f"operating threshold (raw score, best F1 there) {threshold:.3f}",
+        f"- held-out test: seed {TEST_SEED}, {TEST_FRAMES} frames per altitude; a detection is a hit at IoU ≥ 0.5 "
+        "with a labelled person; precision counts every detection at the threshold, recall and AP@0.5 the "
+        "persons named in the row",
+        f"- persons seen less than {MIN_SEEN:g} (the share of their box in the image times the share of their drawn "
+        "pixels no other person covers, exact from the renderer's drawing order) are ignored, as KITTI and COCO "
+        "ignore heavily occluded and crowd boxes: not counted in recall (nor in the persons column), and a detection "
+        "on one is neither a hit nor a false alarm; everyone else counts",
+    ]
+
+
 def write_report(
     weights: Path,
     docs: Path,
@@ -119,7 +181,7 @@ def write_report(
     all_scores: list[np.ndarray] = []
     all_hits: list[np.ndarray] = []
     timings: list[float] = []
-    for altitude in ALTITUDES_M:
+    for altitude in REPORT_ALTITUDES_M:
         frames = frames_for(TEST_SEED, TEST_FRAMES, (altitude,), cache)
         m = evaluate(detector, frames)
         timings.append(_detect_time(operating, frames))  # as a run uses it: at the threshold, not the floor
@@ -148,34 +210,12 @@ def write_report(
     fig.savefig(docs / "detector_reliability.png")
     plt.close(fig)
     head = "| altitude | persons | precision | recall | AP@0.5 |\n|---|---|---|---|---|"
-    train = recipe.get("training", {})
-    cfg = recipe.get("config", {})
     lines = [
         "# Our person detector",
         "",
         "Generated by `python -m evaluation.detector.report`; do not edit by hand.",
         "",
-        "A small single-class anchor-free centre-point network (a stem of two stride-2 3×3 convolutions to stride 4, "
-        "stride 8 and 16 context added back, `evaluation/detector/network.py`), trained on the CPU on frames "
-        "rendered by `flight.sim.render` with exact labels (focal loss on a Gaussian centre heatmap, L1 and GIoU on "
-        "the box), exported to ONNX in the YOLOv8 layout and run by `OnnxDetector` (`--detector ours`). Weights: "
-        f"`agentic_core/perception/detectors/weights/person.onnx`, SHA-256 `{recipe['sha256']}`; recipe beside them "
-        "(`person.json`).",
-        "",
-        f"- training: data seed {cfg.get('data_seed')}, {cfg.get('frames')} frames of "
-        f"{cfg.get('width_px')}×{cfg.get('height_px')} at {cfg.get('altitudes_m')} m, crops of {cfg.get('crop_px')} "
-        f"px, {train.get('epochs_done')} epochs ({train.get('steps')} steps of {cfg.get('batch')}) in "
-        f"{train.get('seconds')} s of wall time and {train.get('cpu_seconds', '?')} s of CPU time "
-        f"({cfg.get('threads')} threads) on a shared 2-core machine",
-        f"- calibration and threshold: {recipe['calibration_data']['frames']} renders of seed {CALIBRATION_SEED}; "
-        f"operating threshold (raw score, best F1 there) {threshold:.3f}",
-        f"- held-out test: seed {TEST_SEED}, {TEST_FRAMES} frames per altitude; a detection is a hit at IoU ≥ 0.5 "
-        "with a labelled person; precision counts every detection at the threshold, recall and AP@0.5 the "
-        "persons named in the row",
-        f"- persons seen less than {MIN_SEEN:g} (the share of their box in the image times the share of their drawn "
-        "pixels no other person covers, exact from the renderer's drawing order) are ignored, as KITTI and COCO "
-        "ignore heavily occluded and crowd boxes: not counted in recall (nor in the persons column), and a detection "
-        "on one is neither a hit nor a false alarm; everyone else counts",
+        *_description(recipe, threshold),
         "",
         "## All persons, by altitude",
         "",

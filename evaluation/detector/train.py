@@ -63,9 +63,15 @@ class TrainConfig:
     max_minutes: float = 60.0
     max_cpu_minutes: float = 40.0
     net_width: int = 24
+    context32: bool = False
     learning_rate: float = 2e-3
     torch_seed: int = 0
     threads: int = 2
+    extra_seed: int | None = None
+    extra_frames: int = 0
+    extra_altitudes_m: tuple[float, ...] = ()
+    init_sha256: str | None = None
+    """The SHA-256 of the ONNX weights training started from (:mod:`.warm_start`), None for a fresh network."""
 
 
 @dataclass
@@ -229,22 +235,32 @@ class _Budget:
 
 
 def train(
-    frames: Sequence[Labelled], config: TrainConfig, *, log: Callable[[str], None] = print, max_steps: int | None = None
+    frames: Sequence[Labelled],
+    config: TrainConfig,
+    *,
+    log: Callable[[str], None] = print,
+    max_steps: int | None = None,
+    init: Any | None = None,
 ) -> tuple[Any, TrainStats]:
-    """Train a :class:`PersonNet` on ``frames``; returns it (in eval mode) and what was done."""
+    """Train a :class:`PersonNet` on ``frames`` (``init``, one rebuilt by :func:`.warm_start.net_from_onnx`, is
+    fine-tuned with its folded normalisations frozen; a fresh one otherwise); returns it (in eval mode) and what
+    was done."""
     torch: Any = require("torch", "train")
     from .network import PersonNet
+    from .warm_start import freeze_norms
 
     torch.manual_seed(config.torch_seed)
     torch.set_num_threads(config.threads)
     rng = np.random.default_rng(config.torch_seed)
-    net = PersonNet(config.net_width)
+    net = PersonNet(config.net_width, context32=config.context32) if init is None else init
     per_epoch = max(1, len(frames) * config.crops_per_frame // config.batch)
     total = per_epoch * config.epochs if max_steps is None else min(max_steps, per_epoch * config.epochs)
     optimiser = torch.optim.AdamW(net.parameters(), lr=config.learning_rate, weight_decay=1e-4)
     stats = TrainStats()
     budget = _Budget(config.max_minutes * 60.0, config.max_cpu_minutes * 60.0)
     net.train()
+    if init is not None:
+        freeze_norms(net)
     while stats.steps < total and budget.used() < 1.0:
         losses: list[float] = []
         for batch in _batches(frames, config, rng):
@@ -310,37 +326,68 @@ def write_recipe(path: Path, config: TrainConfig, stats: TrainStats, sha256: str
     path.write_text(json.dumps(recipe, indent=2) + "\n")
 
 
+def _cached(path: Path | None, render: Callable[[], list[Labelled]]) -> list[Labelled]:
+    """Frames read from ``path`` when it exists, else rendered (and kept there when a path is given)."""
+    if path is not None and path.is_file():
+        return load_frames(path)
+    frames = render()
+    if path is not None:
+        save_frames(path, frames)
+    return frames
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """The training command line."""
     parser = argparse.ArgumentParser(prog="python -m evaluation.detector.train", description=__doc__)
     parser.add_argument("--out", type=Path, required=True, help="folder for person.onnx and person.json")
     defaults = TrainConfig()
-    for name in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width", "threads"):
+    for name in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width", "threads", "extra_frames"):
         parser.add_argument(f"--{name.replace('_', '-')}", type=int, default=getattr(defaults, name))
     parser.add_argument("--max-minutes", type=float, default=defaults.max_minutes, help="wall-clock budget")
     parser.add_argument(
         "--max-cpu-minutes", type=float, default=defaults.max_cpu_minutes, help="CPU budget, all threads together"
     )
+    parser.add_argument("--learning-rate", type=float, default=defaults.learning_rate)
+    parser.add_argument("--context32", action="store_true", help="add the stride-32 context branch")
     parser.add_argument("--cache", type=Path, help="an .npz of the rendered frames: read if it exists, else written")
+    parser.add_argument("--init", type=Path, help="an ONNX export of this network to fine-tune (its recipe beside it)")
+    parser.add_argument("--extra-seed", type=int, help="a second data seed, rendered at --extra-altitudes")
+    parser.add_argument("--extra-altitudes", type=float, nargs="+", default=[], help="metres, for --extra-frames")
+    parser.add_argument("--extra-cache", type=Path, help="as --cache, for the extra frames")
     args = parser.parse_args(argv)
+    if args.extra_frames and (args.extra_seed is None or not args.extra_altitudes):
+        parser.error("--extra-frames needs --extra-seed and --extra-altitudes")
     config = TrainConfig(
         **{k: getattr(args, k) for k in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width")},
         threads=args.threads,
         max_minutes=args.max_minutes,
         max_cpu_minutes=args.max_cpu_minutes,
+        learning_rate=args.learning_rate,
+        context32=args.context32,
+        extra_seed=args.extra_seed,
+        extra_frames=args.extra_frames,
+        extra_altitudes_m=tuple(args.extra_altitudes),
+        init_sha256=None if args.init is None else sha256_of(args.init),
     )
     started = time.monotonic()
-    if args.cache is not None and args.cache.is_file():
-        frames = load_frames(args.cache)
-    else:
-        frames = render_frames(config)
-        if args.cache is not None:
-            save_frames(args.cache, frames)
+    frames = _cached(args.cache, lambda: render_frames(config))
+    if config.extra_frames:
+        extra = TrainConfig(altitudes_m=config.extra_altitudes_m, width_px=config.width_px, height_px=config.height_px)
+        frames += _cached(args.extra_cache, lambda: render_frames(extra, seed=args.extra_seed, count=args.extra_frames))
     print(f"rendered {len(frames)} frames in {time.monotonic() - started:.0f} s", flush=True)
-    net, stats = train(frames, config, log=lambda line: print(line, flush=True))
+    init, parent = None, {}
+    if args.init is not None:
+        from .warm_start import net_from_onnx
+
+        init = net_from_onnx(args.init, config.net_width, context32=config.context32)
+        beside = args.init.parent / RECIPE_NAME
+        if beside.is_file():
+            old = json.loads(beside.read_text())
+            parent = {"parent": {k: old.get(k) for k in ("sha256", "config", "training", "parent")}}
+    net, stats = train(frames, config, log=lambda line: print(line, flush=True), init=init)
     weights = args.out / WEIGHTS_NAME
     digest = export_onnx(net, weights, width=config.width_px, height=config.height_px)
-    write_recipe(args.out / RECIPE_NAME, config, stats, digest)
+    write_recipe(args.out / RECIPE_NAME, config, stats, digest, **parent)
     print(f"wrote {weights} ({digest})")
     return 0
 

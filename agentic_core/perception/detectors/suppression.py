@@ -28,10 +28,17 @@ def iou(box: NDArray[np.floating], boxes: NDArray[np.floating]) -> NDArray[np.fl
 def iou_matrix(a: NDArray[np.floating], b: NDArray[np.floating]) -> NDArray[np.float64]:
     """Intersection over union of every box of ``a`` (N×4) with every box of ``b`` (M×4): N×M, each as :func:`iou`
     gives it."""
-    n, m = len(a), len(b)
-    left = np.broadcast_to(np.asarray(a, dtype=np.float64)[:, None, :], (n, m, 4)).reshape(-1, 4)
-    right = np.broadcast_to(np.asarray(b, dtype=np.float64)[None, :, :], (n, m, 4)).reshape(-1, 4)
-    return _pairwise(left, right).reshape(n, m)
+    left = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    right = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    x0 = np.maximum(left[:, None, 0], right[None, :, 0])  # :func:`_pairwise`'s arithmetic, broadcast N×M
+    y0 = np.maximum(left[:, None, 1], right[None, :, 1])
+    x1 = np.minimum(left[:, None, 2], right[None, :, 2])
+    y1 = np.minimum(left[:, None, 3], right[None, :, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    area_left = (left[:, 2] - left[:, 0]) * (left[:, 3] - left[:, 1])
+    area_right = (right[:, 2] - right[:, 0]) * (right[:, 3] - right[:, 1])
+    union = area_left[:, None] + area_right[None, :] - inter
+    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0).astype(np.float64)
 
 
 def _pairwise(a: NDArray[np.floating], b: NDArray[np.floating]) -> NDArray[np.float64]:

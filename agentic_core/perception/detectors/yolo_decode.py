@@ -90,10 +90,15 @@ def letterbox(image: NDArray[np.uint8], input_size: tuple[int, int], channels: i
     """The model's input tensor (1×C×H×W, float32 in 0–1) for an RGB frame, and where the frame sits in it;
     ``channels`` 1 feeds the frame's luminance."""
     box = letterbox_geometry((image.shape[1], image.shape[0]), input_size)
+    in_w, in_h = input_size
+    if channels == 3 and image.shape[:2] == (in_h, in_w):  # the frame is the input: the same numbers, fewer copies
+        scaled = image.astype(np.float32)
+        scaled /= np.float32(255.0)
+        same: FloatArray = np.ascontiguousarray(scaled.transpose(2, 0, 1))[None]
+        return same, box
     scaled = resize_bilinear(image, box.size)
     if channels == 1:
         scaled = (scaled @ np.array([0.299, 0.587, 0.114], dtype=np.float32))[:, :, None]
-    in_w, in_h = input_size
     canvas = np.full((in_h, in_w, channels), PAD_VALUE, dtype=np.float32)
     left, top = int(box.pad_x), int(box.pad_y)
     canvas[top : top + box.size[1], left : left + box.size[0]] = scaled

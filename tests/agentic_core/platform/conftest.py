@@ -64,10 +64,12 @@ def tools_ok(records: list[dict[str, Any]], name: str) -> list[dict[str, Any]]:
             and not r.get("replayed")]  # fmt: skip
 
 
-def assert_served(run_dir: Path, inbox: Any, *, until_kit: bool = False, alone: bool = True) -> list[dict[str, Any]]:
+def assert_served(
+    run_dir: Path, inbox: Any, *, until_kit: bool = False, alone: bool = True, scene: Path = NEAR
+) -> list[dict[str, Any]]:
     """The casualty was found (a trigger acted), assessed critical, the medical team alerted once by SMTP (the
     inbox holds that one e-mail, unless the run was not ``alone`` in sending to it), and the kit released once, on
-    the ground, within metres of the casualty."""
+    the ground, within metres of ``scene``'s casualty."""
     records = trace(run_dir)
     assert [r for r in of_kind(records, "trigger") if r["act"]], "no trigger acted"
     verdicts = [r["assessment"]["severity"] for r in of_kind(records, "decision") if r.get("assessment")]
@@ -80,7 +82,7 @@ def assert_served(run_dir: Path, inbox: Any, *, until_kit: bool = False, alone: 
     kit = tools_ok(records, "flight.deploy_payload")[0]["sim_t"]
     at = min(telemetry(run_dir), key=lambda t: abs(t["time_s"] - kit))
     assert at["alt_m"] < 0.5, at
-    assert distance_to_casualty(at) < 9.0
+    assert distance_to_casualty(at, scene) < 9.0
     return records
 
 
@@ -88,9 +90,9 @@ def telemetry(run_dir: Path) -> list[dict[str, Any]]:
     return [json.loads(line) for line in (run_dir / "telemetry.jsonl").read_text(encoding="utf-8").splitlines()]
 
 
-def distance_to_casualty(sample: dict[str, Any]) -> float:
-    """Horizontal metres from a telemetry sample's position to the scene's casualty."""
-    scene = load_scene(NEAR)
+def distance_to_casualty(sample: dict[str, Any], scene_file: Path = NEAR) -> float:
+    """Horizontal metres from a telemetry sample's position to the casualty of ``scene_file``."""
+    scene = load_scene(scene_file)
     casualty = scene.actor("P-12").position
     north, east = local_offset(scene.home.lat_deg, scene.home.lon_deg, sample["lat_deg"], sample["lon_deg"])
     return math.hypot(north - casualty.north, east - casualty.east)
