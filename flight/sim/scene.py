@@ -155,9 +155,13 @@ class SceneState:
         old = self.positions
         new = old + velocity * dt  # zero for those who do not walk, so they stay exactly where they are
         entered: list[int] = []
+        # who has moved less than their clearance, for every row at once (contiguous arrays, no gathers): a zone's
+        # turn below changes only its own rows, so this holds for the zones after it too
+        gap = new - self._clear_at
+        sure = np.hypot(gap[:, 0], gap[:, 1]) < self._clear  # never measured: NaN, so tested
         for zone, rows in zip(self.scene.zones, self._zone_rows, strict=True):
             if len(rows):
-                out = self._stepped_out(zone, rows, new)
+                out = self._stepped_out(zone, rows[~sure[rows]], new)
                 if len(out):
                     entered += self._keep_inside(zone, out, old, new, velocity, dt)
         sa = math.exp(-dt / SWAY_TAU_S)
@@ -228,13 +232,11 @@ class SceneState:
         v: FloatArray = np.column_stack([np.cos(heading), np.sin(heading)]) * self._speed[:, None]
         return v
 
-    def _stepped_out(self, zone: Zone, rows: IntArray, new: FloatArray) -> IntArray:
-        """The rows of ``zone``'s walkers whose new position is outside it. Only those that have moved at least their
-        clearance (distance to the boundary, measured when last found inside) from where it was measured are
-        tested: nearer than that to an inside point, a point is inside too. Exactly ``zone.contains``, cheaper."""
-        gap = new[rows] - self._clear_at[rows]
-        sure = np.hypot(gap[:, 0], gap[:, 1]) < self._clear[rows]  # never measured: NaN, so tested
-        test: IntArray = rows[~sure]
+    def _stepped_out(self, zone: Zone, test: IntArray, new: FloatArray) -> IntArray:
+        """The rows of ``test`` (``zone``'s walkers) whose new position is outside it. :meth:`step` hands over only
+        those that have moved at least their clearance (distance to the boundary, measured when last found inside)
+        from where it was measured: nearer than that to an inside point, a point is inside too. Exactly
+        ``zone.contains``, cheaper."""
         if len(test) == 0:
             return test
         inside = zone.contains(new[test])
