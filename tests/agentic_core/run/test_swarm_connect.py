@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import socket
 import subprocess
-import textwrap
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,61 +21,20 @@ from agentic_core.contracts.geodesy import offset_position
 from agentic_core.run import swarm_connect
 from agentic_core.run.swarm_connect import find_fleet
 from flight.cli import main as sim_main
-from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
+from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M
 from tests.flight.test_cli import free_udp_port, mute_udp_port, read_line
 from tests.flight.test_cli_vehicle import listening_port, start_sim, stop
 
-ORIGIN = Home()
-"""The mission has no scene: its frame's origin is the simulator's default home."""
-
-
-def _corner(north: float, east: float) -> str:
-    lat, lon = offset_position(ORIGIN.lat_deg, ORIGIN.lon_deg, north, east)
-    return f"{{lat: {lat:.7f}, lon: {lon:.7f}}}"
-
-
-MISSION = f"""\
-plan_id: connect
-goal: Two vehicles of their own survey a small area together.
-params:
-  layer_m: {{type: number, default: 20}}
-  uav: {{type: string, default: "uav-1"}}
-  role: {{type: string, default: ""}}
-swarm:
-  vehicles: 2
-  area: [{_corner(15, -20)}, {_corner(45, -20)}, {_corner(45, 20)}, {_corner(15, 20)}]
-  layers_m: [15, 25]
-steps:
-  - {{id: climb, action: takeoff, args: {{altitude_m: "${{params.layer_m}}"}}}}
-  - id: work
-    action: repeat
-    depends_on: [climb]
-    until: "next.skill == 'done'"
-    max_iterations: 50
-    steps:
-      - {{id: next, action: call_tool, tool: swarm.next_task}}
-      - id: sweep
-        action: branch
-        if: "next.skill == 'survey_sector'"
-        then:
-          - id: survey
-            action: survey
-            args: {{polygon: "${{next.polygon}}", altitude_m: "${{params.layer_m}}", spacing_m: 30}}
-          - {{id: surveyed, action: call_tool, tool: swarm.done, args: {{task: "${{next.id}}"}}}}
-      - id: wait
-        action: branch
-        if: "next.skill == 'hold'"
-        then:
-          - {{id: idle, action: hover, args: {{duration_s: 2}}}}
-  - {{id: go_home, action: rtl, depends_on: [work]}}
-"""
+from .swarm_missions import ORIGIN, survey_mission
 
 
 @pytest.fixture
 def mission(tmp_path: Path) -> Path:
-    path = tmp_path / "connect.yaml"
-    path.write_text(textwrap.dedent(MISSION), encoding="utf-8")
-    return path
+    return survey_mission(
+        tmp_path / "connect.yaml", plan_id="connect",
+        goal="Two vehicles of their own survey a small area together.",
+        box_m=(15, 45, -20, 20), layers_m=(15, 25), layer_m=20, max_iterations=50, hover_s=2,
+    )  # fmt: skip
 
 
 def _vehicle(sysid: int, east_m: float, speed: str = "1", north_m: float = 0.0) -> tuple[subprocess.Popen[str], str]:

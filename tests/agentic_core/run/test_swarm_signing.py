@@ -11,7 +11,6 @@ import json
 import select
 import socket
 import subprocess
-import textwrap
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,62 +23,21 @@ from agentic_core.cli import main
 from agentic_core.contracts.geodesy import offset_position
 from agentic_core.run.swarm_connect import SigningMismatch, _Probe, find_fleet
 from flight.signing import Signer, new_key, write_key_file
-from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, Home
+from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M
 from flight.vehicle import VehicleClient
 from tests.flight.test_cli import free_udp_port, mute_udp_port
 from tests.flight.test_cli_vehicle import listening_port, start_sim, stop
 
-ORIGIN = Home()
-"""The mission has no scene: its frame's origin is the simulator's default home."""
-
-
-def _corner(north: float, east: float) -> str:
-    lat, lon = offset_position(ORIGIN.lat_deg, ORIGIN.lon_deg, north, east)
-    return f"{{lat: {lat:.7f}, lon: {lon:.7f}}}"
-
-
-MISSION = f"""\
-plan_id: signed
-goal: Two signed vehicles survey a tiny area together.
-params:
-  layer_m: {{type: number, default: 6}}
-  uav: {{type: string, default: "uav-1"}}
-  role: {{type: string, default: ""}}
-swarm:
-  vehicles: 2
-  area: [{_corner(5, -6)}, {_corner(15, -6)}, {_corner(15, 6)}, {_corner(5, 6)}]
-  layers_m: [6, 16]
-steps:
-  - {{id: climb, action: takeoff, args: {{altitude_m: "${{params.layer_m}}"}}}}
-  - id: work
-    action: repeat
-    depends_on: [climb]
-    until: "next.skill == 'done'"
-    max_iterations: 20
-    steps:
-      - {{id: next, action: call_tool, tool: swarm.next_task}}
-      - id: sweep
-        action: branch
-        if: "next.skill == 'survey_sector'"
-        then:
-          - id: survey
-            action: survey
-            args: {{polygon: "${{next.polygon}}", altitude_m: "${{params.layer_m}}", spacing_m: 30}}
-          - {{id: surveyed, action: call_tool, tool: swarm.done, args: {{task: "${{next.id}}"}}}}
-      - id: wait
-        action: branch
-        if: "next.skill == 'hold'"
-        then:
-          - {{id: idle, action: hover, args: {{duration_s: 1}}}}
-  - {{id: go_home, action: rtl, depends_on: [work]}}
-"""
+from .swarm_missions import ORIGIN, survey_mission
 
 
 @pytest.fixture
 def mission(tmp_path: Path) -> Path:
-    path = tmp_path / "signed.yaml"
-    path.write_text(textwrap.dedent(MISSION), encoding="utf-8")
-    return path
+    return survey_mission(
+        tmp_path / "signed.yaml", plan_id="signed",
+        goal="Two signed vehicles survey a tiny area together.",
+        box_m=(5, 15, -6, 6), layers_m=(6, 16), layer_m=6, max_iterations=20, hover_s=1,
+    )  # fmt: skip
 
 
 def _key(path: Path) -> Path:
