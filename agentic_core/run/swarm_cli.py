@@ -100,9 +100,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if args.vehicles is not None and args.vehicles < 1:
         return report_error(PROG, InputError(f"--vehicles {args.vehicles}: at least 1"), sys.stderr)
-    if args.signing_key is not None and not args.connect:
-        return report_error(PROG, InputError("--signing-key goes with --connect (the simulated vehicles are the "
-                                             "run's own)"), sys.stderr)  # fmt: skip
     try:
         ground_lost_s = ground_link_lost_at(args.fault)
     except InputError as exc:

@@ -30,25 +30,19 @@ def iou_matrix(a: NDArray[np.floating], b: NDArray[np.floating]) -> NDArray[np.f
     gives it."""
     left = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     right = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    x0 = np.maximum(left[:, None, 0], right[None, :, 0])  # :func:`_pairwise`'s arithmetic, broadcast N×M
-    y0 = np.maximum(left[:, None, 1], right[None, :, 1])
-    x1 = np.minimum(left[:, None, 2], right[None, :, 2])
-    y1 = np.minimum(left[:, None, 3], right[None, :, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    area_left = (left[:, 2] - left[:, 0]) * (left[:, 3] - left[:, 1])
-    area_right = (right[:, 2] - right[:, 0]) * (right[:, 3] - right[:, 1])
-    union = area_left[:, None] + area_right[None, :] - inter
-    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0).astype(np.float64)
+    return _pairwise(left[:, None, :], right[None, :, :])  # broadcast N×M, no N·M copies of either side
 
 
 def _pairwise(a: NDArray[np.floating], b: NDArray[np.floating]) -> NDArray[np.float64]:
-    """Intersection over union of ``a[k]`` with ``b[k]`` for each k (corner form)."""
-    x0 = np.maximum(a[:, 0], b[:, 0])
-    y0 = np.maximum(a[:, 1], b[:, 1])
-    x1 = np.minimum(a[:, 2], b[:, 2])
-    y1 = np.minimum(a[:, 3], b[:, 3])
+    """Intersection over union of ``a[..., k, :]`` with ``b[..., k, :]`` (corner form), broadcast as numpy does."""
+    x0 = np.maximum(a[..., 0], b[..., 0])
+    y0 = np.maximum(a[..., 1], b[..., 1])
+    x1 = np.minimum(a[..., 2], b[..., 2])
+    y1 = np.minimum(a[..., 3], b[..., 3])
     inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    union = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1]) + (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]) - inter
+    union = (
+        (a[..., 2] - a[..., 0]) * (a[..., 3] - a[..., 1]) + (b[..., 2] - b[..., 0]) * (b[..., 3] - b[..., 1]) - inter
+    )
     return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0).astype(np.float64)
 
 
