@@ -91,18 +91,16 @@ def letterbox(image: NDArray[np.uint8], input_size: tuple[int, int], channels: i
     ``channels`` 1 feeds the frame's luminance."""
     box = letterbox_geometry((image.shape[1], image.shape[0]), input_size)
     in_w, in_h = input_size
-    if channels == 3 and image.shape[:2] == (in_h, in_w):  # the frame is the input: the same numbers, fewer copies
-        scaled = image.astype(np.float32)
-        scaled /= np.float32(255.0)
-        same: FloatArray = np.ascontiguousarray(scaled.transpose(2, 0, 1))[None]
-        return same, box
     scaled = resize_bilinear(image, box.size)
     if channels == 1:
         scaled = (scaled @ np.array([0.299, 0.587, 0.114], dtype=np.float32))[:, :, None]
-    canvas = np.full((in_h, in_w, channels), PAD_VALUE, dtype=np.float32)
-    left, top = int(box.pad_x), int(box.pad_y)
-    canvas[top : top + box.size[1], left : left + box.size[0]] = scaled
-    tensor: FloatArray = (canvas.transpose(2, 0, 1)[None] / 255.0).astype(np.float32)
+    if tuple(box.size) == (in_w, in_h):  # the frame fills the input: no padding to paste it into
+        canvas = scaled
+    else:
+        canvas = np.full((in_h, in_w, channels), PAD_VALUE, dtype=np.float32)
+        left, top = int(box.pad_x), int(box.pad_y)
+        canvas[top : top + box.size[1], left : left + box.size[0]] = scaled
+    tensor: FloatArray = np.ascontiguousarray(canvas.transpose(2, 0, 1)[None] / np.float32(255.0), dtype=np.float32)
     return tensor, box
 
 
