@@ -65,6 +65,7 @@ class ControlPort:
         self._ids = itertools.count(1)
         self._on_command = on_command
         self._listeners: list[Callable[[Question], None]] = []
+        self._stop_listeners: list[Callable[[], None]] = []
 
     # ---- the person's side ----
 
@@ -119,6 +120,12 @@ class ControlPort:
         """Be told of each new question (called in the asking thread)."""
         with self._cond:
             self._listeners.append(listener)
+
+    def on_stop(self, listener: Callable[[], None]) -> None:
+        """Be told of each pause or stop command at once, in the commanding thread (the dispatcher wakes, and slows
+        the simulation until it has acted: at full speed a poll's 50 ms of wall time is seconds of flight)."""
+        with self._cond:
+            self._stop_listeners.append(listener)
 
     def answer_with(self, operator: Operator) -> None:
         """Let ``operator`` answer every question, each on a thread of its own (the terminal, a test's script)."""
@@ -200,6 +207,9 @@ class ControlPort:
         with self._cond:
             change()
             self._cond.notify_all()
+            stopping = list(self._stop_listeners) if name != "resume" else []
+        for listener in stopping:
+            listener()
         if self._on_command is not None:
             self._on_command(name, {"by": by, **detail})
 

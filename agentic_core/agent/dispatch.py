@@ -90,7 +90,12 @@ class Dispatcher:
         self._watch_lock = threading.Lock()
         self._watching: Mapping[str, Any] | None = None
         self._spotted: tuple[Trigger, Any] | None = None
+        self._flying = False
+        """A watched or controlled action is in the air, the dispatcher waiting on it (under ``_watch_lock``)."""
+        self._wake = threading.Event()
+        """Set when that action ends or the operator sends a pause or stop: the wait ends at once."""
         self._keyed = "idempotency_key" in inspect.signature(executor.call).parameters
+        control.on_stop(self._heard)
 
     def __call__(self, tool: str, args: dict[str, Any], timeout_s: float | None) -> ToolResult | Interrupted:
         if tool in self.prepare:
@@ -143,8 +148,9 @@ class Dispatcher:
     ) -> ToolResult | Interrupted:
         while True:
             with self._watch_lock:
-                self._watching, self._spotted = state, None
-            worker = _Flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
+                self._watching, self._spotted, self._flying = state, None, True
+                self._wake.clear()  # a stop sent before: the first poll sees it, once the action is sent
+            worker = self._flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
             found: tuple[Trigger, Any] | None = None
             stop: str | None = None
             try:
@@ -162,8 +168,8 @@ class Dispatcher:
                 hold = self._stop(worker)  # the action ends, superseded by the hold: its result is the interruption's
             finally:
                 with self._watch_lock:
-                    self._watching = None
-                self.pace.urgent(False)
+                    self._watching, self._flying = None, False
+                    self.pace.urgent(False)
             if stop is not None:
                 return self._interrupted(tool, hold, Interrupted(stop))
             assert found is not None
@@ -181,14 +187,33 @@ class Dispatcher:
         self, tool: str, args: dict[str, Any], timeout_s: float | None, key: str | None
     ) -> ToolResult | Interrupted:
         """A :data:`CONTROLLED_TOOLS` action on a thread of its own, the control port watched while it flies."""
-        worker = _Flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
-        while worker.running(self.poll_s):
-            stop = self._control_stop()
-            if stop is not None:
-                return self._interrupted(tool, self._stop(worker), Interrupted(stop))
+        with self._watch_lock:
+            self._flying = True
+            self._wake.clear()
+        try:
+            worker = self._flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
+            while worker.running(self.poll_s):
+                stop = self._control_stop()
+                if stop is not None:
+                    return self._interrupted(tool, self._stop(worker), Interrupted(stop))
+        finally:
+            with self._watch_lock:
+                self._flying = False
+                self.pace.urgent(False)
         result = worker.result()
         self.published(tool, args, result, key)
         return result
+
+    def _flight(self, action: Callable[[], ToolResult], name: str) -> _Flight:
+        return _Flight(action, name, self._wake)
+
+    def _heard(self) -> None:
+        """The operator sent a pause or a stop (any thread): while an action flies, slow the simulation until the
+        hold is sent, and wake the wait at once."""
+        with self._watch_lock:
+            if self._flying:
+                self.pace.urgent(True)
+        self._wake.set()
 
     def _stop(self, flight: _Flight) -> ToolResult:
         """Send ``flight.hold`` until ``flight``'s action has ended (a command still on its way when the first hold
@@ -229,6 +254,7 @@ class Dispatcher:
             if self._watching is state and self._spotted is None:
                 self._spotted = found
                 self.pace.urgent(True)
+                self._wake.set()
 
     def _take_spotted(self) -> tuple[Trigger, Any] | None:
         with self._watch_lock:
@@ -268,22 +294,32 @@ class _Flight:
     """A flight action running on a thread of its own while the dispatcher watches; what it raised is re-raised
     to the watcher (the step then fails as any raising dispatch does)."""
 
-    def __init__(self, action: Callable[[], ToolResult], name: str) -> None:
+    def __init__(self, action: Callable[[], ToolResult], name: str, wake: threading.Event | None = None) -> None:
         self._box: dict[str, Any] = {}
+        self._wake = wake or threading.Event()
+        self._ended = threading.Event()
 
         def run() -> None:
             try:
                 self._box["result"] = action()
             except BaseException as exc:  # handed to the watcher
                 self._box["error"] = exc
+            finally:
+                self._ended.set()
+                self._wake.set()
 
         self._thread = threading.Thread(target=run, name=name, daemon=True)
         self._thread.start()
 
     def running(self, wait_s: float) -> bool:
-        """Wait up to ``wait_s`` for the action to end; whether it still runs."""
-        self._thread.join(wait_s)
-        return self._thread.is_alive()
+        """Wait up to ``wait_s`` for the action to end, or until ``wake`` is set (the operator spoke, the watch saw
+        something); whether it still runs."""
+        self._wake.wait(wait_s)
+        self._wake.clear()
+        if self._ended.is_set():
+            self._thread.join()
+            return False
+        return True
 
     def result(self) -> ToolResult:
         if "error" in self._box:
