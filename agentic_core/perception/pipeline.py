@@ -82,6 +82,9 @@ class Perception:
         self._last: tuple[Frame, list[Detection], TrackTable, WorldModel] | None = None
         self.timings: dict[str, float] = dict.fromkeys(STAGES, 0.0)
         """Seconds each stage took in the last update."""
+        self.placed: tuple[list[str], list[float], list[float], list[str]] = ([], [], [], [])
+        """The last published model's objects as columns (ids, latitudes, longitudes, classes), in its order: for
+        per-frame bookkeeping over hundreds of objects without reading each record (in the updating thread)."""
 
     def set_landmarks(self, landmarks: Iterable[Any]) -> None:
         """Replace the known landmarks (and zones); their lat/lon are filled in from home."""
@@ -197,12 +200,13 @@ class Perception:
         classes = [tracks.classes[r] for r in picked]
         down = float(cfg.noise.ground_down_m)
         alt = float(alt0 - down)
+        lats, lons = lat.tolist(), lon.tolist()
         columns = zip(
             ids,
             classes,
             x.tolist(),
-            lat.tolist(),
-            lon.tolist(),
+            lats,
+            lons,
             speed.tolist(),
             conf.tolist(),
             cov.reshape(-1, 4).astype(float, copy=False).tolist(),
@@ -260,7 +264,7 @@ class Perception:
             "cov": ego_covariance(cfg.noise, frame.health).tolist(),
         }
         degraded = frame.health.degraded
-        return WorldModel.model_validate(
+        world = WorldModel.model_validate(
             {
                 "timestamp": frame.time_s,
                 "frame": frame.index,
@@ -271,6 +275,8 @@ class Perception:
                 "landmarks": self.landmarks,
             }
         )
+        self.placed = (ids, lats, lons, classes)
+        return world
 
 
 def _trusted_relation(r: Rel) -> bool:

@@ -30,13 +30,11 @@ same fields (``class`` is the alias of ``class_name``):
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterable
-from collections.abc import Set as AbstractSet
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Self, cast
 
-from pydantic import BaseModel
-
+from agentic_core.contracts import trusted
+from agentic_core.contracts.trusted import AllFields
 from agentic_core.contracts.world_model import (
     PREDICATES,
     Contract,
@@ -65,94 +63,7 @@ SCHEMA_FILE = Path(__file__).with_name("world_model.schema.json")
 #
 # Perception builds hundreds of objects and relations a frame from its own arrays, after one vectorised check of
 # every bound (finite, latitude in range, ...). Validating each of them again cost more than the rest of the
-# update together, so they are made as pydantic's ``model_construct`` makes records, without its per-field alias
-# and default lookups: ``__dict__`` set to values that are exactly what validation would give (``float`` for every
-# float field, not an ``int`` or numpy scalar; tuples for covariances; records for nested records), every field
-# given. Tests hold them equal, field by field, in ``model_fields_set`` and in JSON, to validated records on real
-# frames, and keep these records free of validators, private attributes and ``model_post_init``, which this skips.
-
-
-def _slot_setter(name: str) -> Callable[[Any, Any], None]:
-    """The setter of one of pydantic's instance slots (``__dict__``, ``__pydantic_fields_set__``, ...), called
-    directly: a third faster than ``object.__setattr__``, which looks the slot up through the class every time."""
-    slot = vars(BaseModel).get(name)
-    setter = getattr(slot, "__set__", None)
-    if setter is None:  # not a slot in some pydantic version: set it as model_construct does
-        return lambda obj, value: object.__setattr__(obj, name, value)
-    return cast("Callable[[Any, Any], None]", setter)
-
-
-_set_dict = _slot_setter("__dict__")
-_set_fields_set = _slot_setter("__pydantic_fields_set__")
-_set_extra = _slot_setter("__pydantic_extra__")
-_set_private = _slot_setter("__pydantic_private__")
-_SHARED = "the fields-set of a record perception built is shared by its class's records: copy it to change it"
-
-
-class AllFields(set[str]):
-    """Every field name of one record class: the ``model_fields_set`` that perception's records share.
-
-    Every record sets every field, so they can share one set instead of allocating one each, which was a third of
-    the cost of a record (a set of more than four names allocates a table of its own). It is a ``set``, equal to
-    the one validation makes, but it refuses to change, since it is shared: pydantic only ever adds a name already
-    in it (on assigning a field: no change), and a copy (``copy()``, ``model_copy``, ``copy.copy``, pickling) is an
-    ordinary set.
-    """
-
-    def add(self, element: str) -> None:
-        if element not in self:
-            raise TypeError(_SHARED)
-
-    def update(self, *s: Iterable[str]) -> None:
-        if any(element not in self for other in s for element in other):
-            raise TypeError(_SHARED)
-
-    def __ior__(self, value: AbstractSet[str]) -> Self:  # type: ignore[override,misc]
-        self.update(value)
-        return self
-
-    def discard(self, element: object) -> None:
-        raise TypeError(_SHARED)
-
-    def remove(self, element: str) -> None:
-        raise TypeError(_SHARED)
-
-    def pop(self) -> str:
-        raise TypeError(_SHARED)
-
-    def clear(self) -> None:
-        raise TypeError(_SHARED)
-
-    def difference_update(self, *s: Iterable[Any]) -> None:
-        raise TypeError(_SHARED)
-
-    def intersection_update(self, *s: Iterable[Any]) -> None:
-        raise TypeError(_SHARED)
-
-    def symmetric_difference_update(self, s: Iterable[str], /) -> None:
-        raise TypeError(_SHARED)
-
-    def __iand__(self, value: AbstractSet[object]) -> Self:
-        raise TypeError(_SHARED)
-
-    def __isub__(self, value: AbstractSet[object]) -> Self:
-        raise TypeError(_SHARED)
-
-    def __ixor__(self, value: AbstractSet[str]) -> Self:  # type: ignore[override,misc]
-        raise TypeError(_SHARED)
-
-    def copy(self) -> set[str]:
-        return set(self)
-
-    def __copy__(self) -> set[str]:
-        return set(self)
-
-    def __deepcopy__(self, memo: dict[int, Any]) -> set[str]:
-        return set(self)
-
-    def __reduce__(self) -> tuple[type[set[str]], tuple[list[str]]]:
-        return set, (list(self),)
-
+# update together, so they are built as :mod:`agentic_core.contracts.trusted` says.
 
 _OBJECT_FIELDS = AllFields(WorldObject.model_fields)
 _POSE_FIELDS = AllFields(GeoPose.model_fields)
@@ -168,7 +79,12 @@ def trusted_objects(rows: Iterable[ObjectRow], *, down: float, alt: float) -> li
     """:class:`WorldObject` records, with their pose and velocity, from rows of values that already are what
     validating them would give (see the notes above; ``down`` and ``alt`` are every pose's: the ground plane's)."""
     new_object, new_pose, new_velocity = WorldObject.__new__, GeoPose.__new__, Velocity.__new__
-    set_dict, set_fields_set, set_extra, set_private = _set_dict, _set_fields_set, _set_extra, _set_private
+    set_dict, set_fields_set, set_extra, set_private = (  # locals: looked up once, not per record
+        trusted.set_dict,
+        trusted.set_fields_set,
+        trusted.set_extra,
+        trusted.set_private,
+    )
     out = []
     for ident, cls, (n, e, vn, ve), lat, lon, speed, conf, (c00, c01, c10, c11), age, still, state, seen in rows:
         pose = new_pose(GeoPose)
@@ -208,7 +124,12 @@ def trusted_relations(rows: Iterable[tuple[str, str, str | None, float | None]])
     """:class:`Relation` records from ``(subj, pred, obj, value)`` rows that already are what validating them would
     give (see the notes above; a frame has about as many relations as objects)."""
     new_relation = Relation.__new__
-    set_dict, set_fields_set, set_extra, set_private = _set_dict, _set_fields_set, _set_extra, _set_private
+    set_dict, set_fields_set, set_extra, set_private = (  # locals: looked up once, not per record
+        trusted.set_dict,
+        trusted.set_fields_set,
+        trusted.set_extra,
+        trusted.set_private,
+    )
     out = []
     for subj, pred, obj, value in rows:
         record = new_relation(Relation)

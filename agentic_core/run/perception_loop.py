@@ -168,9 +168,9 @@ class PerceptionLoop:
         for detection in detections:
             if detection.truth_id is not None:
                 self.first_detected.setdefault(detection.truth_id, frame.time_s)
-        seen = self._last_seen
-        for obj in world.objects:
-            seen[obj.id] = (obj.pose.lat, obj.pose.lon, obj.class_name, frame.time_s)
+        ids, lats, lons, classes = self.perception.placed
+        when = [frame.time_s] * len(ids)
+        self._last_seen.update(zip(ids, zip(lats, lons, classes, when, strict=True), strict=True))
         with self._lock:
             self._world = world
             self.frames += 1

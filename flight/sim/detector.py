@@ -69,6 +69,8 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
+from agentic_core.contracts import trusted
+from agentic_core.contracts.trusted import AllFields
 from flight.camera import (
     BoundingBox,
     CameraPose,
@@ -322,22 +324,41 @@ class SimulatedDetector:
         return _detections(["person"] * k_fp, box_array[good], confidence[keep][good], [None] * k_fp, spec)
 
 
+_BOX_FIELDS = AllFields(BoundingBox.model_fields)
+_DETECTION_FIELDS = AllFields(Detection.model_fields)
+
+
 def _detections(
     classes: list[str], boxes: FloatArray, confidence: FloatArray, truth: list[str | None], spec: CameraSpec
 ) -> list[Detection]:
     """:class:`Detection` s from trusted numbers, boxes clipped to the image and ordered; built without
-    re-validation, since a thousand per frame is the perception benchmark's load."""
+    re-validation (:mod:`agentic_core.contracts.trusted`), since a thousand per frame is the perception benchmark's
+    load."""
     x = np.clip(boxes[:, [0, 2]], 0.0, spec.width_px)
     y = np.clip(boxes[:, [1, 3]], 0.0, spec.height_px)
     edges = np.column_stack([x.min(axis=1), y.min(axis=1), x.max(axis=1), y.max(axis=1)]).tolist()
     conf = np.clip(confidence, 0.0, 1.0).tolist()
-    box = BoundingBox.model_construct
-    return [
-        Detection.model_construct(
-            class_name=c, box=box(x_min=e[0], y_min=e[1], x_max=e[2], y_max=e[3]), confidence=p, truth_id=t
-        )
-        for c, e, p, t in zip(classes, edges, conf, truth, strict=True)
-    ]
+    new_detection, new_box = Detection.__new__, BoundingBox.__new__
+    set_dict, set_fields_set, set_extra, set_private = (  # locals: looked up once, not per record
+        trusted.set_dict,
+        trusted.set_fields_set,
+        trusted.set_extra,
+        trusted.set_private,
+    )
+    out = []
+    for c, (x0, y0, x1, y1), p, t in zip(classes, edges, conf, truth, strict=True):
+        box = new_box(BoundingBox)
+        set_dict(box, {"x_min": x0, "y_min": y0, "x_max": x1, "y_max": y1})
+        set_fields_set(box, _BOX_FIELDS)
+        set_extra(box, None)
+        set_private(box, None)
+        record = new_detection(Detection)
+        set_dict(record, {"class_name": c, "box": box, "confidence": p, "truth_id": t})
+        set_fields_set(record, _DETECTION_FIELDS)
+        set_extra(record, None)
+        set_private(record, None)
+        out.append(record)
+    return out
 
 
 def _silhouette_area(pixels: FloatArray) -> FloatArray:
