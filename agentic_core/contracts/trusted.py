@@ -9,10 +9,8 @@ must have no validators that would change a value, no private attributes and no 
 skips.
 
 >>> from agentic_core.contracts.camera import BoundingBox
->>> box = BoundingBox.__new__(BoundingBox)
->>> set_dict(box, {"x_min": 1.0, "y_min": 2.0, "x_max": 3.0, "y_max": 4.0})
->>> set_fields_set(box, AllFields(BoundingBox.model_fields)); set_extra(box, None); set_private(box, None)
->>> box == BoundingBox(x_min=1, y_min=2, x_max=3, y_max=4)
+>>> new_box = record_maker(BoundingBox)
+>>> new_box({"x_min": 1.0, "y_min": 2.0, "x_max": 3.0, "y_max": 4.0}) == BoundingBox(x_min=1, y_min=2, x_max=3, y_max=4)
 True
 """
 
@@ -20,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from collections.abc import Set as AbstractSet
-from typing import Any, Self, cast
+from typing import Any, Self, TypeVar, cast
 
 from pydantic import BaseModel
 
@@ -35,10 +33,10 @@ def _slot_setter(name: str) -> Callable[[Any, Any], None]:
     return cast("Callable[[Any, Any], None]", setter)
 
 
-set_dict = _slot_setter("__dict__")
-set_fields_set = _slot_setter("__pydantic_fields_set__")
-set_extra = _slot_setter("__pydantic_extra__")
-set_private = _slot_setter("__pydantic_private__")
+_set_dict = _slot_setter("__dict__")
+_set_fields_set = _slot_setter("__pydantic_fields_set__")
+_set_extra = _slot_setter("__pydantic_extra__")
+_set_private = _slot_setter("__pydantic_private__")
 _SHARED = "the fields-set of a record built from trusted values is shared by its class's records: copy it to change it"
 
 
@@ -107,4 +105,24 @@ class AllFields(set[str]):
         return set, (list(self),)
 
 
-__all__ = ["AllFields", "set_dict", "set_extra", "set_fields_set", "set_private"]
+M = TypeVar("M", bound=BaseModel)
+
+
+def record_maker(cls: type[M]) -> Callable[[dict[str, Any]], M]:
+    """A function that makes a ``cls`` record from a dict of every field's value, already what validation would
+    give (see the module docs); the records share one :class:`AllFields`."""
+    new, fields = cls.__new__, AllFields(cls.model_fields)
+    set_dict, set_fields_set, set_extra, set_private = _set_dict, _set_fields_set, _set_extra, _set_private
+
+    def make(values: dict[str, Any]) -> M:
+        record = new(cls)
+        set_dict(record, values)
+        set_fields_set(record, fields)
+        set_extra(record, None)
+        set_private(record, None)
+        return record
+
+    return make
+
+
+__all__ = ["AllFields", "record_maker"]

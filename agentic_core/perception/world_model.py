@@ -33,8 +33,7 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from agentic_core.contracts import trusted
-from agentic_core.contracts.trusted import AllFields
+from agentic_core.contracts.trusted import AllFields, record_maker
 from agentic_core.contracts.world_model import (
     PREDICATES,
     Contract,
@@ -65,10 +64,10 @@ SCHEMA_FILE = Path(__file__).with_name("world_model.schema.json")
 # every bound (finite, latitude in range, ...). Validating each of them again cost more than the rest of the
 # update together, so they are built as :mod:`agentic_core.contracts.trusted` says.
 
-_OBJECT_FIELDS = AllFields(WorldObject.model_fields)
-_POSE_FIELDS = AllFields(GeoPose.model_fields)
-_VELOCITY_FIELDS = AllFields(Velocity.model_fields)
-_RELATION_FIELDS = AllFields(Relation.model_fields)
+_new_object = record_maker(WorldObject)
+_new_pose = record_maker(GeoPose)
+_new_velocity = record_maker(Velocity)
+_new_relation = record_maker(Relation)
 
 ObjectRow = tuple[str, str, list[float], float, float, float, float, list[float], int, float, TrackState, float]
 """One object's values, as :func:`trusted_objects` takes them: id, class, [north, east, v_north, v_east], lat, lon,
@@ -78,67 +77,31 @@ speed, conf, covariance [nn, ne, en, ee], track age (frames), stationary_s, stat
 def trusted_objects(rows: Iterable[ObjectRow], *, down: float, alt: float) -> list[WorldObject]:
     """:class:`WorldObject` records, with their pose and velocity, from rows of values that already are what
     validating them would give (see the notes above; ``down`` and ``alt`` are every pose's: the ground plane's)."""
-    new_object, new_pose, new_velocity = WorldObject.__new__, GeoPose.__new__, Velocity.__new__
-    set_dict, set_fields_set, set_extra, set_private = (  # locals: looked up once, not per record
-        trusted.set_dict,
-        trusted.set_fields_set,
-        trusted.set_extra,
-        trusted.set_private,
-    )
-    out = []
-    for ident, cls, (n, e, vn, ve), lat, lon, speed, conf, (c00, c01, c10, c11), age, still, state, seen in rows:
-        pose = new_pose(GeoPose)
-        set_dict(pose, {"north": n, "east": e, "down": down, "lat": lat, "lon": lon, "alt": alt})
-        set_fields_set(pose, _POSE_FIELDS)
-        set_extra(pose, None)
-        set_private(pose, None)
-        vel = new_velocity(Velocity)
-        set_dict(vel, {"north": vn, "east": ve, "down": 0.0, "speed": speed})
-        set_fields_set(vel, _VELOCITY_FIELDS)
-        set_extra(vel, None)
-        set_private(vel, None)
-        record = new_object(WorldObject)
-        set_dict(
-            record,
+    new_object, new_pose, new_velocity = _new_object, _new_pose, _new_velocity
+    return [
+        new_object(
             {
                 "id": ident,
                 "class_name": cls,
-                "pose": pose,
-                "vel": vel,
+                "pose": new_pose({"north": n, "east": e, "down": down, "lat": lat, "lon": lon, "alt": alt}),
+                "vel": new_velocity({"north": vn, "east": ve, "down": 0.0, "speed": speed}),
                 "conf": conf,
                 "cov": ((c00, c01), (c10, c11)),
                 "track_age_frames": age,
                 "stationary_s": still,
                 "state": state,
                 "last_seen": seen,
-            },
+            }
         )
-        set_fields_set(record, _OBJECT_FIELDS)
-        set_extra(record, None)
-        set_private(record, None)
-        out.append(record)
-    return out
+        for ident, cls, (n, e, vn, ve), lat, lon, speed, conf, (c00, c01, c10, c11), age, still, state, seen in rows
+    ]
 
 
 def trusted_relations(rows: Iterable[tuple[str, str, str | None, float | None]]) -> list[Relation]:
     """:class:`Relation` records from ``(subj, pred, obj, value)`` rows that already are what validating them would
     give (see the notes above; a frame has about as many relations as objects)."""
-    new_relation = Relation.__new__
-    set_dict, set_fields_set, set_extra, set_private = (  # locals: looked up once, not per record
-        trusted.set_dict,
-        trusted.set_fields_set,
-        trusted.set_extra,
-        trusted.set_private,
-    )
-    out = []
-    for subj, pred, obj, value in rows:
-        record = new_relation(Relation)
-        set_dict(record, {"subj": subj, "pred": pred, "obj": obj, "value": value})
-        set_fields_set(record, _RELATION_FIELDS)
-        set_extra(record, None)
-        set_private(record, None)
-        out.append(record)
-    return out
+    new_relation = _new_relation
+    return [new_relation({"subj": subj, "pred": pred, "obj": obj, "value": value}) for subj, pred, obj, value in rows]
 
 
 def write_schema_file() -> None:

@@ -69,8 +69,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
-from agentic_core.contracts import trusted
-from agentic_core.contracts.trusted import AllFields
+from agentic_core.contracts.trusted import record_maker
 from flight.camera import (
     BoundingBox,
     CameraPose,
@@ -324,8 +323,8 @@ class SimulatedDetector:
         return _detections(["person"] * k_fp, box_array[good], confidence[keep][good], [None] * k_fp, spec)
 
 
-_BOX_FIELDS = AllFields(BoundingBox.model_fields)
-_DETECTION_FIELDS = AllFields(Detection.model_fields)
+_new_box = record_maker(BoundingBox)
+_new_detection = record_maker(Detection)
 
 
 def _detections(
@@ -338,27 +337,18 @@ def _detections(
     y = np.clip(boxes[:, [1, 3]], 0.0, spec.height_px)
     edges = np.column_stack([x.min(axis=1), y.min(axis=1), x.max(axis=1), y.max(axis=1)]).tolist()
     conf = np.clip(confidence, 0.0, 1.0).tolist()
-    new_detection, new_box = Detection.__new__, BoundingBox.__new__
-    set_dict, set_fields_set, set_extra, set_private = (  # locals: looked up once, not per record
-        trusted.set_dict,
-        trusted.set_fields_set,
-        trusted.set_extra,
-        trusted.set_private,
-    )
-    out = []
-    for c, (x0, y0, x1, y1), p, t in zip(classes, edges, conf, truth, strict=True):
-        box = new_box(BoundingBox)
-        set_dict(box, {"x_min": x0, "y_min": y0, "x_max": x1, "y_max": y1})
-        set_fields_set(box, _BOX_FIELDS)
-        set_extra(box, None)
-        set_private(box, None)
-        record = new_detection(Detection)
-        set_dict(record, {"class_name": c, "box": box, "confidence": p, "truth_id": t})
-        set_fields_set(record, _DETECTION_FIELDS)
-        set_extra(record, None)
-        set_private(record, None)
-        out.append(record)
-    return out
+    new_detection, new_box = _new_detection, _new_box
+    return [
+        new_detection(
+            {
+                "class_name": c,
+                "box": new_box({"x_min": x0, "y_min": y0, "x_max": x1, "y_max": y1}),
+                "confidence": p,
+                "truth_id": t,
+            }
+        )
+        for c, (x0, y0, x1, y1), p, t in zip(classes, edges, conf, truth, strict=True)
+    ]
 
 
 def _silhouette_area(pixels: FloatArray) -> FloatArray:
