@@ -67,6 +67,7 @@ def samples(model: Path, frames: Sequence[Labelled], *, min_score: float = MIN_S
     proto = onnx.load(str(model))
     features_name, _, _ = _last_conv(proto)
     proto.graph.output.append(onnx.helper.make_tensor_value_info(features_name, onnx.TensorProto.FLOAT, None))
+    wanted = [proto.graph.output[0].name, features_name]
     options = ort.SessionOptions()
     options.intra_op_num_threads = options.inter_op_num_threads = 1
     session = ort.InferenceSession(proto.SerializeToString(), options, providers=["CPUExecutionProvider"])
@@ -75,7 +76,7 @@ def samples(model: Path, frames: Sequence[Labelled], *, min_score: float = MIN_S
     ys: list[FloatArray] = []
     for f in frames:
         tensor, box = letterbox(f.image, (int(shape[3]), int(shape[2])))
-        output, features = session.run(None, {session.get_inputs()[0].name: tensor})
+        output, features = session.run(wanted, {session.get_inputs()[0].name: tensor})
         decoded = decode(np.asarray(output), "v8")
         cells = np.flatnonzero(decoded.scores >= min_score)
         cells = cells[nms(decoded.boxes[cells], decoded.scores[cells], NMS_IOU, None, len(cells))]

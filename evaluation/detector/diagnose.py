@@ -107,17 +107,23 @@ class Breakdown:
     """(label shape, persons with a detection at IoU ≥ 0.3, median detection/label width, height)."""
 
 
+def score_before_peaks(proto: Any) -> str | None:
+    """The tensor an export's 3×3 peak test (a max-pool over the unsqueezed scores) reads, None without one."""
+    made = {out: node for node in proto.graph.node for out in node.output}
+    for node in proto.graph.node:
+        if node.op_type == "MaxPool" and node.input[0] in made and made[node.input[0]].op_type == "Unsqueeze":
+            return str(made[node.input[0]].input[0])
+    return None
+
+
 def cells_session(model: Path) -> tuple[Any, str, str | None]:
-    """An onnxruntime session of ``model`` that also gives each cell's score before the peak test (the tensor the
-    export's 3×3 max-pool reads; None for a model without one), its input and that tensor's names."""
+    """An onnxruntime session of ``model`` whose second output is each cell's score before the peak test (none for
+    a model without one), its input's name and that tensor's."""
     onnx: Any = require("onnx", "train")
     ort: Any = require("onnxruntime", "vision")
     proto = onnx.load(str(model))
-    made = {out: node for node in proto.graph.node for out in node.output}
-    before: str | None = None
-    for node in proto.graph.node:
-        if node.op_type == "MaxPool" and node.input[0] in made and made[node.input[0]].op_type == "Unsqueeze":
-            before = str(made[node.input[0]].input[0])
+    before = score_before_peaks(proto)
+    del proto.graph.output[1:]
     if before is not None:
         proto.graph.output.append(onnx.helper.make_tensor_value_info(before, onnx.TensorProto.FLOAT, None))
     options = ort.SessionOptions()
@@ -228,6 +234,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 __all__ = [
     "CAUSES", "CLASSES", "Breakdown", "Classified", "breakdown", "breakdown_lines", "cells_session", "classify", "main",
+    "score_before_peaks",
 ]  # fmt: skip
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ import numpy as np
 from agentic_core.perception.calibration import Calibration, expected_calibration_error, reliability
 from agentic_core.perception.detectors import OnnxDetector
 from agentic_core.perception.detectors.ours import MAX_DETECTIONS
+from agentic_core.perception.detectors.rescue import Rescue
 from flight.sim.render.dataset import MIN_SEEN
 
 from .diagnose import breakdown, breakdown_lines
@@ -72,13 +73,16 @@ def _detect_time(detector: OnnxDetector, frames: Sequence[Labelled]) -> float:
 
 def raw_detector(weights: Path, score_threshold: float = FLOOR) -> OnnxDetector:
     """The detector without calibration, keeping scores down to ``score_threshold`` (:data:`FLOOR` to score it;
-    the operating threshold to time it as a run uses it)."""
+    the operating threshold to time it as a run uses it); with the recipe's rescue of crowded persons, as a run."""
+    recipe = weights / RECIPE_NAME
+    entry = json.loads(recipe.read_text()).get("rescue") if recipe.is_file() else None
     return OnnxDetector(
         weights / WEIGHTS_NAME,
         layout="v8",
         class_names=["person"],
         score_threshold=score_threshold,
         max_detections=MAX_DETECTIONS,
+        rescue=None if entry is None else Rescue.from_recipe(entry, recipe),
     )
 
 
@@ -158,6 +162,20 @@ def _description(recipe: dict[str, Any], threshold: float) -> list[str]:
             f"{refit.get('samples')} detections in {data.get('frames')} frames of seed {data.get('seed')} and "
             f"{data.get('extra_frames', 0)} of seed {data.get('extra_seed')}; the weights before it, SHA-256 "
             f"`{refit.get('before_sha256')}`"
+        )
+    rescue = recipe.get("rescue")
+    if isinstance(rescue, dict):
+        chosen, without, kept = rescue.get("chosen_on", {}), rescue.get("without", {}), rescue.get("with", {})
+        lines.append(
+            f"- crowded persons rescued (`python -m evaluation.detector.rescue_fit`, "
+            "`agentic_core/perception/detectors/rescue.py`): a cell the 3×3 peak test removed is kept when it scores "
+            f"at least {rescue.get('min_score')}, its box is at least {rescue.get('min_long_px')} px long and no "
+            f"higher neighbour predicts a centre within {rescue.get('centre_ratio')} of their shorter sides; chosen "
+            f"on {chosen.get('frames')} renders of seed {chosen.get('seed')} (best F1, precision at most "
+            f"{chosen.get('max_precision_loss')} lower): F1 {without.get('f1', float('nan')):.3f} → "
+            f"{kept.get('f1', float('nan')):.3f}, precision {without.get('precision', float('nan')):.3f} → "
+            f"{kept.get('precision', float('nan')):.3f} there; the weights before it, SHA-256 "
+            f"`{rescue.get('before_sha256')}` (the same network, the scores before the peak test added as an output)"
         )
     return [
         *lines,
