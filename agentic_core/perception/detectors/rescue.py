@@ -31,6 +31,9 @@ from ...contracts.errors import InputError
 
 FloatArray = NDArray[np.float32]
 _OFFSETS = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if (dy, dx) != (0, 0)]
+_DY, _DX = np.array([o[0] for o in _OFFSETS]), np.array([o[1] for o in _OFFSETS])
+_FIRST = np.array([o < (0, 0) for o in _OFFSETS])
+"""Which neighbours come first in the grid's order: of two equal scores, the first one's cell is the peak."""
 
 
 @dataclass(frozen=True)
@@ -87,17 +90,16 @@ def rescued_scores(boxes: FloatArray, peak: FloatArray, before: FloatArray, resc
         return out
     cols, cells = rescue.grid_width, len(before)
     row, col = np.divmod(cand, cols)
-    centre = (box[:, :2] + box[:, 2:]) / 2
-    keep = np.ones(len(cand), bool)
-    for dy, dx in _OFFSETS:
-        r, c = row + dy, col + dx
-        inside = (r >= 0) & (c >= 0) & (c < cols) & (r * cols + c < cells)
-        j = np.where(inside, r * cols + c, 0)
-        higher = inside & ((before[j] > before[cand]) | ((before[j] == before[cand]) & ((dy, dx) < (0, 0))))
-        other = boxes[j]
-        apart = np.hypot(*((other[:, :2] + other[:, 2:]) / 2 - centre).T)
-        near = np.minimum(np.minimum(other[:, 2] - other[:, 0], other[:, 3] - other[:, 1]), short)
-        keep &= ~(higher & (apart < rescue.centre_ratio * near))
+    r, c = row[:, None] + _DY, col[:, None] + _DX  # K×8: every candidate's neighbours at once
+    inside = (r >= 0) & (c >= 0) & (c < cols) & (r * cols + c < cells)
+    j = np.where(inside, r * cols + c, 0)
+    own = before[cand][:, None]
+    higher = inside & ((before[j] > own) | ((before[j] == own) & _FIRST))
+    other = boxes[j]
+    centre = (box[:, None, :2] + box[:, None, 2:]) / 2
+    apart = np.hypot(*np.moveaxis((other[..., :2] + other[..., 2:]) / 2 - centre, -1, 0))
+    near = np.minimum(np.minimum(other[..., 2] - other[..., 0], other[..., 3] - other[..., 1]), short[:, None])
+    keep = ~(higher & (apart < rescue.centre_ratio * near)).any(axis=1)
     out[cand[keep]] = before[cand[keep]]
     return out
 
