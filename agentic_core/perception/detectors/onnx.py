@@ -18,6 +18,7 @@ from __future__ import annotations
 import ast
 import os
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -29,6 +30,7 @@ from ...contracts.errors import InputError
 from ...contracts.extras import require
 from ...contracts.input_files import check_input_file
 from ..calibration import Calibration
+from .rescue import Rescue, rescued_scores
 from .yolo_decode import Layout, decode, guess_layout, letterbox, nms, to_frame
 
 MAX_MODEL_BYTES = 1 << 30
@@ -57,7 +59,8 @@ class OnnxDetector:
 
     ``class_names`` default to the model's metadata (an ultralytics export carries them), else ``person`` for a
     one-class model; ``classes`` keeps only those names (all when None). ``input_size`` (width, height) is needed
-    only when the model's input has no fixed size.
+    only when the model's input has no fixed size. ``rescue`` gives back cells a centre-point model's own peak test
+    removed in a crowd (:mod:`.rescue`; ours names it in its recipe).
     """
 
     def __init__(
@@ -73,6 +76,7 @@ class OnnxDetector:
         calibration: Calibration | None = None,
         max_detections: int = 300,
         threads: int = 1,
+        rescue: Rescue | None = None,
     ) -> None:
         self.path = Path(path)
         if not self.path.exists():
@@ -95,6 +99,9 @@ class OnnxDetector:
         self.input_name, self.channels, self.input_size = self._input(input_size)
         outputs = self.session.get_outputs()
         self.output_name: str = outputs[0].name
+        self.rescue = rescue
+        if rescue is not None and rescue.output not in [o.name for o in outputs]:
+            raise InputError(f"{self.path}: no output {rescue.output!r} to rescue crowded persons from")
         meta = dict(self.session.get_modelmeta().custom_metadata_map)
         self.class_names = list(class_names) if class_names is not None else _class_names(meta)
         self.layout: Layout | None = None if layout == "auto" else layout
@@ -145,8 +152,13 @@ class OnnxDetector:
             raise InputError(f"{self.path}: a frame's image must be H×W×3 uint8 RGB; got {got}")
         height, width = image.shape[:2]
         tensor, box = letterbox(image, self.input_size, self.channels)
-        output = np.asarray(self.session.run([self.output_name], {self.input_name: tensor})[0])
+        wanted = [self.output_name] if self.rescue is None else [self.output_name, self.rescue.output]
+        results = self.session.run(wanted, {self.input_name: tensor})
+        output = np.asarray(results[0])
         decoded = decode(output, self._layout(tuple(int(n) for n in output.shape)))
+        if self.rescue is not None:
+            before = np.asarray(results[1], dtype=np.float32).reshape(-1)
+            decoded = replace(decoded, scores=rescued_scores(decoded.boxes, decoded.scores, before, self.rescue))
         names = self.class_names or (["person"] if decoded.classes.max(initial=0) == 0 else None)
         keep = decoded.scores >= self.score_threshold
         if self.classes is not None:

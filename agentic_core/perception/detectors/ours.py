@@ -19,6 +19,7 @@ from typing import Any
 from ...contracts.errors import InputError
 from ..calibration import Calibration
 from .onnx import OnnxDetector
+from .rescue import Rescue
 
 WEIGHTS = "person.onnx"
 RECIPE = "person.json"
@@ -62,6 +63,7 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
             "changed or damaged; reinstall agentic-uavs or retrain (python -m evaluation.detector.train)"
         )
     calibration = Calibration.model_validate(recipe["calibration"]) if recipe.get("calibration") else None
+    rescue = Rescue.from_recipe(recipe["rescue"], root / RECIPE) if recipe.get("rescue") is not None else None
     return OnnxDetector(
         path,
         layout="v8",
@@ -70,6 +72,7 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
         calibration=calibration,
         threads=threads,
         max_detections=MAX_DETECTIONS,
+        rescue=rescue,
     )
 
 
