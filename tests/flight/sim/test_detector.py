@@ -83,7 +83,7 @@ def test_detections_built_unvalidated_are_the_validated_records_field_for_field(
         assert [type(v) for v in d.box.__dict__.values()] == [float] * 4 and type(d.confidence) is float
     first = built[0]
     with pytest.raises(ValueError, match="frozen"):
-        first.confidence = 0.5  # type: ignore[misc]
+        first.confidence = 0.5
     changed = first.model_copy(update={"confidence": 0.25})
     assert changed.confidence == 0.25 and first.confidence != 0.25
     assert type(changed.model_fields_set) is set
