@@ -149,7 +149,7 @@ class Dispatcher:
         while True:
             with self._watch_lock:
                 self._watching, self._spotted, self._flying = state, None, True
-                self._wake.clear()  # a stop sent before: the first poll sees it, once the action is sent
+                self._take_off()
             worker = self._flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
             found: tuple[Trigger, Any] | None = None
             stop: str | None = None
@@ -189,7 +189,7 @@ class Dispatcher:
         """A :data:`CONTROLLED_TOOLS` action on a thread of its own, the control port watched while it flies."""
         with self._watch_lock:
             self._flying = True
-            self._wake.clear()
+            self._take_off()
         try:
             worker = self._flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
             while worker.running(self.poll_s):
@@ -206,6 +206,13 @@ class Dispatcher:
 
     def _flight(self, action: Callable[[], ToolResult], name: str) -> _Flight:
         return _Flight(action, name, self._wake)
+
+    def _take_off(self) -> None:
+        """An action is about to be sent (under ``_watch_lock``). A stop or pause sent before it is seen at the
+        first poll, once the action is on its way (the hold must supersede it); until then the world crawls."""
+        self._wake.clear()
+        if self._control_stop() is not None:
+            self.pace.urgent(True)
 
     def _heard(self) -> None:
         """The operator sent a pause or a stop (any thread): while an action flies, slow the simulation until the

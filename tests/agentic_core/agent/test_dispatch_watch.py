@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 
 from agentic_core.agent import ControlPort, Dispatcher, Gate, Pace
+from agentic_core.agent.pacing import URGENT_SPEED
 from agentic_core.mission.model import Trigger
 from agentic_core.mission.steps import Interrupted, step_call
 from tools import ToolResult
@@ -159,6 +160,34 @@ def test_a_stop_command_given_before_the_leg_still_sends_the_leg_then_holds_it()
     with step_call("leg", state={}):
         box.append(rig.dispatch("flight.fly_to", dict(LEG), None))
     assert isinstance(box[0], Interrupted) and rig.aircraft.tools() == ["flight.fly_to", "flight.hold"]
+
+
+@pytest.mark.parametrize("when", ["before the leg", "during the leg"])
+def test_between_a_stop_and_its_hold_the_world_crawls_and_afterwards_it_does_not(when: str) -> None:
+    """At full speed the world must not fly on while the dispatcher gets round to the hold: from the stop (or from
+    the leg's start, for a stop sent before it) until the hold is sent, the simulation runs at the crawl; once the
+    leg has ended, it does not stay slowed (a stuck crawl would make every later leg take four times real time)."""
+    rig = Rig()
+    speeds: dict[str, float | None] = {}
+
+    def record(name: str, _: dict[str, Any]) -> None:  # the pace at the moment each command reaches the vehicle
+        speeds.setdefault(name, rig.pace.speed())
+
+    rig.aircraft.on_command = record
+    with rig.pace.waiting("vehicle"):  # as a run waiting on its vehicle: full speed unless slowed
+        if when == "before the leg":
+            rig.control.abort()
+            with step_call("leg", state={}):
+                outcome = rig.dispatch("flight.fly_to", dict(LEG), None)
+            assert speeds["flight.fly_to"] == URGENT_SPEED
+        else:
+            with rig.flying() as box:
+                assert rig.pace.speed() is None
+                rig.control.abort()
+            (outcome,) = box
+        assert isinstance(outcome, Interrupted)
+        assert speeds["flight.hold"] == URGENT_SPEED
+        assert rig.pace.speed() is None  # full speed again
 
 
 def test_the_steps_of_a_triggers_sub_plan_are_not_watched() -> None:
