@@ -208,10 +208,10 @@ class ControlPort:
             change()
             self._cond.notify_all()
             stopping = list(self._stop_listeners) if name != "resume" else []
+        if self._on_command is not None:  # first: the trace tells of the command before of what it caused
+            self._on_command(name, {"by": by, **detail})
         for listener in stopping:
             listener()
-        if self._on_command is not None:
-            self._on_command(name, {"by": by, **detail})
 
     def _stop_with(self, command: StopCommand, reason: str | None, by: str) -> None:
         def change() -> None:
