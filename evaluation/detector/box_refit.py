@@ -28,9 +28,10 @@ from numpy.typing import NDArray
 
 from agentic_core.contracts.extras import require
 from agentic_core.perception.detectors.suppression import iou_matrix
-from agentic_core.perception.detectors.yolo_decode import decode, letterbox, nms, to_frame
+from agentic_core.perception.detectors.yolo_decode import NMS_IOU, decode, letterbox, nms, to_frame
 from flight.sim.render.dataset import MIN_SEEN
 
+from .network import STRIDE
 from .train import RECIPE_NAME, WEIGHTS_NAME, Labelled, TrainConfig, render_frames, sha256_of
 
 LAST_CONV = "/net/head/head.1/Conv"
@@ -38,8 +39,6 @@ MIN_SCORE = 0.2
 """Detections scoring at least this are fitted (the operating threshold is about 0.34: those near it count)."""
 MIN_IOU = 0.3
 """A detection is fitted to the counted person it overlaps most, when at least this much."""
-STRIDE = 4
-NMS_IOU = 0.45
 FloatArray = NDArray[np.float64]
 
 

@@ -34,6 +34,8 @@ TEST_SEED = 3
 """Held-out renders for the report and the acceptance test: scenes neither training nor calibration saw."""
 TEST_FRAMES = 30
 """Held-out frames per altitude."""
+FLOOR = 0.02
+"""Raw scores kept for the precision-recall curve (far below any operating threshold)."""
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from flight.sim.render.dataset import MIN_SEEN
 from .diagnose import breakdown, breakdown_lines
 from .evaluate import (
     CALIBRATION_SEED,
+    FLOOR,
     POSES,
     TEST_FRAMES,
     TEST_SEED,
@@ -44,8 +45,6 @@ ALTITUDES_M = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0)
 """The calibration renders' altitudes."""
 REPORT_ALTITUDES_M = (10.0, 15.0, 20.0, 30.0, 40.0, 50.0, 60.0)
 """The held-out test's altitudes: 15 m is where a run's close look is."""
-FLOOR = 0.02
-"""Raw scores kept for the precision-recall curve (far below any operating threshold)."""
 DIAGNOSED = (30.0, "lying")
 """The altitude and pose whose losses the report breaks down (:mod:`.diagnose`): the issue's Done-when."""
 

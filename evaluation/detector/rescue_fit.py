@@ -27,17 +27,15 @@ import numpy as np
 from agentic_core.contracts.extras import require
 from agentic_core.perception.detectors.ours import MAX_DETECTIONS
 from agentic_core.perception.detectors.rescue import Rescue, rescued_scores
-from agentic_core.perception.detectors.yolo_decode import decode, letterbox, nms, to_frame
+from agentic_core.perception.detectors.yolo_decode import Decoded, decode, kept_in_frame, letterbox
 
 from .diagnose import score_before_peaks
-from .evaluate import CALIBRATION_SEED, best_threshold, ignored
+from .evaluate import CALIBRATION_SEED, FLOOR, best_threshold, ignored
+from .network import STRIDE
 from .scoring import match, precision_recall
 from .train import RECIPE_NAME, WEIGHTS_NAME, Labelled, sha256_of
 
 OUTPUT = "scores"
-STRIDE = 4
-FLOOR = 0.02
-NMS_IOU = 0.45
 GRID = {"min_score": (0.4, 0.5, 0.6), "centre_ratio": (0.5, 0.7, 1.0), "min_long_px": (0.0, 8.0, 12.0, 16.0)}
 MAX_PRECISION_LOSS = 0.005
 """A rescue may cost at most this much precision on the calibration renders."""
@@ -81,12 +79,10 @@ def score(data: list[Cells], frames: Sequence[Labelled], rescue: Rescue | None) 
     found = []
     for (boxes, peak, before, box), f in zip(data, frames, strict=True):
         s = peak if rescue is None else rescued_scores(boxes, peak, before, rescue)
-        keep = np.flatnonzero(s >= FLOOR)
-        order = keep[nms(boxes[keep], s[keep], NMS_IOU, None, MAX_DETECTIONS)]
-        mapped = to_frame(boxes[order], box)
-        mapped[:, [0, 2]] = np.clip(mapped[:, [0, 2]], 0, f.image.shape[1])
-        mapped[:, [1, 3]] = np.clip(mapped[:, [1, 3]], 0, f.image.shape[0])
-        found.append((mapped, s[order]))
+        decoded = Decoded(boxes=boxes, scores=s, classes=np.zeros(len(s), np.int64))
+        size = (f.image.shape[1], f.image.shape[0])
+        mapped, kept, _ = kept_in_frame(decoded, box, size, score_threshold=FLOOR, max_detections=MAX_DETECTIONS)
+        found.append((mapped, kept))
     m = match(found, [f.boxes for f in frames], ignored(frames))
     threshold = best_threshold(m)
     precision, recall = precision_recall(m, threshold)

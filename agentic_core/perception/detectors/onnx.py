@@ -31,7 +31,7 @@ from ...contracts.extras import require
 from ...contracts.input_files import check_input_file
 from ..calibration import Calibration
 from .rescue import Rescue, rescued_scores
-from .yolo_decode import Layout, decode, guess_layout, letterbox, nms, to_frame
+from .yolo_decode import NMS_IOU, Layout, decode, guess_layout, kept_in_frame, letterbox
 
 MAX_MODEL_BYTES = 1 << 30
 """The largest model file read (1 GiB: a YOLO11x export is about 220 MB)."""
@@ -71,7 +71,7 @@ class OnnxDetector:
         class_names: Sequence[str] | None = None,
         classes: Sequence[str] | None = None,
         score_threshold: float = 0.25,
-        iou_threshold: float = 0.45,
+        iou_threshold: float = NMS_IOU,
         input_size: tuple[int, int] | None = None,
         calibration: Calibration | None = None,
         max_detections: int = 300,
@@ -160,17 +160,15 @@ class OnnxDetector:
             before = np.asarray(results[1], dtype=np.float32).reshape(-1)
             decoded = replace(decoded, scores=rescued_scores(decoded.boxes, decoded.scores, before, self.rescue))
         names = self.class_names or (["person"] if decoded.classes.max(initial=0) == 0 else None)
-        keep = decoded.scores >= self.score_threshold
+        allowed = None
         if self.classes is not None:
-            allowed = [i for i, n in enumerate(names or []) if n in self.classes]
-            keep &= np.isin(decoded.classes, allowed)
-        boxes, scores, classes = decoded.boxes[keep], decoded.scores[keep], decoded.classes[keep]
-        order = nms(boxes, scores, self.iou_threshold, classes, self.max_detections)
-        mapped = to_frame(boxes[order], box)
-        mapped[:, [0, 2]] = np.clip(mapped[:, [0, 2]], 0, width)
-        mapped[:, [1, 3]] = np.clip(mapped[:, [1, 3]], 0, height)
-        labels = [names[c] if names and c < len(names) else str(c) for c in classes[order].tolist()]
-        return mapped, scores[order], labels
+            allowed = np.isin(decoded.classes, [i for i, n in enumerate(names or []) if n in self.classes])
+        mapped, scores, classes = kept_in_frame(
+            decoded, box, (width, height), score_threshold=self.score_threshold, iou_threshold=self.iou_threshold,
+            max_detections=self.max_detections, allowed=allowed,
+        )  # fmt: skip
+        labels = [names[c] if names and c < len(names) else str(c) for c in classes.tolist()]
+        return mapped, scores, labels
 
     def detect(self, frame: Frame) -> list[Detection]:
         """The model's detections in ``frame``, confidences calibrated; a frame without pixels is an error."""

@@ -121,6 +121,35 @@ def decode(output: NDArray[np.floating], layout: Layout) -> Decoded:
     return Decoded(boxes=boxes, scores=scores.astype(np.float32), classes=classes)
 
 
+NMS_IOU = 0.45
+"""The overlap above which non-maximum suppression drops the lower-scoring box (ultralytics' default)."""
+
+
+def kept_in_frame(
+    decoded: Decoded,
+    box: Letterbox,
+    frame_size: tuple[int, int],
+    *,
+    score_threshold: float,
+    max_detections: int,
+    iou_threshold: float = NMS_IOU,
+    allowed: NDArray[np.bool_] | None = None,
+) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    """What a detector reports of its candidates: those scoring at least ``score_threshold`` (and ``allowed``), after
+    NMS (per class, best first), their boxes mapped to the (width, height) frame and clipped to it; boxes, scores,
+    classes."""
+    keep = decoded.scores >= score_threshold
+    if allowed is not None:
+        keep &= allowed
+    boxes, scores, classes = decoded.boxes[keep], decoded.scores[keep], decoded.classes[keep]
+    order = nms(boxes, scores, iou_threshold, classes, max_detections)
+    mapped = to_frame(boxes[order], box)
+    width, height = frame_size
+    mapped[:, [0, 2]] = np.clip(mapped[:, [0, 2]], 0, width)
+    mapped[:, [1, 3]] = np.clip(mapped[:, [1, 3]], 0, height)
+    return mapped, scores[order], classes[order]
+
+
 def to_frame(boxes: NDArray[np.floating], box: Letterbox) -> FloatArray:
     """Boxes in input pixels mapped back to the frame's pixels (not clipped)."""
     out = boxes.astype(np.float32).copy()
@@ -130,6 +159,7 @@ def to_frame(boxes: NDArray[np.floating], box: Letterbox) -> FloatArray:
 
 
 __all__ = [
+    "NMS_IOU",
     "PAD_VALUE",
     "Decoded",
     "Layout",
@@ -137,6 +167,7 @@ __all__ = [
     "decode",
     "guess_layout",
     "iou",
+    "kept_in_frame",
     "letterbox",
     "letterbox_geometry",
     "nms",
