@@ -144,9 +144,7 @@ def breakdown(detector: OnnxDetector, frames: Sequence[Labelled], threshold: flo
         decoded = decode(np.asarray(outputs[0]), "v8")
         pre = np.asarray(outputs[1]).reshape(-1) if before is not None else decoded.scores
         chosen = np.array([p == pose for p in f.poses], bool)
-        grid = to_frame(decoded.boxes, box)
-        grid[:, [0, 2]] = np.clip(grid[:, [0, 2]], 0, f.image.shape[1])
-        grid[:, [1, 3]] = np.clip(grid[:, [1, 3]], 0, f.image.shape[0])
+        grid = to_frame(decoded.boxes, box, within=(f.image.shape[1], f.image.shape[0]))
         c = classify(f.boxes, chosen, (boxes, scores), (grid, pre), threshold, f.visible < MIN_SEEN)
         keep = c.outcome >= 0
         outcome.append(c.outcome[keep])

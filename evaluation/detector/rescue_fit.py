@@ -29,7 +29,7 @@ from agentic_core.perception.detectors.ours import MAX_DETECTIONS
 from agentic_core.perception.detectors.rescue import Rescue, rescued_scores
 from agentic_core.perception.detectors.yolo_decode import Decoded, decode, kept_in_frame, letterbox
 
-from .diagnose import score_before_peaks
+from .diagnose import cells_session, score_before_peaks
 from .evaluate import CALIBRATION_SEED, FLOOR, best_threshold, ignored
 from .network import STRIDE
 from .scoring import match, precision_recall
@@ -60,15 +60,12 @@ def with_scores_output(src: Path, dst: Path) -> int:
 
 def cells(model: Path, frames: Sequence[Labelled]) -> list[Cells]:
     """Per frame: every cell's box (input pixels), score after and before the peak test, and the letterbox."""
-    ort: Any = require("onnxruntime", "vision")
-    options = ort.SessionOptions()
-    options.intra_op_num_threads = options.inter_op_num_threads = 1
-    session = ort.InferenceSession(str(model), options, providers=["CPUExecutionProvider"])
+    session, name, _ = cells_session(model)
     shape = session.get_inputs()[0].shape
     out = []
     for f in frames:
         tensor, box = letterbox(f.image, (int(shape[3]), int(shape[2])))
-        first, before = session.run(None, {session.get_inputs()[0].name: tensor})
+        first, before = session.run(None, {name: tensor})
         decoded = decode(np.asarray(first), "v8")
         out.append((decoded.boxes, decoded.scores, np.asarray(before, np.float32).reshape(-1), box))
     return out

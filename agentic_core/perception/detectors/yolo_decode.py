@@ -143,18 +143,17 @@ def kept_in_frame(
         keep &= allowed
     boxes, scores, classes = decoded.boxes[keep], decoded.scores[keep], decoded.classes[keep]
     order = nms(boxes, scores, iou_threshold, classes, max_detections)
-    mapped = to_frame(boxes[order], box)
-    width, height = frame_size
-    mapped[:, [0, 2]] = np.clip(mapped[:, [0, 2]], 0, width)
-    mapped[:, [1, 3]] = np.clip(mapped[:, [1, 3]], 0, height)
-    return mapped, scores[order], classes[order]
+    return to_frame(boxes[order], box, within=frame_size), scores[order], classes[order]
 
 
-def to_frame(boxes: NDArray[np.floating], box: Letterbox) -> FloatArray:
-    """Boxes in input pixels mapped back to the frame's pixels (not clipped)."""
+def to_frame(boxes: NDArray[np.floating], box: Letterbox, *, within: tuple[int, int] | None = None) -> FloatArray:
+    """Boxes in input pixels mapped back to the frame's pixels; clipped to a (width, height) frame ``within``."""
     out = boxes.astype(np.float32).copy()
     out[:, [0, 2]] = (out[:, [0, 2]] - box.pad_x) / box.scale
     out[:, [1, 3]] = (out[:, [1, 3]] - box.pad_y) / box.scale
+    if within is not None:
+        out[:, [0, 2]] = np.clip(out[:, [0, 2]], 0, within[0])
+        out[:, [1, 3]] = np.clip(out[:, [1, 3]], 0, within[1])
     return out
 
 
