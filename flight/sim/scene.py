@@ -52,6 +52,10 @@ MILL_HEADING_RATE = 0.6
 """Heading random walk of milling walkers, rad/√s."""
 SWAY_STD_M = {"standing": 0.03, "sitting": 0.015, "resting": 0.01}
 SWAY_TAU_S = 1.5
+CLEARANCE_MARGIN = 1e-9
+"""A walker is known to be still inside without a test while it has moved less than its clearance less this share:
+far above the rounding of a squared distance, far below any step."""
+_NONE = (np.zeros(0), np.zeros(0), 0.0, np.zeros((0, 1)))
 SIZE_SCALE_RANGE = (0.9, 1.1)
 """Crowd persons' bodies are the default box scaled by a factor drawn uniformly from this range."""
 
@@ -116,11 +120,13 @@ class SceneState:
         self._heading_std = np.zeros(n_all)  # Ornstein–Uhlenbeck std of the heading offset; 0: none
         self._heading_std[flowing & walking] = HEADING_STD_RAD
         self._heading_std[moving & (self.zone_index < 0) & walking] = FREE_HEADING_STD_RAD
-        self._sway_mask = ~moving & (self._sway_std > 0)
+        self._sway_rows = np.flatnonzero(~moving & (self._sway_std > 0))
+        self._moving_rows = np.flatnonzero(moving)
+        self._constants_for: tuple[float, tuple[FloatArray, FloatArray, float, FloatArray]] = (math.nan, _NONE)
         self._zone_rows = [np.flatnonzero(zoned & (self.zone_index == zi)) for zi in range(len(scene.zones))]
         self._offset = self._rng.standard_normal(n_all) * self._heading_std
         self._clear_at = np.full((n_all, 2), np.nan)  # where each zoned walker's clearance was last measured
-        self._clear = np.zeros(n_all)
+        self._clear_sq = np.zeros(n_all)  # the squared clearance there, a hair short (CLEARANCE_MARGIN)
         self._speed[~moving] = 0.0
         self.velocities: FloatArray = self._model_velocity()
         self._index = {ident: i for i, ident in enumerate(ids)}
@@ -147,32 +153,50 @@ class SceneState:
         if dt <= 0.0:
             raise ValueError(f"dt must be positive, got {dt}")
         rng = self._rng
-        a = math.exp(-dt / HEADING_TAU_S)
-        decay = np.where(self._heading_std > 0, a, 1.0)
-        scale = math.sqrt(1.0 - a * a) * self._heading_std + np.where(self._mill, MILL_HEADING_RATE * math.sqrt(dt), 0)
+        decay, scale, sway_decay, sway_scale = self._constants(dt)
         self._offset = decay * self._offset + scale * rng.standard_normal(len(self.ids))
         velocity = self._model_velocity()
         old = self.positions
         new = old + velocity * dt  # zero for those who do not walk, so they stay exactly where they are
         entered: list[int] = []
         # who has moved less than their clearance, for every row at once (contiguous arrays, no gathers): a zone's
-        # turn below changes only its own rows, so this holds for the zones after it too
+        # turn below changes only its own rows, so this holds for the zones after it too. Squared, with a margin
+        # far above rounding, so a row is only ever sure when the exact distance says so too.
         gap = new - self._clear_at
-        sure = np.hypot(gap[:, 0], gap[:, 1]) < self._clear  # never measured: NaN, so tested
+        gap *= gap
+        sure = gap[:, 0] + gap[:, 1] < self._clear_sq  # never measured: NaN, so tested
         for zone, rows in zip(self.scene.zones, self._zone_rows, strict=True):
             if len(rows):
                 out = self._stepped_out(zone, rows[~sure[rows]], new)
                 if len(out):
                     entered += self._keep_inside(zone, out, old, new, velocity, dt)
-        sa = math.exp(-dt / SWAY_TAU_S)
-        noise = rng.standard_normal((len(self.ids), 2)) * (math.sqrt(1.0 - sa * sa) * self._sway_std)[:, None]
-        self._sway = sa * self._sway + noise
-        new = np.where(self._sway_mask[:, None], self._anchor + self._sway, new)
+        noise = rng.standard_normal((len(self.ids), 2))
+        noise *= sway_scale
+        self._sway *= sway_decay
+        self._sway += noise
+        swaying = self._sway_rows
+        new[swaying] = self._anchor[swaying] + self._sway[swaying]
         self.velocities = (new - old) / dt
         self.velocities[entered] = velocity[entered]  # new pilgrims: their walking velocity, not the jump
         self.positions = new
-        self.headings = np.where(self._moving, np.arctan2(self.velocities[:, 1], self.velocities[:, 0]), self.headings)
+        moving = self._moving_rows
+        self.headings = self.headings.copy()
+        self.headings[moving] = np.arctan2(self.velocities[moving, 1], self.velocities[moving, 0])
         self.time_s += dt
+
+    def _constants(self, dt: float) -> tuple[FloatArray, FloatArray, float, FloatArray]:
+        """The per-row factors of a step of ``dt`` (heading decay and noise scale, sway decay and noise scale),
+        computed once for each new ``dt``: a flight steps with the same ``dt`` thousands of times."""
+        if self._constants_for[0] != dt:
+            a = math.exp(-dt / HEADING_TAU_S)
+            decay = np.where(self._heading_std > 0, a, 1.0)
+            scale = math.sqrt(1.0 - a * a) * self._heading_std + np.where(
+                self._mill, MILL_HEADING_RATE * math.sqrt(dt), 0
+            )
+            sa = math.exp(-dt / SWAY_TAU_S)
+            sway_scale = (math.sqrt(1.0 - sa * sa) * self._sway_std)[:, None]
+            self._constants_for = (dt, (decay, scale, sa, sway_scale))
+        return self._constants_for[1]
 
     def advance_to(self, time_s: float, max_dt: float = 1.0 / 30.0) -> None:
         """Step until ``time_s`` in steps of at most ``max_dt``; a time already passed changes nothing."""
@@ -229,7 +253,10 @@ class SceneState:
     def _model_velocity(self) -> FloatArray:
         """Where the moving actors head and how fast (N×2; zero for the others)."""
         heading = self._base + self._offset
-        v: FloatArray = np.column_stack([np.cos(heading), np.sin(heading)]) * self._speed[:, None]
+        v: FloatArray = np.empty((len(heading), 2))
+        v[:, 0] = np.cos(heading)
+        v[:, 1] = np.sin(heading)
+        v *= self._speed[:, None]
         return v
 
     def _stepped_out(self, zone: Zone, test: IntArray, new: FloatArray) -> IntArray:
@@ -242,7 +269,7 @@ class SceneState:
         inside = zone.contains(new[test])
         kept = test[inside]
         self._clear_at[kept] = new[kept]
-        self._clear[kept] = zone.clearance(new[kept])
+        self._clear_sq[kept] = np.square(zone.clearance(new[kept])) * (1.0 - CLEARANCE_MARGIN)
         out: IntArray = test[~inside]
         return out
 
@@ -265,7 +292,8 @@ class SceneState:
         still_out = side[~zone.contains(new[side])] if len(side) else side
         new[still_out] = old[still_out]
         ahead = rows[sideways_ok]
-        downstream = ahead[(velocity[ahead] @ f) > 0.0]
+        leaving = (velocity[ahead] @ f) > 0.0
+        downstream = ahead[leaving]
         for i in downstream:
             new[i] = _upstream_entry(zone, new[i], f)
             del self._index[self.ids[i]]  # that pilgrim has gone
@@ -273,7 +301,7 @@ class SceneState:
             self._index[self.ids[i]] = int(i)
             self.generations[i] += 1
             self._offset[i] = self._rng.normal(0.0, HEADING_STD_RAD)
-        upstream = np.setdiff1d(ahead, downstream)
+        upstream = ahead[~leaving]
         new[upstream] = old[upstream]
         return [int(i) for i in downstream]
 
