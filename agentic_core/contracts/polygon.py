@@ -34,59 +34,90 @@ def _points(points: ArrayLike) -> FloatArray:
     return np.asarray(points, dtype=np.float64).reshape(-1, 2)
 
 
-def _corners(polygon: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """The corners (K×2) and each corner's successor (the polygon rolled by one)."""
-    a = _points(polygon)
-    return a, np.concatenate((a[1:], a[:1]))
+class Ring:
+    """A polygon's corners (K×2, in order, not repeated) with its edges worked out once: for asking the same
+    polygon about points again and again (a scene zone every step, a landmark every frame), where the set-up is
+    most of the cost. The module's functions take a ``Ring`` wherever they take corners.
+
+    >>> ring = Ring([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    >>> ring.contains(np.array([[5.0, 5.0], [12.0, 5.0]])).tolist(), ring.distance(np.array([[5.0, 2.0]])).tolist()
+    ([True, False], [2.0])
+    """
+
+    __slots__ = ("_ab", "_ab2", "_den", "_dx", "_sloped", "_x1", "_y1", "_y2", "a", "b")
+
+    def __init__(self, polygon: ArrayLike) -> None:
+        a = _points(polygon).copy()
+        b = np.concatenate((a[1:], a[:1]))
+        a.flags.writeable = False
+        b.flags.writeable = False
+        self.a, self.b = a, b  # the corners and each corner's successor
+        self._ab = b - a
+        self._ab2 = np.maximum(np.einsum("kj,kj->k", self._ab, self._ab), 1e-24)
+        self._x1, self._y1, self._y2 = a[:, 0], a[:, 1], b[:, 1]
+        self._dx = b[:, 0] - a[:, 0]
+        self._sloped = self._y1 != self._y2  # a level edge is never crossed
+        self._den = np.where(self._sloped, self._y2 - self._y1, 1.0)
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    def parity(self, points: ArrayLike) -> BoolArray:
+        """The even-odd rule alone: a ray from each point towards +first axis crosses the edges an odd number of
+        times (what :func:`crossing_parity` answers)."""
+        pts = _points(points)
+        if len(self.a) == 0:
+            return np.zeros(len(pts), dtype=bool)
+        px, py = pts[:, :1], pts[:, 1:2]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            x_at = self._x1 + (py - self._y1) * self._dx / self._den
+        crossings = ((self._y1 > py) != (self._y2 > py)) & (px < x_at) & self._sloped
+        odd: BoolArray = np.logical_xor.reduce(crossings, axis=1)
+        return odd
+
+    def contains(self, points: ArrayLike) -> BoolArray:
+        """Which points lie inside (what :func:`points_in_polygon` answers)."""
+        pts = _points(points)
+        inside = self.parity(pts)
+        if len(self.a) and not inside.all():  # only the points outside by the crossings can still lie on an edge
+            rest = ~inside
+            inside[rest] = self.distance(pts[rest]) <= EDGE_TOLERANCE_M
+        return inside
+
+    def distance(self, points: ArrayLike) -> FloatArray:
+        """Distance from each point to the nearest edge, inside or out (what :func:`distance_to_edge` answers)."""
+        pts = _points(points)
+        if len(self.a) == 0:
+            return np.full(len(pts), np.inf)
+        a, ab = self.a, self._ab
+        ap = pts[:, None, :] - a[None, :, :]
+        t = np.clip((ap[..., 0] * ab[:, 0] + ap[..., 1] * ab[:, 1]) / self._ab2, 0.0, 1.0)
+        gap = pts[:, None, :] - (a[None, :, :] + t[..., None] * ab[None, :, :])
+        gap *= gap
+        d: FloatArray = np.sqrt(gap[..., 0] + gap[..., 1]).min(axis=1)
+        return d
 
 
-def distance_to_edge(points: ArrayLike, polygon: ArrayLike) -> FloatArray:
+def _ring(polygon: ArrayLike | Ring) -> Ring:
+    return polygon if isinstance(polygon, Ring) else Ring(polygon)
+
+
+def distance_to_edge(points: ArrayLike, polygon: ArrayLike | Ring) -> FloatArray:
     """Distance from N points (N×2) to the nearest edge of a polygon (K×2, corners in order); +inf without
     corners. Inside or out, it is the distance to the boundary."""
-    pts = _points(points)
-    a, b = _corners(polygon)
-    if len(a) == 0:
-        return np.full(len(pts), np.inf)
-    ab = b - a
-    ap = pts[:, None, :] - a[None, :, :]
-    t = np.clip(np.einsum("nkj,kj->nk", ap, ab) / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-24), 0.0, 1.0)
-    nearest = a[None, :, :] + t[..., None] * ab[None, :, :]
-    d: FloatArray = np.linalg.norm(pts[:, None, :] - nearest, axis=2).min(axis=1)
-    return d
+    return _ring(polygon).distance(points)
 
 
-def _crossings_odd(pts: FloatArray, a: FloatArray, b: FloatArray) -> BoolArray:
-    """The even-odd rule: a ray from each point towards +first axis crosses the edges an odd number of times."""
-    x1, y1, x2, y2 = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
-    sloped = y1 != y2  # a level edge is never crossed
-    px, py = pts[:, :1], pts[:, 1:2]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        x_at = x1 + (py - y1) * (x2 - x1) / np.where(sloped, y2 - y1, 1.0)
-    crossings = ((y1 > py) != (y2 > py)) & (px < x_at) & sloped
-    odd: BoolArray = np.count_nonzero(crossings, axis=1) % 2 == 1
-    return odd
-
-
-def points_in_polygon(points: ArrayLike, polygon: ArrayLike) -> BoolArray:
+def points_in_polygon(points: ArrayLike, polygon: ArrayLike | Ring) -> BoolArray:
     """Which of N points (N×2) lie inside a polygon (K×2, corners in order, not repeated): even-odd, with the
     edges inside. A NaN point is outside; fewer than three corners enclose nothing but their edges."""
-    pts = _points(points)
-    a, b = _corners(polygon)
-    if len(a) == 0:
-        return np.zeros(len(pts), dtype=bool)
-    inside: BoolArray = _crossings_odd(pts, a, b)
-    if not inside.all():  # only the points outside by the crossings can still lie on an edge
-        rest = ~inside
-        inside[rest] = distance_to_edge(pts[rest], a) <= EDGE_TOLERANCE_M
-    return inside
+    return _ring(polygon).contains(points)
 
 
-def crossing_parity(points: ArrayLike, polygon: ArrayLike) -> BoolArray:
+def crossing_parity(points: ArrayLike, polygon: ArrayLike | Ring) -> BoolArray:
     """The even-odd rule alone, without :func:`points_in_polygon`'s edge test: quicker, for rasterising (a texel
     exactly on an edge may go either way, which no picture shows)."""
-    pts = _points(points)
-    a, b = _corners(polygon)
-    return _crossings_odd(pts, a, b) if len(a) else np.zeros(len(pts), dtype=bool)
+    return _ring(polygon).parity(points)
 
 
 def point_in_polygon(point: Sequence[float], polygon: Sequence[Sequence[float]]) -> bool:
@@ -126,9 +157,10 @@ def points_in_circle(points: ArrayLike, centre: Sequence[float], radius: float) 
     return inside
 
 
-def polygon_area(polygon: ArrayLike) -> float:
+def polygon_area(polygon: ArrayLike | Ring) -> float:
     """The area enclosed by a simple polygon (K×2), by the shoelace formula; 0 for fewer than three corners."""
-    a, b = _corners(polygon)
+    ring = _ring(polygon)
+    a, b = ring.a, ring.b
     if len(a) < 3:
         return 0.0
     return 0.5 * abs(float(np.dot(a[:, 0], b[:, 1]) - np.dot(a[:, 1], b[:, 0])))
@@ -136,6 +168,7 @@ def polygon_area(polygon: ArrayLike) -> float:
 
 __all__ = [
     "EDGE_TOLERANCE_M",
+    "Ring",
     "crossing_parity",
     "distance_to_edge",
     "outside_by",

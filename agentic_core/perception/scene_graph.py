@@ -58,7 +58,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
-from agentic_core.contracts.polygon import distance_to_edge, points_in_polygon
+from agentic_core.contracts.polygon import Ring
 
 from .kalman import speed_and_sigma
 from .tracker import CONFIRMED, TENTATIVE, TrackTable
@@ -153,9 +153,10 @@ def _landmark_geometry(lm: Landmark, points: FloatArray, reach: FloatArray) -> t
     inside = np.zeros(len(points), dtype=bool)
     pts = points[close]
     if lm.polygon is not None:
-        within = points_in_polygon(pts, poly)
+        ring = Ring(poly)
+        within = ring.contains(pts)
         d = np.zeros(len(pts))
-        d[~within] = distance_to_edge(pts[~within], poly)
+        d[~within] = ring.distance(pts[~within])
     else:
         d = np.hypot(pts[:, 0] - lm.north, pts[:, 1] - lm.east)
         within = d <= lm.radius_m if lm.radius_m is not None else np.zeros(len(pts), dtype=bool)
@@ -231,9 +232,9 @@ class SceneGraph:
         lonely = nearest > cfg.isolation_m
         cand, nearest = cand[lonely], nearest[lonely]
         if footprint is not None and len(cand):
-            poly = np.asarray(footprint, dtype=float)
+            ring = Ring(footprint)
             pts = tracks.x[cand, :2]
-            seen = points_in_polygon(pts, poly) & (distance_to_edge(pts, poly) >= cfg.view_margin_m)
+            seen = ring.contains(pts) & (ring.distance(pts) >= cfg.view_margin_m)
             cand, nearest = cand[seen], nearest[seen]
         if len(cand) == 0:
             return []

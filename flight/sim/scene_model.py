@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
@@ -32,7 +33,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, model_validat
 
 from agentic_core.contracts.faults import FaultText
 from agentic_core.contracts.geodesy import offset_position
-from agentic_core.contracts.polygon import distance_to_edge, points_in_circle, points_in_polygon, polygon_area
+from agentic_core.contracts.polygon import Ring, distance_to_edge, points_in_circle, points_in_polygon, polygon_area
 from flight.sim.environment import DEFAULT_HOME_ALT_MSL_M, DEFAULT_HOME_LAT_DEG, DEFAULT_HOME_LON_DEG, Home
 
 FloatArray = NDArray[np.float64]
@@ -174,17 +175,22 @@ class Zone(BaseModel):
         c, r = self.circle.center, self.circle.radius_m
         return np.column_stack([c.north + r * np.cos(a), c.east + r * np.sin(a)])
 
+    @cached_property
+    def ring(self) -> Ring:
+        """The polygon's edges worked out once (the crowd asks a zone about its walkers every step)."""
+        return Ring(self.vertices())
+
     def area(self) -> float:
         if self.circle is not None and self.polygon is None:
             return math.pi * self.circle.radius_m**2
-        return polygon_area(self.vertices())
+        return polygon_area(self.ring)
 
     def contains(self, points: FloatArray) -> NDArray[np.bool_]:
         """Which of N north/east points (N×2) lie inside (:mod:`agentic_core.contracts.polygon`: edges inside)."""
         if self.circle is not None and self.polygon is None:
             c = self.circle.center
             return points_in_circle(points, (c.north, c.east), self.circle.radius_m)
-        return points_in_polygon(points, self.vertices())
+        return points_in_polygon(points, self.ring)
 
     def clearance(self, points: FloatArray) -> FloatArray:
         """Distance (m) from N points to the zone's boundary (its edges, or its circle): a point inside stays
@@ -194,7 +200,7 @@ class Zone(BaseModel):
             c = self.circle.center
             gap: FloatArray = np.abs(np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east) - self.circle.radius_m)
             return gap
-        return distance_to_edge(pts, self.vertices())
+        return distance_to_edge(pts, self.ring)
 
     def distance(self, points: FloatArray) -> FloatArray:
         """Ground distance (m) from N points to the zone: 0 inside."""
@@ -205,7 +211,7 @@ class Zone(BaseModel):
             return d
         inside = self.contains(pts)
         dist: FloatArray = np.zeros(len(pts))
-        dist[~inside] = distance_to_edge(pts[~inside], self.vertices())
+        dist[~inside] = distance_to_edge(pts[~inside], self.ring)
         return dist
 
     def sample(self, n: int, rng: np.random.Generator) -> FloatArray:

@@ -14,6 +14,8 @@ from hypothesis import strategies as st
 
 from agentic_core.contracts import polygon as polygon_module
 from agentic_core.contracts.polygon import (
+    Ring,
+    crossing_parity,
     distance_to_edge,
     point_in_polygon,
     points_in_circle,
@@ -89,6 +91,26 @@ def test_regular_polygons_area_and_distance(cx: float, cy: float, r: float, k: i
     apothem = r * math.cos(math.pi / k)
     assert distance_to_edge([(cx, cy)], corners)[0] == pytest.approx(apothem, rel=1e-9)
     assert point_in_polygon((cx, cy), corners.tolist())
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(corner, min_size=0, max_size=9), st.lists(corner, min_size=0, max_size=20))
+def test_a_ring_answers_exactly_as_the_corners_do_and_keeps_its_own_copy(
+    corners: list[tuple[float, float]], points: list[tuple[float, float]]
+) -> None:
+    """A :class:`Ring` is the same polygon, bit for bit, whatever is done afterwards to the corners it was made of;
+    and nobody can change it through its arrays."""
+    given_corners = np.array(corners, dtype=float).reshape(-1, 2)
+    ring = Ring(given_corners)
+    expected = [f(points, given_corners.copy()) for f in (points_in_polygon, distance_to_edge, crossing_parity)]
+    area = polygon_area(given_corners)
+    given_corners += 1.0  # the caller reuses its array
+    for f, want in zip((points_in_polygon, distance_to_edge, crossing_parity), expected, strict=True):
+        got = f(points, ring)
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+    assert polygon_area(ring) == area
+    with pytest.raises(ValueError, match="read-only"):
+        ring.a[0:1] = 0.0
 
 
 def test_circle_includes_its_rim() -> None:
