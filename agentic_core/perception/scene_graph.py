@@ -136,27 +136,53 @@ def as_landmark(record: Any) -> Landmark:
     )
 
 
-def _landmark_geometry(lm: Landmark, points: FloatArray, reach: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+class _Shape(NamedTuple):
+    """A landmark's geometry, worked out once for as long as the landmark stays as it is: its polygon's
+    :class:`~agentic_core.contracts.polygon.Ring` (``None`` for a point or circle) and its bounding box."""
+
+    north: float
+    east: float
+    radius_m: float | None
+    polygon: list[tuple[float, ...]] | None  # a copy of the landmark's, to tell when it changed
+    ring: Ring | None
+    lo: FloatArray
+    hi: FloatArray
+
+    def fits(self, lm: Landmark) -> bool:
+        """Whether ``lm`` still has this shape (compared by value: a landmark edited in place is seen)."""
+        now = None if lm.polygon is None else [tuple(corner) for corner in lm.polygon]
+        return (self.north, self.east, self.radius_m, self.polygon) == (lm.north, lm.east, lm.radius_m, now)
+
+
+def _shape(lm: Landmark) -> _Shape:
+    if lm.polygon is not None:
+        ring = Ring(lm.polygon)
+        lo, hi = ring.a.min(axis=0), ring.a.max(axis=0)
+    else:
+        ring = None
+        centre, radius = np.array([lm.north, lm.east]), lm.radius_m or 0.0
+        lo, hi = centre - radius, centre + radius
+    polygon = None if lm.polygon is None else [tuple(corner) for corner in lm.polygon]
+    return _Shape(lm.north, lm.east, lm.radius_m, polygon, ring, lo, hi)
+
+
+def _landmark_geometry(
+    lm: Landmark, shape: _Shape, points: FloatArray, reach: FloatArray
+) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Distance from points to a landmark (its point, or its area's edge; 0 inside) and which are inside. A point
     farther than its ``reach`` from the landmark's bounding box is neither, whatever its distance: it is given +inf
     without the polygon tests (most tracks are far from most landmarks)."""
-    if lm.polygon is not None:
-        poly = np.asarray(lm.polygon, dtype=float)
-        lo, hi = poly.min(axis=0), poly.max(axis=0)
-    else:
-        centre, radius = np.array([lm.north, lm.east]), lm.radius_m or 0.0
-        lo, hi = centre - radius, centre + radius
+    lo, hi = shape.lo, shape.hi
     close = np.flatnonzero(
         np.all(points >= lo - reach[:, None], axis=1) & np.all(points <= hi + reach[:, None], axis=1)
     )
     dist = np.full(len(points), np.inf)
     inside = np.zeros(len(points), dtype=bool)
     pts = points[close]
-    if lm.polygon is not None:
-        ring = Ring(poly)
-        within = ring.contains(pts)
+    if shape.ring is not None:
+        within = shape.ring.contains(pts)
         d = np.zeros(len(pts))
-        d[~within] = ring.distance(pts[~within])
+        d[~within] = shape.ring.distance(pts[~within])
     else:
         d = np.hypot(pts[:, 0] - lm.north, pts[:, 1] - lm.east)
         within = d <= lm.radius_m if lm.radius_m is not None else np.zeros(len(pts), dtype=bool)
@@ -176,6 +202,7 @@ class SceneGraph:
         self._graph.add_node("crowd", kind="group")
         self._pending: tuple[TrackTable, list[Landmark], Mapping[str, Any]] | None = None
         self.relations: list[Rel] = []
+        self._shapes: dict[str, _Shape] = {}  # the last update's landmarks' shapes, by id
 
     @property
     def graph(self) -> nx.MultiDiGraph:
@@ -279,8 +306,14 @@ class SceneGraph:
         cos_limit = math.cos(math.radians(cfg.toward_angle_deg))
         reach = np.where(moving, max(cfg.near_landmark_m, cfg.toward_max_m), cfg.near_landmark_m)
         rels: list[Rel] = []
+        shapes = self._shapes
+        self._shapes = {}
         for lm in landmarks:
-            dist, inside = _landmark_geometry(lm, pts, reach)
+            shape = shapes.get(lm.id)
+            if shape is None or not shape.fits(lm):
+                shape = _shape(lm)
+            self._shapes[lm.id] = shape
+            dist, inside = _landmark_geometry(lm, shape, pts, reach)
             for a in np.flatnonzero(inside):
                 rels.append(Rel(tracks.ids[subj[a]], "inside", lm.id, None))
             for a in np.flatnonzero(~inside & (dist <= cfg.near_landmark_m)):

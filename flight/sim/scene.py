@@ -55,7 +55,7 @@ SWAY_TAU_S = 1.5
 CLEARANCE_MARGIN = 1e-9
 """A walker is known to be still inside without a test while it has moved less than its clearance less this share:
 far above the rounding of a squared distance, far below any step."""
-_NONE = (np.zeros(0), np.zeros(0), 0.0, np.zeros((0, 1)))
+_StepConstants = tuple[FloatArray, FloatArray, float, FloatArray]
 SIZE_SCALE_RANGE = (0.9, 1.1)
 """Crowd persons' bodies are the default box scaled by a factor drawn uniformly from this range."""
 
@@ -122,7 +122,7 @@ class SceneState:
         self._heading_std[moving & (self.zone_index < 0) & walking] = FREE_HEADING_STD_RAD
         self._sway_rows = np.flatnonzero(~moving & (self._sway_std > 0))
         self._moving_rows = np.flatnonzero(moving)
-        self._constants_for: tuple[float, tuple[FloatArray, FloatArray, float, FloatArray]] = (math.nan, _NONE)
+        self._constants_by_dt: dict[float, _StepConstants] = {}
         self._zone_rows = [np.flatnonzero(zoned & (self.zone_index == zi)) for zi in range(len(scene.zones))]
         self._offset = self._rng.standard_normal(n_all) * self._heading_std
         self._clear_at = np.full((n_all, 2), np.nan)  # where each zoned walker's clearance was last measured
@@ -184,19 +184,23 @@ class SceneState:
         self.headings[moving] = np.arctan2(self.velocities[moving, 1], self.velocities[moving, 0])
         self.time_s += dt
 
-    def _constants(self, dt: float) -> tuple[FloatArray, FloatArray, float, FloatArray]:
+    def _constants(self, dt: float) -> _StepConstants:
         """The per-row factors of a step of ``dt`` (heading decay and noise scale, sway decay and noise scale),
-        computed once for each new ``dt``: a flight steps with the same ``dt`` thousands of times."""
-        if self._constants_for[0] != dt:
-            a = math.exp(-dt / HEADING_TAU_S)
-            decay = np.where(self._heading_std > 0, a, 1.0)
-            scale = math.sqrt(1.0 - a * a) * self._heading_std + np.where(
-                self._mill, MILL_HEADING_RATE * math.sqrt(dt), 0
-            )
-            sa = math.exp(-dt / SWAY_TAU_S)
-            sway_scale = (math.sqrt(1.0 - sa * sa) * self._sway_std)[:, None]
-            self._constants_for = (dt, (decay, scale, sa, sway_scale))
-        return self._constants_for[1]
+        worked out once for each ``dt`` among the last few: a flight steps by 1/30 s thousands of times, with a
+        shorter step up to each frame's time between."""
+        known = self._constants_by_dt.pop(dt, None)
+        if known is not None:
+            self._constants_by_dt[dt] = known  # the most recently used last
+            return known
+        a = math.exp(-dt / HEADING_TAU_S)
+        decay = np.where(self._heading_std > 0, a, 1.0)
+        scale = math.sqrt(1.0 - a * a) * self._heading_std + np.where(self._mill, MILL_HEADING_RATE * math.sqrt(dt), 0)
+        sa = math.exp(-dt / SWAY_TAU_S)
+        sway_scale = (math.sqrt(1.0 - sa * sa) * self._sway_std)[:, None]
+        if len(self._constants_by_dt) >= 4:
+            del self._constants_by_dt[next(iter(self._constants_by_dt))]  # the least recently used
+        self._constants_by_dt[dt] = (decay, scale, sa, sway_scale)
+        return decay, scale, sa, sway_scale
 
     def advance_to(self, time_s: float, max_dt: float = 1.0 / 30.0) -> None:
         """Step until ``time_s`` in steps of at most ``max_dt``; a time already passed changes nothing."""

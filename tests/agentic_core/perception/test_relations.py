@@ -135,6 +135,24 @@ def test_inside_a_polygon_and_a_circle_zone() -> None:
     assert by == pytest.approx(2.0)  # to the edge, not the centre
 
 
+def test_a_landmark_that_changes_is_judged_by_its_new_shape() -> None:
+    """The scene graph keeps each landmark's geometry between updates: a landmark moved, reshaped, turned into a
+    circle or edited in place under the same id must be judged as it is now, never as it was."""
+    graph = SceneGraph()
+    people = table([("p", 5.0, 5.0)])
+    shade = LandmarkContract(id="S", kind="shade", north=5.0, east=5.0, polygon=[[0, 0], [10, 0], [10, 10], [0, 10]])
+    assert rels(graph.update(people, landmarks=[shade]), "inside") == {("p", "S")}
+    moved = shade.model_copy(update={"polygon": [[20, 0], [30, 0], [30, 10], [20, 10]], "north": 25.0})
+    assert rels(graph.update(people, landmarks=[moved]), "inside") == set()
+    assert rels(graph.update(people, landmarks=[shade]), "inside") == {("p", "S")}
+    assert shade.polygon is not None
+    shade.polygon[1] = (4.0, 0.0)  # edited in place: the same list, another shape
+    shade.polygon[2] = (4.0, 10.0)
+    assert rels(graph.update(people, landmarks=[shade]), "inside") == set()
+    ring = shade.model_copy(update={"polygon": None, "radius_m": 1.0, "north": 5.0, "east": 5.5})
+    assert rels(graph.update(people, landmarks=[ring]), "inside") == {("p", "S")}
+
+
 def test_moving_toward() -> None:
     gate = as_landmark({"id": "Gate-E", "kind": "gate", "north": 0.0, "east": 50.0})
     people = [("toward", 0.0, 0.0), ("away", 0.0, 10.0), ("askew", 0.0, 20.0), ("slow", 0.0, 30.0)]
