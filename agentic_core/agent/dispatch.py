@@ -147,6 +147,9 @@ class Dispatcher:
         self, tool: str, args: dict[str, Any], timeout_s: float | None, state: Mapping[str, Any], key: str | None
     ) -> ToolResult | Interrupted:
         while True:
+            already = self._control_stop()
+            if already is not None:  # never start a movement the operator has already stopped: hold where it is
+                return self._interrupted(tool, self.executor.call(HOLD, {}), Interrupted(already))
             with self._watch_lock:
                 self._watching, self._spotted, self._flying = state, None, True
                 self._take_off()
@@ -208,8 +211,9 @@ class Dispatcher:
         return _Flight(action, name, self._wake)
 
     def _take_off(self) -> None:
-        """An action is about to be sent (under ``_watch_lock``). A stop or pause sent before it is seen at the
-        first poll, once the action is on its way (the hold must supersede it); until then the world crawls."""
+        """An action is about to be sent (under ``_watch_lock``). A stop or pause that came since the last look is
+        seen at the first poll, once the action is on its way (the hold must supersede it); until then the world
+        crawls."""
         self._wake.clear()
         if self._control_stop() is not None:
             self.pace.urgent(True)

@@ -153,20 +153,22 @@ def test_a_pause_or_a_stop_command_interrupts_the_leg_with_a_hold(command: str) 
     assert ("flight.fly_to", "interrupted") in rig.tool_statuses()
 
 
-def test_a_stop_command_given_before_the_leg_still_sends_the_leg_then_holds_it() -> None:
+@pytest.mark.parametrize("command", ["abort", "rtl", "land", "pause"])
+def test_a_leg_the_operator_stopped_before_it_began_is_never_sent_and_the_aircraft_holds(command: str) -> None:
     rig = Rig()
-    rig.control.abort()
-    box: list[Any] = []
+    getattr(rig.control, command)()
     with step_call("leg", state={}):
-        box.append(rig.dispatch("flight.fly_to", dict(LEG), None))
-    assert isinstance(box[0], Interrupted) and rig.aircraft.tools() == ["flight.fly_to", "flight.hold"]
+        outcome = rig.dispatch("flight.fly_to", dict(LEG), None)
+    assert isinstance(outcome, Interrupted) and rig.aircraft.tools() == ["flight.hold"]
+    assert ("flight.fly_to", "interrupted") in rig.tool_statuses()
 
 
-@pytest.mark.parametrize("when", ["before the leg", "during the leg"])
+@pytest.mark.parametrize("when", ["as the leg is sent", "during the leg"])
 def test_between_a_stop_and_its_hold_the_world_crawls_and_afterwards_it_does_not(when: str) -> None:
     """At full speed the world must not fly on while the dispatcher gets round to the hold: from the stop (or from
-    the leg's start, for a stop sent before it) until the hold is sent, the simulation runs at the crawl; once the
-    leg has ended, it does not stay slowed (a stuck crawl would make every later leg take four times real time)."""
+    the leg's start, for a stop that came as it was being sent) until the hold is sent, the simulation runs at the
+    crawl; once the leg has ended, it does not stay slowed (a stuck crawl would make every later leg take four
+    times real time)."""
     rig = Rig()
     speeds: dict[str, float | None] = {}
 
@@ -175,8 +177,16 @@ def test_between_a_stop_and_its_hold_the_world_crawls_and_afterwards_it_does_not
 
     rig.aircraft.on_command = record
     with rig.pace.waiting("vehicle"):  # as a run waiting on its vehicle: full speed unless slowed
-        if when == "before the leg":
-            rig.control.abort()
+        if when == "as the leg is sent":
+            looked = rig.dispatch._control_stop
+
+            def stop_after_the_look() -> str | None:  # the abort lands between the dispatcher's look and the leg
+                seen = looked()
+                if not rig.control.stop_requested():
+                    rig.control.abort()
+                return seen
+
+            rig.dispatch._control_stop = stop_after_the_look  # type: ignore[method-assign]
             with step_call("leg", state={}):
                 outcome = rig.dispatch("flight.fly_to", dict(LEG), None)
             assert speeds["flight.fly_to"] == URGENT_SPEED
