@@ -178,11 +178,12 @@ def _landmark_geometry(
     )
     dist = np.full(len(points), np.inf)
     inside = np.zeros(len(points), dtype=bool)
+    if len(close) == 0:
+        return dist, inside
     pts = points[close]
     if shape.ring is not None:
-        within = shape.ring.contains(pts)
-        d = np.zeros(len(pts))
-        d[~within] = shape.ring.distance(pts[~within])
+        d = shape.ring.outside_by(pts)
+        within = d == 0.0
     else:
         d = np.hypot(pts[:, 0] - lm.north, pts[:, 1] - lm.east)
         within = d <= lm.radius_m if lm.radius_m is not None else np.zeros(len(pts), dtype=bool)

@@ -209,10 +209,7 @@ class Zone(BaseModel):
             c = self.circle.center
             d: FloatArray = np.maximum(np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east) - self.circle.radius_m, 0.0)
             return d
-        inside = self.contains(pts)
-        dist: FloatArray = np.zeros(len(pts))
-        dist[~inside] = distance_to_edge(pts[~inside], self.ring)
-        return dist
+        return self.ring.outside_by(pts)
 
     def sample(self, n: int, rng: np.random.Generator) -> FloatArray:
         """``n`` points drawn uniformly inside the zone."""

@@ -17,6 +17,7 @@ from agentic_core.contracts.polygon import (
     Ring,
     crossing_parity,
     distance_to_edge,
+    outside_by,
     point_in_polygon,
     points_in_circle,
     points_in_polygon,
@@ -109,6 +110,10 @@ def test_a_ring_answers_exactly_as_the_corners_do_and_keeps_its_own_copy(
         got = f(points, ring)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
     assert polygon_area(ring) == area
+    away = ring.outside_by(points)
+    inside, gap = points_in_polygon(points, ring), distance_to_edge(points, ring)
+    assert away.tobytes() == np.where(inside, 0.0, gap).tobytes()  # exactly contains, then distance
+    assert away.tolist() == pytest.approx([outside_by(p, corners) if corners else math.inf for p in points])
     with pytest.raises(ValueError, match="read-only"):
         ring.a[0:1] = 0.0
 
