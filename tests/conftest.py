@@ -1,8 +1,9 @@
 """What every test shares: no run streams to a ground station unless its test asks for one; an SMTP server for the
-runs whose alerts should really go out."""
+runs whose alerts should really go out; and, over several workers, the slow tests first."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from typing import Any
 
@@ -29,3 +30,32 @@ def smtp(monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
     route_alerts(monkeypatch, server)
     yield server
     controller.stop()
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Over N xdist workers, put the ``slow`` tests (the flights) at the head of each of the N equal runs of the
+    collection that ``--dist worksteal`` first hands the workers, a share each, a module's slow tests together (so
+    a flight its module's tests share is flown once): every worker starts with its share of the flights and ends on
+    quick tests, which the others can steal, instead of one worker flying the last flights alone while the rest
+    wait. Only the order changes; without workers nothing does."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0"))
+    modules: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        if item.get_closest_marker("slow") is not None:
+            modules.setdefault(item.nodeid.split("::")[0], []).append(item)
+    if workers < 2 or not modules:
+        return
+    shares: list[list[pytest.Item]] = [[] for _ in range(workers)]
+    for group in sorted(modules.values(), key=len, reverse=True):
+        min(shares, key=len).extend(group)
+    slow = {id(item) for group in modules.values() for item in group}
+    quick = [item for item in items if id(item) not in slow]
+    ordered: list[pytest.Item] = []
+    left = len(items)
+    for worker, share in enumerate(shares):
+        size = left // (workers - worker)  # as worksteal sizes its first hand-outs
+        fill = max(size - len(share), 0)
+        ordered += share + quick[:fill]
+        del quick[:fill]
+        left -= len(share) + fill
+    items[:] = ordered + quick

@@ -38,6 +38,7 @@ def test_langgraph_agent_example_runs_as_documented() -> None:
     assert _run_block("tools_condition") == ["Battery at 87%."]
 
 
+@pytest.mark.slow
 def test_control_port_example_runs_as_documented(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     repo = README.parent
     for name in ("missions", "scenes"):

@@ -2,9 +2,12 @@
 
 from pathlib import Path
 
+import pytest
+
 from .script import table
 
 
+@pytest.mark.slow
 def test_quick_run_prints_every_stage_for_both_reasoners(tmp_path: Path) -> None:
     out = table("decision_latency.py", "--quick", cwd=tmp_path)
     lines = out.splitlines()

@@ -102,6 +102,7 @@ def campaign(scene_files: list[str], out: Path, *executor: str) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_dask_cluster_gives_the_records_of_a_local_run(
     dask_cluster: str, scene_files: list[str], tmp_path: Path
 ) -> None:

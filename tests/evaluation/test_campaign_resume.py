@@ -34,6 +34,7 @@ def csv_without_timing(path: Path) -> list[dict[str, str]]:
         return [{k: v for k, v in row.items() if k not in TIMING_FIELDS} for row in csv.DictReader(fh)]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="needs SIGKILL")
 def test_a_killed_campaign_resumes_to_the_records_of_an_uninterrupted_one(tmp_path: Path) -> None:
     files = write_scenes(tmp_path, first_seed=400, persons=600, prefix="kill", count=SCENES)

@@ -88,6 +88,7 @@ class Clock:
         return f"release check {total}: " + ", ".join(self.phases)
 
 
+@pytest.mark.slow
 def test_the_wheel_installs_in_a_fresh_venv_and_flies_the_emergency_mission_by_name(tmp_path: Path, smtp: Any) -> None:
     clock = Clock()
     source, dist, venv, work = (tmp_path / name for name in ("source", "dist", "venv", "work"))

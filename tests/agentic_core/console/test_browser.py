@@ -48,6 +48,7 @@ def answer(page: Any, button: str, reason: str | None = None) -> None:
     card.wait_for(state="detached", timeout=30_000)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(150)
 def test_the_page_follows_the_run_and_approve_lands_it_beside_the_casualty(
     browser: Any, live_run: LiveRun, tmp_path: Path
@@ -78,6 +79,7 @@ def test_the_page_follows_the_run_and_approve_lands_it_beside_the_casualty(
                                 _sample_at(result.run_dir, landing["sim_t"])) < 9.0  # fmt: skip
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(150)
 def test_decline_keeps_it_in_the_air_and_the_rtl_button_brings_it_home(browser: Any, live_run: LiveRun) -> None:
     page, requested = open_page(browser, live_run)
@@ -120,6 +122,7 @@ def edit_and_approve(page: Any, edits: dict[str, Any], drop: tuple[str, ...] = (
     return card
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(150)
 def test_an_edited_argument_within_the_envelope_is_what_the_mission_flies(browser: Any, live_run: LiveRun) -> None:
     page, requested = open_page(browser, live_run)
@@ -142,6 +145,7 @@ def test_an_edited_argument_within_the_envelope_is_what_the_mission_flies(browse
     assert 5.0 < distance_to_casualty(at) < 12.0  # beside them, farther than the mission's own 5 m
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(150)
 def test_an_unknown_argument_or_an_edit_outside_the_envelope_is_refused_in_the_page(
     browser: Any, live_run: LiveRun

@@ -62,6 +62,7 @@ def middle(runs_dir: Path, run_id: str) -> Any:
     return [m for m in marks if m.sim_t == chosen.sim_t][-1]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_a_fork_starts_from_its_checkpoint_leaves_the_original_alone_and_flies_on(runs: tuple[Path, str]) -> None:
     runs_dir, run_id = runs
@@ -176,6 +177,7 @@ def test_resume_from_the_api_goes_on_with_the_run_in_a_child_and_a_second_is_ref
     assert [r.get("event") for r in of_kind(more, "run")] == ["resume", "end"], more
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_fork_from_here_in_the_browser_starts_a_new_run_that_flies_and_is_followed(
     browser: Any, runs: tuple[Path, str]

@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from agentic_core.cli import main
 from agentic_core.run.runner import RunSettings, run_mission
 from flight.signing import new_key, write_key_file
@@ -27,6 +29,7 @@ def start_vehicle(port: int, speed: str, key: Path) -> subprocess.Popen[str]:
     )  # fmt: skip
 
 
+@pytest.mark.slow
 def test_the_emergency_mission_flies_on_a_vehicle_in_another_process(tmp_path: Path, smtp: Any) -> None:
     port = free_udp_port()
     key = tmp_path / "key.hex"

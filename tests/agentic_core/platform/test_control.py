@@ -29,6 +29,7 @@ def flying_a_leg(run: MissionRun) -> bool:
     return sample is not None and sample.alt_m > 30.0 and math.hypot(sample.vn_mps, sample.ve_mps) > 3.0
 
 
+@pytest.mark.slow
 def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(tmp_path: Path) -> None:
     run = patrol(tmp_path)
     held: list[tuple[float, float]] = []
@@ -61,6 +62,7 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
     assert flown.count("incidents.log") == 2 and flown[-1] == "flight.rtl"  # the whole pass was flown after all
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("on_abort", [None, "hold", "land"])
 def test_an_abort_from_another_thread_does_what_the_mission_says(tmp_path: Path, on_abort: str | None) -> None:
     """The operator's abort ends the mission; the aircraft then does the mission's ``on_abort``: return home by

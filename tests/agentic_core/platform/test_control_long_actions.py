@@ -79,6 +79,7 @@ def test_an_abort_during_a_mavlink_mission_ends_it_at_once_and_the_aircraft_come
     assert home["sim_t"] > asked[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["abort", "pause"])
 def test_the_operator_is_heard_during_the_climb(tmp_path: Path, command: str) -> None:
     """An abort while climbing to 40 m lands where it is (``on_abort: land``) without climbing on; a pause holds
@@ -132,6 +133,7 @@ def legs_mission(path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("flown_by", "tool"), [("autopilot", "flight.start_mission"), ("agent", "flight.fly_to")])
 def test_at_full_speed_a_stop_acts_at_the_simulated_moment_it_was_sent(
     tmp_path: Path, flown_by: str, tool: str

@@ -8,6 +8,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from agentic_core.run.runner import RunSettings, run_mission
 
 from .conftest import NEAR, of_kind, slow_server, telemetry, trace
@@ -41,6 +43,7 @@ def test_a_templated_north_east_waypoint_past_the_fence_is_refused_in_flight(tmp
     assert farthest < 201.0, farthest
 
 
+@pytest.mark.slow
 def test_a_model_plan_past_the_fence_is_refused_before_it_flies(tmp_path: Path, smtp: Any) -> None:
     """The emergency mission (a fence of 800 m around home) with a model whose response plan flies 900 m north,
     written in north/east metres, which the static checks cannot place: refused in flight, never sent."""
@@ -77,6 +80,7 @@ steps:
 """
 
 
+@pytest.mark.slow
 def test_the_vehicle_is_given_the_mission_limits_and_returns_under_the_ceiling(tmp_path: Path) -> None:
     mission = tmp_path / "low.yaml"
     mission.write_text(LOW_CEILING, encoding="utf-8")

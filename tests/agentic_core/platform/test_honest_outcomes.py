@@ -24,6 +24,7 @@ def settings(tmp_path: Path, url: str) -> RunSettings:
     )  # fmt: skip
 
 
+@pytest.mark.slow
 def test_a_model_slower_than_the_deadline_holds_over_the_casualty_and_never_completes_unanswered(
     tmp_path: Path, smtp: Any
 ) -> None:
@@ -46,6 +47,7 @@ def test_a_model_slower_than_the_deadline_holds_over_the_casualty_and_never_comp
         assert "no alert was sent" in result.report.read_text(encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_a_confirmed_casualty_with_no_alert_fails_the_run(tmp_path: Path, smtp: Any) -> None:
     """The model judges the casualty critical, then writes a response plan that only hovers: every step of it
     succeeds, the patrol goes home, and today's flight would say "completed". It is ``failed``, and the report
@@ -74,6 +76,7 @@ def _closed_port() -> int:
         return int(s.getsockname()[1])
 
 
+@pytest.mark.slow
 def test_an_alert_that_reached_only_the_outbox_is_degraded_with_exit_3(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

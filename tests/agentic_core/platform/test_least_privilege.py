@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
 import yaml
 
 from agentic_core.run.runner import MissionRun, RunSettings
@@ -45,6 +46,7 @@ def audit(run_dir: Path, tool: str) -> list[dict[str, Any]]:
     return [r for r in map(json.loads, lines) if r.get("tool") == tool]
 
 
+@pytest.mark.slow
 def test_a_plan_leaking_the_position_is_refused_and_the_medical_team_is_still_alerted(
     tmp_path: Path, smtp: Any
 ) -> None:
@@ -70,6 +72,7 @@ def test_a_plan_leaking_the_position_is_refused_and_the_medical_team_is_still_al
     assert "plan rejected" in report and "collector.example" in report and "the alert went out" in report
 
 
+@pytest.mark.slow
 def test_a_destination_only_a_template_reveals_is_refused_by_the_tool_and_audited(tmp_path: Path, smtp: Any) -> None:
     """Written as templates, the destinations pass the plan's review; the tools refuse them when they are
     resolved, the agent sees why, and the plan's alert to the medical team goes out."""

@@ -87,6 +87,7 @@ def waiting_for_the_operator(records: list[dict[str, Any]]) -> bool:
     return any(r.get("status") == "asked" for r in of_kind(records, "approval"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("condition", "extra", "answers"),
     [
@@ -137,6 +138,7 @@ def landed_beside(records: list[dict[str, Any]]) -> bool:
     return any(r["args"].get("target_id") for r in tools_ok(records, "flight.land"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("signum", "moment"),
     [(signal.SIGINT, on_patrol), (signal.SIGTERM, responding), (signal.SIGTERM, landed_beside)],

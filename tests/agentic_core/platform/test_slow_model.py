@@ -66,6 +66,7 @@ def at_full_speed(tmp_path_factory: pytest.TempPathFactory) -> Iterator[FullSpee
         )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("reasoner", ["llm", "hybrid"])
 @pytest.mark.parametrize("latency_s", [1.5, 5.0])
 def test_a_slow_model_at_full_speed_serves_the_casualty(at_full_speed: FullSpeed, reasoner: str, latency_s: float):
@@ -83,6 +84,7 @@ def test_a_slow_model_at_full_speed_serves_the_casualty(at_full_speed: FullSpeed
     assert interrupted and interrupted[0]["trigger"] == "collapsed_person"
 
 
+@pytest.mark.slow
 def test_a_slow_model_at_real_time_serves_the_casualty(tmp_path: Path, smtp: Any) -> None:
     """The four runs (llm and hybrid, 1.5 s and 5 s) fly at once, each with a model of its own: at ``--speed 1``
     they are mostly waiting, on the clock and on their model, so flying them side by side tests the same thing in a
@@ -116,6 +118,7 @@ def test_a_slow_model_at_real_time_serves_the_casualty(tmp_path: Path, smtp: Any
         assert 0.8 * wall <= sim <= 1.05 * wall, (case, sim, wall)  # real time: simulated seconds are wall seconds
 
 
+@pytest.mark.slow
 def test_two_runs_with_the_same_seed_and_latency_decide_the_same(
     tmp_path: Path, smtp: Any, at_full_speed: FullSpeed
 ) -> None:

@@ -101,6 +101,7 @@ def watched_run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Flown[Watc
         yield flights.get("watched", fly_watched)
 
 
+@pytest.mark.slow
 def test_a_ground_station_on_the_gcs_port_follows_the_mission_and_commands_it_with_the_runs_key(
     watched_run: Flown[Watched],
 ) -> None:

@@ -40,6 +40,7 @@ def test_llm_with_an_unreachable_model_stops_before_take_off(
     assert not runs.exists() or not any(runs.iterdir())  # no run folder: nothing flew, nothing to resume
 
 
+@pytest.mark.slow
 def test_hybrid_with_an_unreachable_model_flies_on_rules_alone_and_says_so(tmp_path: Path, smtp: Any) -> None:
     url = f"http://127.0.0.1:{closed_port()}/v1"
     settings = RunSettings(

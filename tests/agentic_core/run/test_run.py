@@ -57,6 +57,7 @@ def tools_called(result: RunResult) -> list[str]:
     return [r["name"] for r in records(result, "tool") if r.get("status") != "interrupted"]
 
 
+@pytest.mark.slow
 def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(tmp_path: Path, smtp: Any) -> None:
     result = fly(tmp_path, EMERGENCY, "small_emergency", camera_hz=15.0)
     summary = result.summary
@@ -116,6 +117,7 @@ def test_the_emergency_is_found_confirmed_and_answered_with_the_rules_reasoner(t
     assert key_file.stat().st_mode & 0o777 == 0o600 and len(read_key_file(key_file)) == 32
 
 
+@pytest.mark.slow
 def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) -> None:
     """The emergency mission over normal activity with the llm reasoner: the model reads each scan's World Model
     and sees no one in distress (people resting in the shade are not casualties), so nothing is planned."""
@@ -129,6 +131,7 @@ def test_the_normal_scene_brings_no_intervention_from_the_model(tmp_path: Path) 
     assert not list(result.run_dir.glob("alerts/*.eml"))
 
 
+@pytest.mark.slow
 def test_the_patrol_mission_runs_and_logs_crowd_density(tmp_path: Path) -> None:
     result = fly(tmp_path, PATROL, "small_normal", camera_hz=5.0)  # no trigger to confirm: a slower camera will do
     tools = tools_called(result)
@@ -136,6 +139,7 @@ def test_the_patrol_mission_runs_and_logs_crowd_density(tmp_path: Path) -> None:
     assert result.summary.outcome == "completed" and "flight.land" not in tools
 
 
+@pytest.mark.slow
 def test_the_operator_is_asked_and_a_no_sends_the_aircraft_home_without_dropping_the_kit(tmp_path: Path) -> None:
     """--approval ask: the mission graph pauses at the landing (interrupt), the operator says no, the graph resumes
     from its checkpoint and the sub-plan skips what depended on the landing."""
@@ -169,6 +173,7 @@ def test_the_operator_is_asked_and_a_no_sends_the_aircraft_home_without_dropping
     assert not any("on its way" in t for t in texts)
 
 
+@pytest.mark.slow
 def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Path, smtp: Any) -> None:
     """--reasoner llm: every assessment is the model's, and on the event the model writes the response plan,
     which passes the checks and is flown: approach, watch, confirm, alert, land beside, drop the kit, home."""
@@ -193,6 +198,7 @@ def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Pat
     assert result.summary.llm_calls == requests == sum(model.asked.values()) and model.asked["Proposal"] == 1
 
 
+@pytest.mark.slow
 def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan_beyond_its_scopes(
     tmp_path: Path,
 ) -> None:

@@ -27,6 +27,7 @@ def test_the_missions_folder_is_what_these_tests_fly() -> None:
     assert [p.stem for p in SHIPPED] == ["hajj_emergency", "hajj_patrol", "inspect_perimeter"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mission", SHIPPED, ids=[p.stem for p in SHIPPED])
 def test_a_shipped_mission_flies_end_to_end_on_the_defaults(tmp_path: Path, mission: Path, smtp: Any) -> None:
     scene_file = default_scene(mission)

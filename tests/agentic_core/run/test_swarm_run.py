@@ -46,6 +46,7 @@ def _lines(path: Path) -> list[dict[str, Any]]:
     return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
 
 
+@pytest.mark.slow
 def test_four_uavs_cover_the_sectors_and_answer_the_casualty_together(tmp_path: Path, smtp: Any) -> None:
     argv = ["swarm", "run", str(MISSION), "--vehicles", "4", "--runs-dir", str(tmp_path), "--speed", "max"]
     code = main([*argv, "--camera-hz", str(CAMERA_HZ)])
@@ -95,6 +96,7 @@ LOST_AT = 40.0
 """When the ground link is lost in the second run: the sectors are being flown; the casualty is not yet found."""
 
 
+@pytest.mark.slow
 def test_a_uav_killed_then_the_ground_link_lost_the_rest_finish_among_themselves(
     tmp_path: Path, smtp: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
