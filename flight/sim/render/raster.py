@@ -1,10 +1,13 @@
 """Soft-edged shapes drawn into an RGB image, vectorised in numpy: capsules (discs are capsules of no length) and
 convex quadrilaterals.
 
-Capsules are grouped by the size of their pixel box (4, 8, 16, … 128 px a side, each way) and each group is
-drawn in one set of array operations; a capsule's edge is anti-aliased over one pixel. ``mode`` says how a
-capsule colours what it covers: ``BODY`` paints its colour shaded towards the rim (a rounded body), ``FLAT``
-paints it evenly, ``SHADOW`` darkens what is there by :data:`~flight.sim.render.palette.SHADE_FACTOR`.
+Capsules are grouped by the size of their pixel box (4, 8, 16, … 128 px a side, each way; the grouping fixes
+how overlapping capsules mix: a group's capsules all blend with what was there before the group). The pixels of
+every box of one call are measured in one set of array operations over the boxes themselves, then blended group
+after group, every pixel's first group at once, then its next; a capsule's edge is anti-aliased over one pixel.
+``mode`` says how a capsule colours what it covers: ``BODY`` paints its colour shaded towards the rim (a rounded
+body), ``FLAT`` paints it evenly, ``SHADOW`` darkens what is there by
+:data:`~flight.sim.render.palette.SHADE_FACTOR`.
 
 >>> image = np.zeros((20, 20, 3), dtype=np.uint8)
 >>> draw_capsules(image, np.array([[5.0, 10.0]]), np.array([[15.0, 10.0]]), np.array([3.0]),
@@ -24,9 +27,13 @@ from .palette import SHADE_FACTOR
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 Image = NDArray[np.uint8]
+F32 = NDArray[np.float32]
+Pixels = NDArray[np.void]
 
 BODY, FLAT, SHADOW = 0, 1, 2
 _BUCKETS = np.array([4, 8, 16, 32, 64, 128])
+_PIXEL = np.dtype((np.void, 3))
+"""An RGB pixel as one item, so a pixel is read and written as one element."""
 
 
 def capsule_boxes(a: FloatArray, b: FloatArray, r: FloatArray) -> FloatArray:
@@ -62,87 +69,129 @@ def draw_capsules(
     live = np.flatnonzero((x1 > x0) & (y1 > y0))
     if len(live) == 0:
         return
-    bw = np.searchsorted(_BUCKETS, x1[live] - x0[live])
-    bh = np.searchsorted(_BUCKETS, y1[live] - y0[live])
+    order, group = _drawing_order(x1[live] - x0[live], y1[live] - y0[live])
+    k = live[order]
+    hits = _Hits(a[k], b[k], r[k], x0[k], y0[k], x1[k], y1[k], width)
+    if len(hits.at) == 0:
+        return
+    colour = None if mode == SHADOW else hits.colour(rgb[k].astype(np.float32), mode == BODY)
+    _blend_in_order(image.reshape(-1, 3).view(_PIXEL).reshape(-1), hits, group[hits.member], colour)
+    if cover is not None:
+        solid = hits.alpha >= np.float32(0.5)
+        cover[0].paint(hits.at[solid], cover[1][k[hits.member[solid]]])
+
+
+def _drawing_order(w: IntArray, h: IntArray) -> tuple[IntArray, NDArray[np.int32]]:
+    """The capsules (of pixel boxes ``w``×``h``) in drawing order and each one's group: grouped by the size of their
+    box (4, 8, … 128 px a side, each way; the smaller sizes first), in their given order within a group, and alone
+    when larger than the largest size. A group's capsules all blend with what was there before the group."""
+    bw = np.searchsorted(_BUCKETS, w)
+    bh = np.searchsorted(_BUCKETS, h)
     key = bw * 16 + bh
-    shape = _Shapes(a, b, r, rgb, mode, x0, y0, x1, y1, cover)
-    for k in np.unique(key):
-        members = live[key == k]
-        i, j = divmod(int(k), 16)
-        if i < len(_BUCKETS) and j < len(_BUCKETS):
-            _draw_group(image, members, int(_BUCKETS[i]), int(_BUCKETS[j]), shape)
-        else:  # very near the camera: one at a time, over its own box
-            for m in members:
-                _draw_group(image, np.array([m]), int(x1[m] - x0[m]), int(y1[m] - y0[m]), shape)
+    order = np.argsort(key, kind="stable")
+    key = key[order]
+    new = np.ones(len(key), dtype=bool)
+    new[1:] = (key[1:] != key[:-1]) | (bw[order][1:] >= len(_BUCKETS)) | (bh[order][1:] >= len(_BUCKETS))
+    group = (np.cumsum(new) - 1).astype(np.int32)
+    return order, group
 
 
-class _Shapes:
-    """The capsules of one :func:`draw_capsules` call and their clipped pixel boxes."""
+class _Hits:
+    """Every pixel of the capsules' boxes (in drawing order, each box row by row) that a capsule covers at all: its
+    flat index, its capsule (``member``), its squared distance to the capsule's axis and its coverage. Works on
+    squared distances: the edge's coverage is ``(r² - d²) / 2r + ½``, first order in ``r - d``, with no square
+    root."""
 
     def __init__(
         self,
         a: FloatArray,
         b: FloatArray,
         r: FloatArray,
-        rgb: FloatArray,
-        mode: int,
         x0: IntArray,
         y0: IntArray,
         x1: IntArray,
         y1: IntArray,
-        cover: tuple[Coverage, IntArray] | None = None,
+        width: int,
     ) -> None:
         f = np.float32
-        self.cover = cover
-        self.a, self.ab, self.r = a.astype(f), (b - a).astype(f), r.astype(f)
-        self.rgb, self.mode = rgb.astype(f), mode
-        self.x0, self.y0, self.x1, self.y1 = x0, y0, x1, y1
+        w, h = x1 - x0, y1 - y0
+        n = w * h
+        member = np.repeat(np.arange(len(n)), n)
+        offset = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        row, col = np.divmod(offset, w[member])
+        ys = y0[member] + row
+        xs = x0[member] + col
+        af, ab, rf = a.astype(f), (b - a).astype(f), r.astype(f)
+        abx, aby = ab[:, 0], ab[:, 1]
+        length2 = np.maximum(abx * abx + aby * aby, f(1e-9))
+        rx = xs.astype(f) + f(0.5)
+        rx -= af[member, 0]
+        ry = ys.astype(f) + f(0.5)
+        ry -= af[member, 1]
+        t = rx * (abx / length2)[member]
+        t += ry * (aby / length2)[member]
+        np.clip(t, f(0.0), f(1.0), out=t)
+        qx = rx - t * abx[member]
+        qy = ry - t * aby[member]
+        qx *= qx
+        qy *= qy
+        qx += qy
+        reach = rf * rf + np.maximum(rf, f(0.25))  # d² below this: some coverage
+        sel = np.flatnonzero(qx < reach[member])
+        self.member = member[sel]
+        self.at = ys[sel] * width + xs[sel]
+        self.d2 = qx[sel]
+        self.r = rf
+        m = self.member
+        al = (rf * rf + f(1e-6))[m] - self.d2
+        al *= (f(0.5) / np.maximum(rf, f(0.25)))[m]
+        al += f(0.5)
+        np.clip(al, f(0.0), f(1.0), out=al)
+        self.alpha = al
+
+    def colour(self, rgb: F32, rounded: bool) -> F32:
+        """Each hit's colour: its capsule's, shaded towards the rim when ``rounded``."""
+        m = self.member
+        if not rounded:
+            flat: F32 = rgb[m]
+            return flat
+        f = np.float32
+        rim2 = self.d2 / np.maximum(self.r * self.r, f(1e-6))[m]
+        np.minimum(rim2, f(1.0), out=rim2)
+        shade = f(1.0) - f(0.35) * rim2
+        out: F32 = rgb[m]
+        for c in range(3):  # column by column: broadcasting a column over rows of three is slow
+            out[:, c] *= shade
+        return out
 
 
-def _draw_group(image: Image, k: IntArray, w: int, h: int, s: _Shapes) -> None:
-    """Draw the capsules ``k`` over patches of ``w``×``h`` pixels from their boxes' corners. Works on squared
-    distances: the edge's coverage is ``(r² - d²) / 2r + ½``, first order in ``r - d``, with no square root."""
-    f = np.float32
-    px = (s.x0[k, None, None] + np.arange(w)[None, None, :]).astype(f) + f(0.5)
-    py = (s.y0[k, None, None] + np.arange(h)[None, :, None]).astype(f) + f(0.5)
-    rx = px - s.a[k, 0, None, None]
-    ry = py - s.a[k, 1, None, None]
-    abx, aby = s.ab[k, 0, None, None], s.ab[k, 1, None, None]
-    length2 = np.maximum(abx * abx + aby * aby, f(1e-9))
-    t = rx * (abx / length2) + ry * (aby / length2)
-    np.clip(t, f(0.0), f(1.0), out=t)
-    qx = rx - t * abx
-    qy = ry - t * aby
-    qx *= qx
-    qy *= qy
-    qx += qy
-    reach = s.r[k] * s.r[k] + np.maximum(s.r[k], f(0.25))  # d² below this: some coverage
-    which, yy, xx = np.nonzero(qx < reach[:, None, None])
-    kk = k[which]
-    ys = s.y0[kk] + yy
-    xs = s.x0[kk] + xx
-    keep = (ys < s.y1[kk]) & (xs < s.x1[kk])
-    if not keep.all():
-        which, yy, xx, kk, ys, xs = which[keep], yy[keep], xx[keep], kk[keep], ys[keep], xs[keep]
-    if len(which) == 0:
-        return
-    d2 = qx[which, yy, xx]
-    r = s.r[kk]
-    al = np.clip((r * r + f(1e-6) - d2) * (f(0.5) / np.maximum(r, f(0.25))) + f(0.5), f(0.0), f(1.0))[:, None]
-    flat = image.reshape(-1, 3)
-    at = ys * image.shape[1] + xs
-    under = np.take(flat, at, axis=0).astype(f)
-    if s.mode == SHADOW:
-        colour = under * f(SHADE_FACTOR)
-    elif s.mode == BODY:
-        rim2 = np.minimum(d2 / np.maximum(r * r, f(1e-6)), f(1.0))
-        colour = s.rgb[kk] * (f(1.0) - f(0.35) * rim2)[:, None]
-    else:
-        colour = s.rgb[kk]
-    flat[at] = (under + (colour - under) * al).astype(np.uint8)
-    if s.cover is not None:
-        solid = al[:, 0] >= f(0.5)
-        s.cover[0].paint(at[solid], s.cover[1][kk[solid]])
+def _blend_in_order(pixels: Pixels, hits: _Hits, group: NDArray[np.int32], colour: F32 | None) -> None:
+    """Blend the hits group after group (``group`` never decreases along them): each group over what the ones before
+    it drew. A pixel's value depends on its own hits alone, so every pixel's first group is blended at once, then
+    every pixel's next one, and so on (a crowd's pixels see few groups each)."""
+    first = np.empty(len(pixels), dtype=np.int32)
+    todo = np.arange(len(hits.at))
+    while len(todo):
+        at, own = hits.at[todo], group[todo]
+        first[at[::-1]] = own[::-1]  # numpy keeps the last write: each pixel's earliest group
+        now = first[at] == own
+        mine = todo[now]
+        _blend(pixels, at[now], hits.alpha[mine], None if colour is None else colour[mine])
+        todo = todo[~now]
+
+
+def _blend(pixels: Pixels, at: IntArray, alpha: F32, colour: F32 | None) -> None:
+    """Pixels ``at`` (of ``pixels``, an image seen as one 3-byte item per pixel) moved towards ``colour`` by
+    ``alpha`` (the shade of what is there when ``colour`` is None); where ``at`` repeats, the last entry shows."""
+    under = np.take(pixels, at).view(np.uint8).reshape(-1, 3).astype(np.float32)
+    if colour is None:
+        colour = under * np.float32(SHADE_FACTOR)
+    weight = np.empty(under.shape, dtype=np.float32)  # alpha per channel: whole rows blend faster than broadcasting
+    weight[:, 0], weight[:, 1], weight[:, 2] = alpha, alpha, alpha
+    mixed = colour - under
+    mixed *= weight
+    mixed += under
+    np.put(pixels, at, mixed.astype(np.uint8).view(_PIXEL).reshape(-1))
 
 
 def draw_quads(image: Image, corners: FloatArray, rgb: FloatArray) -> None:
