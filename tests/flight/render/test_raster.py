@@ -82,3 +82,27 @@ def test_nothing_in_the_image_draws_nothing_and_a_strided_image_is_refused() -> 
         draw_capsules(
             image[:, ::2], np.array([[2.0, 2.0]]), np.array([[3.0, 3.0]]), np.array([1.0]), np.ones((1, 3)), FLAT
         )
+
+
+@pytest.mark.parametrize("slope", [0.0, 1e-10, 1e-8, 1e-5, 1e-2, 1.0, 1e3, np.inf])
+def test_level_steep_and_tiny_capsules_lose_no_pixel_of_their_rim(slope: float) -> None:
+    """The columns worth testing are bounded row by row from the capsule's axis; capsules at every sub-pixel
+    offset, exactly level, all but level, steep, vertical, from a dot to a long bar, with radii around the sizes
+    where the reach changes form, touch exactly the pixels the reference touches."""
+    rng = np.random.default_rng(11)
+    count = 400
+    a = rng.uniform(5.0, 55.0, (count, 2))
+    length = rng.choice([0.0, 1e-4, 0.5, 3.0, 17.0], count)
+    step = np.array([1.0, 0.0]) if slope == 0.0 else np.array([0.0, 1.0]) if np.isinf(slope) else np.array([1.0, slope])
+    b = a + length[:, None] * step / np.hypot(*step)
+    r = rng.choice([0.05, 0.24, 0.25, 0.26, 0.5, 0.99, 1.0, 1.01, 2.5, 7.3], count)
+    rgb = rng.uniform(0.0, 255.0, (count, 3))
+    for mode in (BODY, SHADOW):
+        mine = np.random.default_rng(3).integers(0, 256, (60, 60, 3), dtype=np.uint8)
+        theirs = mine.copy()
+        cover_mine, cover_theirs = Coverage(60, 60), Coverage(60, 60)
+        owners = np.arange(count)
+        draw_capsules(mine, a, b, r, rgb, mode, (cover_mine, owners))
+        reference_capsules(theirs, a, b, r, rgb, mode, (cover_theirs, owners))
+        assert np.array_equal(mine, theirs)
+        assert np.array_equal(cover_mine.shown_share(count), cover_theirs.shown_share(count))
