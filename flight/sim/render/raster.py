@@ -195,16 +195,18 @@ def _row_spans(
 def _blend_in_order(pixels: Pixels, hits: _Hits, group: NDArray[np.int32], colour: F32 | None) -> None:
     """Blend the hits group after group (``group`` never decreases along them): each group over what the ones before
     it drew. A pixel's value depends on its own hits alone, so every pixel's first group is blended at once, then
-    every pixel's next one, and so on (a crowd's pixels see few groups each)."""
+    every pixel's next one, and so on (a crowd's pixels see few groups each); what is left of one group, at once."""
+    at, alpha = hits.at, hits.alpha
     first = np.empty(len(pixels), dtype=np.int32)
-    todo = np.arange(len(hits.at))
-    while len(todo):
-        at, own = hits.at[todo], group[todo]
-        first[at[::-1]] = own[::-1]  # numpy keeps the last write: each pixel's earliest group
-        now = first[at] == own
-        mine = todo[now]
-        _blend(pixels, at[now], hits.alpha[mine], None if colour is None else colour[mine])
-        todo = todo[~now]
+    while len(group) and group[0] != group[-1]:
+        first[at[::-1]] = group[::-1]  # numpy keeps the last write: each pixel's earliest group
+        now = first[at] == group
+        _blend(pixels, at[now], alpha[now], None if colour is None else colour[now])
+        later = ~now
+        at, alpha, group = at[later], alpha[later], group[later]
+        colour = None if colour is None else colour[later]
+    if len(at):
+        _blend(pixels, at, alpha, colour)
 
 
 def _blend(pixels: Pixels, at: IntArray, alpha: F32, colour: F32 | None) -> None:
