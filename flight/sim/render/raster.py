@@ -18,6 +18,8 @@ body), ``FLAT`` paints it evenly, ``SHADOW`` darkens what is there by
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -74,8 +76,8 @@ def draw_capsules(
     hits = _Hits(a[k], b[k], r[k], x0[k], y0[k], x1[k], y1[k], width)
     if len(hits.at) == 0:
         return
-    colour = None if mode == SHADOW else hits.colour(rgb[k].astype(np.float32), mode == BODY)
-    _blend_in_order(image.reshape(-1, 3).view(_PIXEL).reshape(-1), hits, group[hits.member], colour)
+    paint = None if mode == SHADOW else _Paint.of(rgb[k], hits.member, hits.shade() if mode == BODY else None)
+    _blend_in_order(image.reshape(-1, 3).view(_PIXEL).reshape(-1), hits, group[hits.member], paint)
     if cover is not None:
         solid = hits.alpha >= np.float32(0.5)
         cover[0].paint(hits.at[solid], cover[1][k[hits.member[solid]]])
@@ -123,9 +125,9 @@ class _Hits:
         abx, aby = ab[:, 0], ab[:, 1]
         length2 = np.maximum(abx * abx + aby * aby, f(1e-9))
         ry = row_y.astype(f) + f(0.5)  # what depends on the row alone, once a row
-        ry -= af[row_member, 1]
+        ry -= af[:, 1].copy()[row_member]
         rx = xs.astype(f) + f(0.5)
-        rx -= af[member, 0]
+        rx -= af[:, 0].copy()[member]  # a column of its own: gathering from it is a plain copy
         t = rx * (abx / length2)[member]
         t += (ry * (aby / length2)[row_member])[row]
         np.clip(t, f(0.0), f(1.0), out=t)
@@ -147,20 +149,38 @@ class _Hits:
         np.clip(al, f(0.0), f(1.0), out=al)
         self.alpha = al
 
-    def colour(self, rgb: F32, rounded: bool) -> F32:
-        """Each hit's colour: its capsule's, shaded towards the rim when ``rounded``."""
-        m = self.member
-        if not rounded:
-            flat: F32 = rgb[m]
-            return flat
+    def shade(self) -> F32:
+        """Each hit's share of its capsule's colour on a rounded body: darker towards the rim."""
         f = np.float32
-        rim2 = self.d2 / np.maximum(self.r * self.r, f(1e-6))[m]
+        rim2 = self.d2 / np.maximum(self.r * self.r, f(1e-6))[self.member]
         np.minimum(rim2, f(1.0), out=rim2)
-        shade = f(1.0) - f(0.35) * rim2
-        out: F32 = rgb[m]
-        for c in range(3):  # column by column: broadcasting a column over rows of three is slow
-            out[:, c] *= shade
-        return out
+        shade: F32 = f(1.0) - f(0.35) * rim2
+        return shade
+
+
+@dataclass(frozen=True)
+class _Paint:
+    """What colours the hits: each capsule's colour, one channel an array (so a hit's channel is read as one
+    number), each hit's capsule, and on a rounded body each hit's shade."""
+
+    channels: tuple[F32, F32, F32]
+    member: IntArray
+    shade: F32 | None
+
+    @classmethod
+    def of(cls, rgb: FloatArray, member: IntArray, shade: F32 | None) -> _Paint:
+        f = np.float32
+        return cls((rgb[:, 0].astype(f), rgb[:, 1].astype(f), rgb[:, 2].astype(f)), member, shade)
+
+    def part(self, which: NDArray[np.bool_]) -> _Paint:
+        return _Paint(self.channels, self.member[which], None if self.shade is None else self.shade[which])
+
+    def channel(self, c: int) -> F32:
+        """Channel ``c`` of each hit's colour (a new array)."""
+        colour: F32 = self.channels[c][self.member]
+        if self.shade is not None:
+            colour *= self.shade
+        return colour
 
 
 def _row_spans(
@@ -192,7 +212,7 @@ def _row_spans(
     return row_member, row_y, start, stop
 
 
-def _blend_in_order(pixels: Pixels, hits: _Hits, group: NDArray[np.int32], colour: F32 | None) -> None:
+def _blend_in_order(pixels: Pixels, hits: _Hits, group: NDArray[np.int32], paint: _Paint | None) -> None:
     """Blend the hits group after group (``group`` never decreases along them): each group over what the ones before
     it drew. A pixel's value depends on its own hits alone, so every pixel's first group is blended at once, then
     every pixel's next one, and so on (a crowd's pixels see few groups each); what is left of one group, at once."""
@@ -201,25 +221,26 @@ def _blend_in_order(pixels: Pixels, hits: _Hits, group: NDArray[np.int32], colou
     while len(group) and group[0] != group[-1]:
         first[at[::-1]] = group[::-1]  # numpy keeps the last write: each pixel's earliest group
         now = first[at] == group
-        _blend(pixels, at[now], alpha[now], None if colour is None else colour[now])
+        _blend(pixels, at[now], alpha[now], None if paint is None else paint.part(now))
         later = ~now
         at, alpha, group = at[later], alpha[later], group[later]
-        colour = None if colour is None else colour[later]
+        paint = None if paint is None else paint.part(later)
     if len(at):
-        _blend(pixels, at, alpha, colour)
+        _blend(pixels, at, alpha, paint)
 
 
-def _blend(pixels: Pixels, at: IntArray, alpha: F32, colour: F32 | None) -> None:
-    """Pixels ``at`` (of ``pixels``, an image seen as one 3-byte item per pixel) moved towards ``colour`` by
-    ``alpha`` (the shade of what is there when ``colour`` is None); where ``at`` repeats, the last entry shows."""
+def _blend(pixels: Pixels, at: IntArray, alpha: F32, paint: _Paint | None) -> None:
+    """Pixels ``at`` (of ``pixels``, an image seen as one 3-byte item per pixel) moved towards their ``paint`` by
+    ``alpha`` (darkened by the shade factor when ``paint`` is None); where ``at`` repeats, the last entry shows."""
     under = np.take(pixels, at).view(np.uint8).reshape(-1, 3).astype(np.float32)
-    if colour is None:
-        colour = under * np.float32(SHADE_FACTOR)
-    weight = np.empty(under.shape, dtype=np.float32)  # alpha per channel: whole rows blend faster than broadcasting
-    weight[:, 0], weight[:, 1], weight[:, 2] = alpha, alpha, alpha
-    mixed = colour - under
-    mixed *= weight
-    mixed += under
+    mixed = np.empty_like(under)
+    for c in range(3):  # channel by channel: a hit's alpha and colour are then one number each
+        below = under[:, c]
+        colour = below * np.float32(SHADE_FACTOR) if paint is None else paint.channel(c)
+        colour -= below
+        colour *= alpha
+        colour += below
+        mixed[:, c] = colour
     np.put(pixels, at, mixed.astype(np.uint8).view(_PIXEL).reshape(-1))
 
 
