@@ -113,7 +113,7 @@ def nms(
     for best in droppers[np.argsort(rank[droppers])].tolist():
         if not dropped[best]:
             dropped[beaten[starts[best] : starts[best + 1]]] = True
-    keep: list[int] = order[~dropped[order]][:max_keep].tolist()
+    keep: list[int] = order[~dropped[order]][: max(max_keep, 0)].tolist()
     return keep
 
 

@@ -65,7 +65,7 @@ def _look_up(levels: NDArray[np.int16], image: Image) -> NDArray[np.int16]:
     if image.size % 2 or not image.flags.c_contiguous:
         single: NDArray[np.int16] = levels[image]
         return single
-    pairs = np.empty((256, 256, 2), dtype=np.int16)  # a 16-bit word's value is its first byte + 256 × its second
+    pairs = np.empty((256, 256, 2), dtype=np.int16)  # a word is its first byte + 256 × its second (little-endian)
     first, second = (0, 1) if sys.byteorder == "little" else (1, 0)
     pairs[:, :, first] = levels[None, :]
     pairs[:, :, second] = levels[:, None]
