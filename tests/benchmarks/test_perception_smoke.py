@@ -1,5 +1,9 @@
 """Smoke test: ``benchmarks/perception.py`` runs to the end on small sizes and prints its table (no timing checks)."""
 
+import re
+
+import pytest
+
 from .script import run_script, table
 
 
@@ -29,3 +33,15 @@ def test_bad_arguments_are_a_usage_error() -> None:
     proc = run_script("perception.py", "--frames", "0", timeout_s=120)
     assert proc.returncode == 2
     assert "must be at least 1" in proc.stderr
+
+
+def test_the_detect_row_times_the_arrays_and_the_records() -> None:
+    """``--detect N``: the shipped detector on N rendered frames, its arrays and then the Detection records a run
+    gets, each a positive time."""
+    pytest.importorskip("onnxruntime")
+    out = table("perception.py", "--sizes", "5", "--frames", "1", "--warmup", "0", "--repeats", "1", "--render-sizes",
+                "--detect", "2")  # fmt: skip
+    (row,) = [line for line in out.splitlines() if line.startswith("detect (ours, 640x480, 1 thread): 2 frames, ")]
+    times = re.findall(r"(?:mean|p95|cpu) ([0-9.]+) ms", row)
+    assert len(times) == 4 and all(float(value) > 0.0 for value in times)
+    assert "; with the Detection records: mean " in row

@@ -29,6 +29,7 @@ from ...contracts.camera import BoundingBox, Detection, Frame
 from ...contracts.errors import InputError
 from ...contracts.extras import require
 from ...contracts.input_files import check_input_file
+from ...contracts.trusted import record_maker
 from ..calibration import Calibration
 from .rescue import Rescue, rescued_scores
 from .yolo_decode import NMS_IOU, Layout, decode, guess_layout, kept_in_frame, letterbox
@@ -178,16 +179,35 @@ class OnnxDetector:
                 "rendering camera (--detector onnx:PATH turns it on)"
             )
         boxes, scores, labels = self.detect_array(frame.image)
-        conf = self.calibration.apply(scores)
-        return [
-            Detection(
-                class_name=label,
-                box=BoundingBox(x_min=float(b[0]), y_min=float(b[1]), x_max=float(b[2]), y_max=float(b[3])),
-                confidence=float(np.clip(c, 0.0, 1.0)),
+        conf = np.clip(self.calibration.apply(scores), 0.0, 1.0)
+        if not (np.isfinite(boxes).all() and np.isfinite(conf).all()):  # validation says what is wrong
+            return [
+                Detection(
+                    class_name=label,
+                    box=BoundingBox(x_min=b[0], y_min=b[1], x_max=b[2], y_max=b[3]),
+                    confidence=c,
+                    truth_id=None,
+                )
+                for b, c, label in zip(boxes.tolist(), conf.tolist(), labels, strict=True)
+                if b[2] > b[0] and b[3] > b[1]
+            ]
+        new_detection, new_box = _new_detection, _new_box
+        return [  # finite, ordered, confidences in 0–1: the records validation would make (contracts.trusted)
+            new_detection(
+                {
+                    "class_name": label,
+                    "box": new_box({"x_min": b[0], "y_min": b[1], "x_max": b[2], "y_max": b[3]}),
+                    "confidence": c,
+                    "truth_id": None,
+                }
             )
             for b, c, label in zip(boxes.tolist(), conf.tolist(), labels, strict=True)
             if b[2] > b[0] and b[3] > b[1]
         ]
+
+
+_new_box = record_maker(BoundingBox)
+_new_detection = record_maker(Detection)
 
 
 __all__ = ["OnnxDetector"]

@@ -91,6 +91,10 @@ def letterbox(image: NDArray[np.uint8], input_size: tuple[int, int], channels: i
     ``channels`` 1 feeds the frame's luminance."""
     box = letterbox_geometry((image.shape[1], image.shape[0]), input_size)
     in_w, in_h = input_size
+    if channels == 3 and image.shape[:2] == (in_h, in_w):  # the frame is the input: its planes, scaled to 0–1
+        planes: FloatArray = np.ascontiguousarray(image.transpose(2, 0, 1)).astype(np.float32)[None]
+        planes /= np.float32(255.0)
+        return planes, box
     scaled = resize_bilinear(image, box.size)
     if channels == 1:
         scaled = (scaled @ np.array([0.299, 0.587, 0.114], dtype=np.float32))[:, :, None]
@@ -111,6 +115,8 @@ def guess_layout(shape: tuple[int, ...]) -> Layout:
 
 def decode(output: NDArray[np.floating], layout: Layout) -> Decoded:
     """The candidates of one ``(1, …)`` output in ``layout``: corner boxes in input pixels, score, class."""
+    if layout == "v8" and output.shape[1] == 5:
+        return _decode_one_class(output[0].astype(np.float32, copy=False))
     rows = output[0].T if layout == "v8" else output[0]
     rows = rows.astype(np.float32, copy=False)
     class_scores = rows[:, 4:] if layout == "v8" else rows[:, 5:] * rows[:, 4:5]
@@ -119,6 +125,15 @@ def decode(output: NDArray[np.floating], layout: Layout) -> Decoded:
     cx, cy, w, h = rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3]
     boxes = np.stack([cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2], axis=1).astype(np.float32)
     return Decoded(boxes=boxes, scores=scores.astype(np.float32), classes=classes)
+
+
+def _decode_one_class(channels: FloatArray) -> Decoded:
+    """:func:`decode` of a one-class v8 output (5×N), channel by channel: the same arithmetic on whole rows."""
+    cx, cy, w, h, scores = channels
+    boxes = np.empty((channels.shape[1], 4), dtype=np.float32)
+    boxes[:, 0], boxes[:, 1] = cx - w / 2, cy - h / 2
+    boxes[:, 2], boxes[:, 3] = cx + w / 2, cy + h / 2
+    return Decoded(boxes=boxes, scores=scores.copy(), classes=np.zeros(channels.shape[1], dtype=np.int64))
 
 
 NMS_IOU = 0.45
@@ -149,11 +164,11 @@ def kept_in_frame(
 def to_frame(boxes: NDArray[np.floating], box: Letterbox, *, within: tuple[int, int] | None = None) -> FloatArray:
     """Boxes in input pixels mapped back to the frame's pixels; clipped to a (width, height) frame ``within``."""
     out = boxes.astype(np.float32).copy()
-    out[:, [0, 2]] = (out[:, [0, 2]] - box.pad_x) / box.scale
-    out[:, [1, 3]] = (out[:, [1, 3]] - box.pad_y) / box.scale
+    out[:, 0::2] = (out[:, 0::2] - box.pad_x) / box.scale
+    out[:, 1::2] = (out[:, 1::2] - box.pad_y) / box.scale
     if within is not None:
-        out[:, [0, 2]] = np.clip(out[:, [0, 2]], 0, within[0])
-        out[:, [1, 3]] = np.clip(out[:, [1, 3]], 0, within[1])
+        np.clip(out[:, 0::2], 0, within[0], out=out[:, 0::2])
+        np.clip(out[:, 1::2], 0, within[1], out=out[:, 1::2])
     return out
 
 

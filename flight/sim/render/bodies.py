@@ -58,6 +58,31 @@ _PARTS: dict[int, list[tuple[float, float, float, float, float, int, int]]] = {
 _REFERENCE = {0: (0.5, 0.5, 1.7), 1: (0.5, 0.5, 1.7), 2: (0.7, 0.6, 1.0), 3: (1.8, 0.6, 0.3)}
 
 
+@dataclass(frozen=True)
+class _Table:
+    """One pose's parts as columns (:data:`_PARTS`), with each part's draw mode and the higher of its two ends."""
+
+    f0: FloatArray
+    u0: FloatArray
+    f1: FloatArray
+    u1: FloatArray
+    radius: FloatArray
+    layer: IntArray
+    source: tuple[int, ...]
+    mode: IntArray
+    top: FloatArray
+
+    @classmethod
+    def of(cls, parts: list[tuple[float, float, float, float, float, int, int]]) -> _Table:
+        f0, u0, f1, u1, radius = (np.array([p[k] for p in parts]) for k in range(5))
+        layer = np.array([p[5] for p in parts], dtype=np.int64)
+        mode = np.where(layer == HEAD_LAYER, FLAT, BODY).astype(np.int64)
+        return cls(f0, u0, f1, u1, radius, layer, tuple(p[6] for p in parts), mode, np.maximum(u0, u1))
+
+
+_TABLES = {pose: _Table.of(parts) for pose, parts in _PARTS.items()}
+
+
 def pose_codes(state: SceneState) -> IntArray:
     """Each actor's pose as an index into :data:`POSES` (-1 for what is not a person)."""
     by_behaviour = np.array([_POSE_OF.get(b, -1) for b in BEHAVIOURS], dtype=np.int64)
@@ -127,21 +152,34 @@ def person_parts(state: SceneState, rows: IntArray, looks: Looks, sun: tuple[flo
         fwd = np.column_stack([np.cos(h), np.sin(h)])
         base = state.positions[r]
         colours = (looks.clothing[r], looks.skin[r], looks.hair[r])
-        top = np.zeros(len(sel))
-        for f0, u0, f1, u1, rad, layer, source in parts:
-            a = np.column_stack([base + (f0 * along)[:, None] * fwd, -u0 * up])
-            b = np.column_stack([base + (f1 * along)[:, None] * fwd, -u1 * up])
-            radius = rad * across
-            mode = FLAT if layer == HEAD_LAYER else BODY
-            pieces.append(_parts(a, b, radius, colours[source], mode, layer, sel))
-            top = np.maximum(top, np.maximum(u0, u1) * up + radius)
+        table = _TABLES[pose]  # every part of every person of the pose at once, part after part
+        a, b = (np.empty((len(parts), len(sel), 3)) for _ in range(2))
+        a[:, :, :2] = base + (table.f0[:, None] * along)[:, :, None] * fwd
+        a[:, :, 2] = -table.u0[:, None] * up
+        b[:, :, :2] = base + (table.f1[:, None] * along)[:, :, None] * fwd
+        b[:, :, 2] = -table.u1[:, None] * up
+        radius = table.radius[:, None] * across
+        pieces.append(
+            Parts(
+                a.reshape(-1, 3),
+                b.reshape(-1, 3),
+                radius.reshape(-1),
+                np.concatenate([colours[source] for source in table.source]),
+                np.repeat(table.mode, len(sel)),
+                np.repeat(table.layer, len(sel)),
+                np.concatenate([sel] * len(parts)).astype(np.int64, copy=False),
+            )
+        )
+        top = np.maximum((table.top[:, None] * up + radius).max(axis=0), 0.0)
         shadow_a = np.column_stack([base, np.zeros(len(sel))])
         tip = base + (top[:, None] * np.array(sun)[None, :])
         if pose == 3:  # lying: the body's own outline, nudged away from the sun
             shadow_a = np.column_stack([base - 0.7 * along[:, None] * fwd + 0.15 * np.array(sun), np.zeros(len(sel))])
             tip = base + 0.6 * along[:, None] * fwd + 0.15 * np.array(sun)
         shadow_b = np.column_stack([tip, np.zeros(len(sel))])
-        pieces.append(_parts(shadow_a, shadow_b, 0.22 * across, np.zeros((len(sel), 3)), SHADOW, SHADOW_LAYER, sel))
+        n, black = len(sel), np.zeros((len(sel), 3))
+        mode, layer = np.full(n, SHADOW, dtype=np.int64), np.full(n, SHADOW_LAYER, dtype=np.int64)
+        pieces.append(Parts(shadow_a, shadow_b, 0.22 * across, black, mode, layer, sel.astype(np.int64, copy=False)))
     if not pieces:
         empty = np.zeros((0, 3))
         none = np.zeros(0, dtype=np.int64)
@@ -182,21 +220,6 @@ def sun_offset(seed: int) -> tuple[float, float]:
     elevation = math.radians(rng.uniform(45.0, 80.0))
     away = 1.0 / math.tan(elevation)
     return -math.cos(azimuth) * away, -math.sin(azimuth) * away
-
-
-def _parts(
-    a: FloatArray, b: FloatArray, radius: FloatArray, rgb: FloatArray, mode: int, layer: int, owner: IntArray
-) -> Parts:
-    n = len(a)
-    return Parts(
-        a,
-        b,
-        np.broadcast_to(radius, (n,)).astype(float),
-        np.asarray(rgb, dtype=float),
-        np.full(n, mode, dtype=np.int64),
-        np.full(n, layer, dtype=np.int64),
-        owner.astype(np.int64),
-    )
 
 
 __all__ = ["POSES", "Looks", "Parts", "person_parts", "pose_codes", "sun_offset", "vehicle_quads"]

@@ -50,6 +50,8 @@ class GroundMap:
         self._tiles: OrderedDict[tuple[float, int, int], NDArray[np.uint8]] = OrderedDict()
         self._mosaic: tuple[float, int, int, int, int, NDArray[np.uint8]] | None = None
         self._rays: dict[tuple[int, int, float], tuple[F32, F32]] = {}
+        self._offset_key: tuple[int, int, float, bytes, float] | None = None
+        self._offset: tuple[F32, F32] = (np.zeros((0, 0), np.float32), np.zeros((0, 0), np.float32))
 
     def view(self, spec: CameraSpec, pose: CameraPose) -> NDArray[np.uint8]:
         """The ground (and sky) as ``spec`` sees it from ``pose``: H×W×3 uint8."""
@@ -101,20 +103,27 @@ class GroundMap:
         _, mr0, _, mc0, _, mosaic = self._mosaic_for(
             int(np.floor(north.min())), int(np.floor(north.max())), int(np.floor(east.min())), int(np.floor(east.max()))
         )
-        k = height * inv
         row0, col0 = np.float32(pose.north_m * inv - mr0 * TILE), np.float32(pose.east_m * inv - mc0 * TILE)
-        den = rot[2, 0] * dx[None, :] + (rot[2, 1] * dy[:, None] + rot[2, 2])
-        scale = k / den
-        rows = (rot[0, 0] * dx[None, :] + (rot[0, 1] * dy[:, None] + rot[0, 2])) * scale
-        rows += row0
-        cols = (rot[1, 0] * dx[None, :] + (rot[1, 1] * dy[:, None] + rot[1, 2])) * scale
-        cols += col0
-        flat = rows.astype(np.int32)
-        flat *= np.int32(mosaic.shape[1])
-        flat += cols.astype(np.int32)
+        rows, cols = self._offsets(spec, rot, height * inv)
+        flat = np.add(rows, row0).astype(np.intp)  # the texel indices stay far inside int32: the mosaic bounds them
+        flat *= mosaic.shape[1]
+        flat += np.add(cols, col0).astype(np.intp)
         np.clip(flat, 0, mosaic.shape[0] * mosaic.shape[1] - 1, out=flat)
         image: NDArray[np.uint8] = np.take(mosaic.reshape(-1, 3), flat, axis=0)
         return image
+
+    def _offsets(self, spec: CameraSpec, rot: F32, k: np.float32) -> tuple[F32, F32]:
+        """Each pixel's texel row and column relative to the camera's own, straight down: they depend only on the
+        spec, the attitude and the height (``k`` texels), so a level flight reuses the last ones."""
+        key = (spec.width_px, spec.height_px, spec.hfov_deg, rot.tobytes(), float(k))
+        if self._offset_key != key:
+            dx, dy = self._camera_rays(spec)
+            den = rot[2, 0] * dx[None, :] + (rot[2, 1] * dy[:, None] + rot[2, 2])
+            scale = k / den
+            rows = (rot[0, 0] * dx[None, :] + (rot[0, 1] * dy[:, None] + rot[0, 2])) * scale
+            cols = (rot[1, 0] * dx[None, :] + (rot[1, 1] * dy[:, None] + rot[1, 2])) * scale
+            self._offset_key, self._offset = key, (rows, cols)
+        return self._offset
 
     def _mosaic_for(self, r0: int, r1: int, c0: int, c1: int) -> tuple[float, int, int, int, int, NDArray[np.uint8]]:
         """A fine mosaic covering texel rows ``r0``–``r1`` and columns ``c0``–``c1``: the last one if it does, else

@@ -7,7 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from agentic_core.contracts.camera import CameraPose, CameraSpec
 from agentic_core.contracts.polygon import crossing_parity
+from flight.sim.render.ground import GroundMap
 from flight.sim.render.ground_tiles import TILE, GroundLayers, _in_polygon
 from flight.sim.scene_file import load_scene
 
@@ -45,3 +47,29 @@ def test_a_tile_looks_the_same_whenever_it_is_made() -> None:
     first.tile(0.1, 0, 0)
     assert np.array_equal(a, again.tile(0.1, 5, -1)) and np.array_equal(a, first.tile(0.1, 5, -1))
     assert a.reshape(-1, 3).std(axis=0).min() > 3  # textured, and the road's kerb is in it
+
+
+def test_a_reused_view_table_is_never_stale() -> None:
+    """The straight-down texel offsets are kept for the last spec, attitude and height: after each change of one of
+    them the view is the one a table made anew gives (the same map otherwise, since a frame's texels are counted
+    from the mosaic in use); and two maps with other specs, used in turn, keep their own."""
+    scene = load_scene("scenes/hajj_emergency.yaml")
+    wide, small = CameraSpec(width_px=640, height_px=480), CameraSpec(width_px=320, height_px=240, hfov_deg=70.0)
+    tilted = CameraSpec(width_px=640, height_px=480, gimbal_pitch_deg=-80.0)
+    views = [
+        (wide, CameraPose(north_m=150.0, east_m=10.0, down_m=-30.0)),
+        (wide, CameraPose(north_m=151.5, east_m=9.0, down_m=-30.0)),  # moved, same attitude: the table serves
+        (wide, CameraPose(north_m=151.5, east_m=9.0, down_m=-30.0, yaw_rad=0.3)),
+        (wide, CameraPose(north_m=151.5, east_m=9.0, down_m=-31.0, yaw_rad=0.3)),
+        (small, CameraPose(north_m=151.5, east_m=9.0, down_m=-31.0, yaw_rad=0.3)),
+        (tilted, CameraPose(north_m=150.0, east_m=10.0, down_m=-30.0)),
+        (wide, CameraPose(north_m=150.0, east_m=10.0, down_m=-30.0)),
+    ]
+    kept, anew = GroundMap(scene), GroundMap(scene)
+    theirs, theirs_anew = GroundMap(scene), GroundMap(scene)
+    for k, (spec, pose) in enumerate(views):
+        anew._offset_key = theirs_anew._offset_key = None
+        assert np.array_equal(kept.view(spec, pose), anew.view(spec, pose)), k
+        other = small if spec is not small else wide
+        assert np.array_equal(theirs.view(other, pose), theirs_anew.view(other, pose)), k
+    assert not np.array_equal(kept.view(*views[0]), kept.view(*views[2]))

@@ -43,7 +43,7 @@ crowded = st.tuples(st.floats(0, 60), st.floats(0, 60), st.floats(0.0, 25), st.f
     st.lists(st.tuples(crowded, st.sampled_from([0.1, 0.5, 0.5, 0.9]) | st.floats(0, 1), st.integers(0, 1)),
              max_size=60),
     st.floats(-0.2, 1.0),
-    st.integers(1, 70),
+    st.integers(-1, 70),
     st.booleans(),
 )  # fmt: skip
 def test_nms_is_exactly_the_textbook_loop(items, threshold: float, max_keep: int, by_class: bool) -> None:
