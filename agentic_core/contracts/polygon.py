@@ -84,6 +84,16 @@ class Ring:
             inside[rest] = self.distance(pts[rest]) <= EDGE_TOLERANCE_M
         return inside
 
+    def contains_and_distance(self, points: ArrayLike) -> tuple[BoolArray, FloatArray]:
+        """:meth:`contains` and :meth:`distance` of the same points in one pass (the crowd asks both of its
+        walkers near an edge)."""
+        pts = _points(points)
+        if len(self.a) == 0:
+            return np.zeros(len(pts), dtype=bool), np.full(len(pts), np.inf)
+        gap = self.distance(pts)
+        inside: BoolArray = self.parity(pts) | (gap <= EDGE_TOLERANCE_M)
+        return inside, gap
+
     def outside_by(self, points: ArrayLike) -> FloatArray:
         """How far each point lies outside: 0 inside or on an edge, else the distance to the nearest edge (what
         :func:`outside_by` answers for one point). One pass for what :meth:`contains` then :meth:`distance` of the

@@ -270,10 +270,10 @@ class SceneState:
         ``zone.contains``, cheaper."""
         if len(test) == 0:
             return test
-        inside = zone.contains(new[test])
+        inside, clearance = zone.inside_and_clearance(new[test])
         kept = test[inside]
         self._clear_at[kept] = new[kept]
-        self._clear_sq[kept] = np.square(zone.clearance(new[kept])) * (1.0 - CLEARANCE_MARGIN)
+        self._clear_sq[kept] = np.square(clearance[inside]) * (1.0 - CLEARANCE_MARGIN)
         out: IntArray = test[~inside]
         return out
 

@@ -202,6 +202,16 @@ class Zone(BaseModel):
             return gap
         return distance_to_edge(pts, self.ring)
 
+    def inside_and_clearance(self, points: FloatArray) -> tuple[NDArray[np.bool_], FloatArray]:
+        """:meth:`contains` and :meth:`clearance` of the same points, in one pass."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        if self.circle is not None and self.polygon is None:
+            c = self.circle.center
+            d = np.hypot(pts[:, 0] - c.north, pts[:, 1] - c.east)
+            gap: FloatArray = np.abs(d - self.circle.radius_m)
+            return d <= self.circle.radius_m, gap
+        return self.ring.contains_and_distance(pts)
+
     def distance(self, points: FloatArray) -> FloatArray:
         """Ground distance (m) from N points to the zone: 0 inside."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)

@@ -110,6 +110,8 @@ def test_a_ring_answers_exactly_as_the_corners_do_and_keeps_its_own_copy(
         got = f(points, ring)
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
     assert polygon_area(ring) == area
+    both = ring.contains_and_distance(points)
+    assert both[0].tobytes() == expected[0].tobytes() and both[1].tobytes() == expected[1].tobytes()
     away = ring.outside_by(points)
     inside, gap = points_in_polygon(points, ring), distance_to_edge(points, ring)
     assert away.tobytes() == np.where(inside, 0.0, gap).tobytes()  # exactly contains, then distance

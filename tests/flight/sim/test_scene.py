@@ -161,6 +161,17 @@ def test_the_clearance_shortcut_finds_exactly_the_walkers_that_left_their_zone(m
     assert sum(skipped) > sum(checked)  # and the shortcut did skip most tests
 
 
+@pytest.mark.parametrize("zone", [Zone(id="Z-c", circle=Circle(center=NE(north=3, east=-2), radius_m=6)),
+                                  Zone(id="Z-p", polygon=rect(0, 10, 0, 4))], ids=["circle", "polygon"])  # fmt: skip
+def test_inside_and_clearance_is_contains_and_clearance_exactly(zone):
+    """The crowd asks both at once; the answers must be the two methods' own, bit for bit, on edges and corners too."""
+    rng = np.random.default_rng(5)
+    points = np.concatenate([rng.uniform(-12, 14, (500, 2)), zone.vertices(), [[3.0, 4.0], [np.nan, 1.0]]])
+    inside, clearance = zone.inside_and_clearance(points)
+    assert inside.tobytes() == zone.contains(points).tobytes() and inside.any() and not inside.all()
+    assert clearance.tobytes() == zone.clearance(points).tobytes()
+
+
 def test_a_thousand_actors_step_as_arrays():
     scene = generate_scene(5, persons=1500, casualties=1, distractors=4)
     state = SceneState(scene)
