@@ -165,4 +165,4 @@ def test_at_full_speed_a_stop_acts_at_the_simulated_moment_it_was_sent(
     (stopped,) = [r for r in tools if r.get("name") == tool and r.get("status") == "interrupted"]
     assert stopped["hold"] == "ok"
     acted = held[0] if flown_by == "autopilot" else stopped["sim_t"]
-    assert 0.0 <= acted - sent[0] < 0.25, (sent, acted)
+    assert 0.0 <= acted - round(sent[0], 3) < 0.25, (sent, acted)  # the trace gives sim_t to the millisecond
