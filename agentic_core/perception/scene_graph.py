@@ -136,25 +136,24 @@ def as_landmark(record: Any) -> Landmark:
     )
 
 
-class _Shape(NamedTuple):
-    """A landmark's geometry, worked out once for as long as the landmark stays as it is: its polygon's
-    :class:`~agentic_core.contracts.polygon.Ring` (``None`` for a point or circle) and its bounding box."""
+def _shape_key(lm: Landmark) -> tuple[Any, ...]:
+    """What a landmark's geometry rests on, by value (so a landmark edited in place has another key)."""
+    corners = None if lm.polygon is None else [tuple(corner) for corner in lm.polygon]
+    return lm.north, lm.east, lm.radius_m, corners
 
-    north: float
-    east: float
-    radius_m: float | None
-    polygon: list[tuple[float, ...]] | None  # a copy of the landmark's, to tell when it changed
+
+class _Shape(NamedTuple):
+    """A landmark's geometry, worked out once for as long as the landmark stays as it is (its :func:`_shape_key`):
+    its polygon's :class:`~agentic_core.contracts.polygon.Ring` (``None`` for a point or circle) and its bounding
+    box."""
+
+    key: tuple[Any, ...]
     ring: Ring | None
     lo: FloatArray
     hi: FloatArray
 
-    def fits(self, lm: Landmark) -> bool:
-        """Whether ``lm`` still has this shape (compared by value: a landmark edited in place is seen)."""
-        now = None if lm.polygon is None else [tuple(corner) for corner in lm.polygon]
-        return (self.north, self.east, self.radius_m, self.polygon) == (lm.north, lm.east, lm.radius_m, now)
 
-
-def _shape(lm: Landmark) -> _Shape:
+def _shape(lm: Landmark, key: tuple[Any, ...]) -> _Shape:
     if lm.polygon is not None:
         ring = Ring(lm.polygon)
         lo, hi = ring.a.min(axis=0), ring.a.max(axis=0)
@@ -162,8 +161,7 @@ def _shape(lm: Landmark) -> _Shape:
         ring = None
         centre, radius = np.array([lm.north, lm.east]), lm.radius_m or 0.0
         lo, hi = centre - radius, centre + radius
-    polygon = None if lm.polygon is None else [tuple(corner) for corner in lm.polygon]
-    return _Shape(lm.north, lm.east, lm.radius_m, polygon, ring, lo, hi)
+    return _Shape(key, ring, lo, hi)
 
 
 def _landmark_geometry(
@@ -310,9 +308,10 @@ class SceneGraph:
         shapes = self._shapes
         self._shapes = {}
         for lm in landmarks:
+            key = _shape_key(lm)
             shape = shapes.get(lm.id)
-            if shape is None or not shape.fits(lm):
-                shape = _shape(lm)
+            if shape is None or shape.key != key:
+                shape = _shape(lm, key)
             self._shapes[lm.id] = shape
             dist, inside = _landmark_geometry(lm, shape, pts, reach)
             for a in np.flatnonzero(inside):
