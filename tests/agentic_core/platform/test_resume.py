@@ -42,12 +42,14 @@ def environment(smtp: Any) -> dict[str, str]:
 
 def kill_when(runs: Path, smtp: Any, condition: Condition, *extra: str) -> Path:
     """Start a run in a process of its own, SIGKILL it once its trace meets ``condition``; its folder."""
-    proc = subprocess.Popen(
-        command(runs, *extra), cwd=REPO, env=environment(smtp), stdin=subprocess.PIPE,
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+    output = runs.parent / "killed-run.out"
+    with output.open("w", encoding="utf-8") as sink:
+        proc = subprocess.Popen(
+            command(runs, *extra), cwd=REPO, env=environment(smtp), stdin=subprocess.PIPE, stdout=sink,
+            stderr=subprocess.STDOUT,
+        )  # fmt: skip
     try:
-        wait_for_trace(runs, condition, "the moment to kill the run")
+        wait_for_trace(runs, condition, "the moment to kill the run", proc, output)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10.0)
     finally:
@@ -58,14 +60,34 @@ def kill_when(runs: Path, smtp: Any, condition: Condition, *extra: str) -> Path:
     return folder
 
 
-def wait_for_trace(runs: Path, condition: Condition, what: str) -> None:
-    """Wait until the one run folder under ``runs`` has a trace that meets ``condition``."""
+def wait_for_trace(
+    runs: Path, condition: Condition, what: str, proc: subprocess.Popen[Any], output: Path | None = None
+) -> None:
+    """Wait until the one run folder under ``runs`` has a trace that meets ``condition``; a run that ends first,
+    or takes too long, fails the test with what it printed and the end of its trace."""
+
+    def records() -> list[dict[str, Any]]:
+        folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
+        return trace(folders[0]) if folders and (folders[0] / "trace.jsonl").is_file() else []
 
     def met() -> bool:
-        folders = [p for p in runs.iterdir() if p.is_dir()] if runs.exists() else []
-        return bool(folders) and (folders[0] / "trace.jsonl").is_file() and condition(trace(folders[0]))
+        if condition(records()):
+            return True
+        if proc.poll() is not None:
+            raise AssertionError(f"the run ended (exit {proc.returncode}) before {what}\n{told()}")
+        return False
 
-    wait_for(met, timeout_s=120.0, what=what)
+    def told() -> str:
+        tail = [f"{r.get('sim_t')} {r.get('kind')}: {r.get('summary', '')}" for r in records()[-25:]]
+        printed = output.read_text(encoding="utf-8", errors="replace")[-3000:] if output else ""
+        return "trace ends:\n" + "\n".join(tail) + "\nprinted:\n" + printed
+
+    try:
+        wait_for(met, timeout_s=120.0, interval_s=0.05, what=what)  # each poll reads the whole trace
+    except AssertionError as timed_out:
+        if "timed out" not in str(timed_out):
+            raise
+        raise AssertionError(f"{timed_out}\n{told()}") from None
 
 
 def resume(runs: Path, run_id: str, smtp: Any, answers: str = "") -> subprocess.CompletedProcess[str]:
@@ -156,7 +178,7 @@ def test_a_signal_stops_the_run_cleanly_and_it_resumes(
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-        wait_for_trace(runs, moment, f"the moment to stop the run ({moment.__name__})")
+        wait_for_trace(runs, moment, f"the moment to stop the run ({moment.__name__})", proc)
         proc.send_signal(signum)
         out, err = proc.communicate(timeout=120.0)
     finally:
