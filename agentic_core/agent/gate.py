@@ -2,7 +2,9 @@
 ``high`` or ``critical`` assessment lets the trigger act.
 
 An object whose track was lost just now (a person lying still is missed for a few frames) is looked at again for
-up to ``look_again_s`` of the vehicle's clock before it is judged, rather than judged on a stale track. While the
+up to ``look_again_s`` of the vehicle's clock before it is judged, rather than judged on a stale track; and an
+``analyze_scene`` that must be sure (``min_confidence``) looks again as long, and judges once more, before an
+unsure assessment fails it. While the
 reasoner thinks, simulated time runs at real time (:class:`~agentic_core.agent.pacing.Pace`), so a slow model
 costs the flight what it would cost a real one.
 """
@@ -105,6 +107,19 @@ class Gate:
                      summary=f"{decision.reasoner} on {focus or 'the scene'}: {verdict}")  # fmt: skip
         return decision
 
+    def confident(self, focus: str | None, why: str, min_confidence: float) -> Decision:
+        """:meth:`decide`; when the assessment counts persons at a confidence under ``min_confidence``, watch for
+        ``look_again_s`` more of the vehicle's clock and decide once more, so that one unsure moment of the detector
+        (a passer-by over a casualty, a glint) does not fail a confirmation alone. The last decision."""
+        decision = self.decide(focus, why)
+        unsure = _unsure(decision, min_confidence)
+        if unsure is None:
+            return decision
+        self.publish("log", level="info", focus=focus, summary=f"confidence {unsure:.2f} is under the "
+                     f"{min_confidence:.2f} asked for: looking again for {self.look_again_s:g} s")  # fmt: skip
+        self._watch(lambda: False)
+        return self.decide(focus, f"{why}, looked again")
+
     def _reidentified(self, focus: str) -> str:
         """``focus``, or the id its object is tracked under now (published when it changed)."""
         now = self.world.resolve(focus)
@@ -122,18 +137,36 @@ class Gate:
         found = world.get(focus)
         if found is None or found.state != "lost":
             return focus, world
+
+        def back() -> bool:
+            nonlocal world, found
+            world = self.world.world
+            found = world.get(focus)
+            return found is None or found.state != "lost"
+
+        self._watch(back)
+        seen = found is not None and found.state != "lost"
+        self.publish("log", level="info", summary=f"looked again at {focus}: {'seen' if seen else 'still not seen'}")
+        return focus, world
+
+    def _watch(self, enough: Callable[[], bool]) -> None:
+        """Let frames come for up to ``look_again_s`` of the vehicle's clock (and at most that plus a second of wall
+        time), until ``enough()``."""
         until_sim = self.vehicle.clock() + self.look_again_s
         until_wall = time.monotonic() + self.look_again_s + 1.0
         with self.pace.waiting("vehicle"):  # waiting on frames: the simulation may run at full speed
             while self.vehicle.clock() < until_sim and time.monotonic() < until_wall:
                 time.sleep(0.005)  # frames come from the vehicle's thread; a short poll is the wait
-                world = self.world.world
-                found = world.get(focus)
-                if found is None or found.state != "lost":
-                    break
-        seen = found is not None and found.state != "lost"
-        self.publish("log", level="info", summary=f"looked again at {focus}: {'seen' if seen else 'still not seen'}")
-        return focus, world
+                if enough():
+                    return
+
+
+def _unsure(decision: Decision, min_confidence: float) -> float | None:
+    """The assessment's confidence when it counts persons at less than ``min_confidence``; else None."""
+    assessment = decision.assessment
+    if assessment is None or not assessment.persons_detected or assessment.confidence >= min_confidence:
+        return None
+    return assessment.confidence
 
 
 __all__ = ["ACT_AT", "Gate", "acts"]

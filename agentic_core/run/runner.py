@@ -278,16 +278,17 @@ class MissionRun:
 
         Args:
             focus: an object id of the world model, or a description of what to look at
-            min_confidence: fail when the assessment's confidence is below this
+            min_confidence: fail when the assessment's confidence is below this, also after looking again
         """
         if self.loop is None:
             raise ToolError("no world model: this run has no scene, so there is nothing to analyse")
-        decision = self.gate.decide(focus, "analyze_scene")
+        decision = self.gate.confident(focus, "analyze_scene", min_confidence)
         if decision.assessment is None:
             raise ToolError(f"the reasoner failed: {decision.error}")
         if decision.assessment.persons_detected and decision.assessment.confidence < min_confidence:
             raise ToolError(
-                f"confidence {decision.assessment.confidence:.2f} is below the required {min_confidence:.2f}"
+                f"confidence {decision.assessment.confidence:.2f} is below the required {min_confidence:.2f}, "
+                f"also after looking again for {self.gate.look_again_s:g} s"
             )
         return decision.model_dump(mode="json")
 

@@ -30,15 +30,23 @@ def stop_tool(command: str, on_abort: OnAbort) -> str:
 
 
 def carry_out(command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Call, publish: Publish) -> None:
-    """Do what a stop asks of the aircraft (nothing for an aircraft on the ground, disarmed); when
-    that takes it away from where it was, in the air or landed and armed (beside a casualty, say), say where that
-    was (``stopped_at``), for a resumed run to go back to."""
-    if view.get("landed_state") == "on_ground" and not view.get("armed"):
+    """Do what a stop asks of the aircraft; when that takes it away from where it was, say where that was
+    (``stopped_at``), for a resumed run to go back to. On the ground a stop never starts a flight: disarmed, there
+    is nothing to do; armed (just landed beside a casualty, or spinning up to take off), a return, which would
+    need a take-off and which PX4 denies there, becomes a landing in place, which disarms."""
+    state, alt = view.get("landed_state"), view.get("alt_m") or 0.0
+    on_ground = state == "on_ground" or (state == "takeoff" and alt <= 0.5)  # spinning up, or not yet clear of it
+    if on_ground and not view.get("armed"):
         publish("log", level="info", summary=f"{command}: the aircraft is on the ground, disarmed: nothing to do")
         return
     tool = stop_tool(command, on_abort)
-    lat, lon, alt = view.get("lat_deg"), view.get("lon_deg"), view.get("alt_m") or 0.0
-    landed = view.get("landed_state") == "on_ground" or alt <= 0.5
+    if on_ground and tool != "flight.hold":
+        publish("log", level="info", summary=f"{command}: the aircraft is on the ground, armed: landing in place "
+                "(it disarms), not taking off")  # fmt: skip
+        call("flight.land", {})
+        return
+    lat, lon = view.get("lat_deg"), view.get("lon_deg")
+    landed = alt <= 0.5  # touching down or lifting off: not on the ground yet, as the vehicle reports it
     if tool != "flight.hold" and (view.get("armed") or not landed) and None not in (lat, lon):
         where = {"lat": lat, "lon": lon, "alt_m": round(float(alt), 1), "landed": landed}
         publish("log", level="info", stopped_at=where, summary=f"stopped at {lat:.6f}, {lon:.6f}, {alt:.1f} m: {tool}")
@@ -83,7 +91,8 @@ def where_it_ended(sample: TelemetrySample | None) -> str:
     if sample is None:
         return "where it was: no telemetry was heard"
     away = f"{math.hypot(sample.north_m, sample.east_m):.1f} m from home"
-    if sample.landed_state == "on_ground" or (not sample.armed and sample.alt_m < 0.5):
+    low = sample.alt_m < 0.5 and (not sample.armed or sample.landed_state in ("landing", "takeoff"))
+    if sample.landed_state == "on_ground" or low:  # landing or taking off at ground level: not in the air yet
         return f"on the ground, {'armed' if sample.armed else 'disarmed'}, {away}"
     return f"in the air at {sample.alt_m:.1f} m, {away} (mode {sample.mode})"
 

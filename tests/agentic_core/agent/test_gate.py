@@ -12,6 +12,7 @@ import pytest
 
 from agentic_core.agent import ACT_AT, Gate, Pace, acts
 from agentic_core.perception.world_model import WorldModel
+from agentic_core.reasoning.assessment import Assessment, Decision
 
 from .fakes import Events, FakeReasoner, FakeVehicle, FakeWorld, decision, eventually, person, wait_for, world_of
 from .missions import trigger
@@ -215,3 +216,87 @@ def test_a_reasoner_that_raises_leaves_the_pace_as_it_was() -> None:
         with pytest.raises(RuntimeError):
             gate.decide("P-1", "analyze_scene")
         assert pace.speed() is None
+
+
+# ---- a confirmation that must be sure (analyze_scene's min_confidence) looks again before it fails
+
+
+class Unsure:
+    """A ReasonerPort whose assessments count ``persons`` at the confidences given, in turn (the last repeats), and
+    that notes the vehicle's clock at each call."""
+
+    name = "unsure"
+
+    def __init__(self, confidences: list[float], vehicle: FakeVehicle, persons: int = 1) -> None:
+        self.confidences = confidences
+        self.vehicle = vehicle
+        self.persons = persons
+        self.at: list[float] = []
+
+    def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
+        self.at.append(self.vehicle.clock())
+        confidence = self.confidences[min(len(self.at), len(self.confidences)) - 1]
+        assessment = Assessment(persons_detected=self.persons, confidence=confidence, severity="critical",
+                                subject_id=focus)  # fmt: skip
+        return Decision(reasoner=self.name, assessment=assessment, processing_time_s=0.0)
+
+
+def unsure_gate(confidences: list[float], persons: int = 1, step_s: float = 0.01) -> tuple[Gate, Unsure, Events]:
+    vehicle, pace = FakeVehicle(step_s=step_s), Pace(None)
+    reasoner, events = Unsure(confidences, vehicle, persons), Events()
+    gate = Gate(reasoner, FakeWorld(world_of(person("P-1"))), vehicle, events.publish, pace, look_again_s=0.2)
+    return gate, reasoner, events
+
+
+def test_an_unsure_confirmation_is_looked_at_again_and_judged_once_more() -> None:
+    gate, reasoner, events = unsure_gate([0.42, 0.81])
+    decided = gate.confident("P-1", "analyze_scene", 0.5)
+    assert decided.assessment is not None and decided.assessment.confidence == 0.81 and gate.last is decided
+    assert len(reasoner.at) == 2 and reasoner.at[1] - reasoner.at[0] >= 0.2  # new frames between the two looks
+    assert [d["why"] for d in events.of("decision")] == ["analyze_scene", "analyze_scene, looked again"]
+    assert events.summaries("log") == ["confidence 0.42 is under the 0.50 asked for: looking again for 0.2 s"]
+    kinds = [e.kind for e in events.events]
+    assert kinds == ["decision", "log", "decision"]  # the trace says why it was asked twice, in order
+
+
+def test_still_unsure_after_looking_again_it_gives_the_second_verdict_and_asks_no_third_time() -> None:
+    gate, reasoner, _ = unsure_gate([0.42, 0.3, 0.99])
+    decided = gate.confident("P-1", "analyze_scene", 0.5)
+    assert decided.assessment is not None and decided.assessment.confidence == 0.3 and len(reasoner.at) == 2
+
+
+@pytest.mark.parametrize(
+    ("confidences", "persons", "floor"),
+    [([0.5], 1, 0.5), ([0.0], 0, 0.5), ([0.1], 1, 0.0), ([0.97], 3, 0.95)],
+    ids=["exactly-the-floor", "nobody-seen", "no-floor", "above-the-floor"],
+)
+def test_a_sure_enough_answer_is_taken_at_once(confidences: list[float], persons: int, floor: float) -> None:
+    gate, reasoner, events = unsure_gate(confidences, persons)
+    started = time.monotonic()
+    gate.confident("P-1", "analyze_scene", floor)
+    assert len(reasoner.at) == 1 and events.of("log") == [] and time.monotonic() - started < 0.2
+
+
+def test_a_failed_reasoner_is_not_asked_again_by_the_confirmation() -> None:
+    reasoner = FakeReasoner(None)
+    gate, events = gate_for(reasoner, look_again_s=5.0)
+    decided = gate.confident("P-1", "analyze_scene", 0.5)
+    assert decided.assessment is None and len(reasoner.calls) == 1 and events.of("log") == []
+
+
+def test_looking_again_at_an_unsure_answer_runs_the_simulation_and_is_bounded_in_wall_time() -> None:
+    gate, reasoner, _ = unsure_gate([0.2], step_s=0.0)  # the vehicle's clock stands still: only the wall bound ends it
+    speeds: list[float | None] = []
+    started = time.monotonic()
+    watching = threading.Thread(target=lambda: gate.confident("P-1", "analyze_scene", 0.5))
+    watching.start()
+    wait_for(lambda: len(reasoner.at) == 1, what="the first look")
+
+    def full_speed() -> bool:
+        speeds.append(gate.pace.speed())
+        return speeds[-1] is None
+
+    wait_for(full_speed, what="the simulation at full speed while it looks again")
+    watching.join(10)
+    assert not watching.is_alive() and len(reasoner.at) == 2 and gate.pace.speed() == 1.0
+    assert 0.2 <= time.monotonic() - started < 1.2 + 2.0  # look_again_s, plus at most a second (and slack)

@@ -7,7 +7,8 @@ from typing import Any
 import pytest
 
 from agentic_core.contracts.geodesy import ned_to_geodetic
-from agentic_core.run.stops import GONE_M, carry_out, go_back, stop_tool
+from agentic_core.contracts.telemetry import TelemetrySample
+from agentic_core.run.stops import GONE_M, carry_out, go_back, stop_tool, where_it_ended
 
 LIFT = {"kind": "tool", "name": "flight.takeoff", "status": "ok", "args": {"altitude_m": 30}}
 STOP = {"kind": "control", "command": "abort", "by": "operator"}
@@ -86,9 +87,65 @@ def test_a_stop_that_takes_the_aircraft_away_says_where_it_was(on_abort: Any, no
     assert [k["stopped_at"] for k in said if "stopped_at" in k] == ([{**AWAY, "landed": False}] if noted else [])
 
 
-@pytest.mark.parametrize(("armed", "noted"), [(True, [True]), (False, [])])
-def test_a_stop_on_the_ground_says_where_only_when_the_aircraft_is_armed_there(armed: bool, noted: list[bool]) -> None:
-    landed = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 0.0, "landed_state": "on_ground"}
+@pytest.mark.parametrize(
+    ("command", "on_abort"), [("abort", "rtl"), ("rtl", "hold"), ("abort", "land"), ("land", "rtl")]
+)
+def test_a_stop_on_the_ground_armed_lands_in_place_and_never_takes_off(command: str, on_abort: Any) -> None:
+    """Just landed beside a casualty, or spinning up to take off: a return would need a take-off (PX4 denies it on
+    the ground); the aircraft lands where it is, which disarms it, and it has not moved, so there is nowhere to go
+    back to."""
+    landed = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 0.0, "landed_state": "on_ground", "armed": True}
+    made: Calls = []
     said: list[dict[str, Any]] = []
-    carry_out("abort", "rtl", {**landed, "armed": armed}, lambda n, a: None, lambda *a, **k: said.append(k))
-    assert [k["stopped_at"]["landed"] for k in said if "stopped_at" in k] == noted
+    carry_out(command, on_abort, landed, lambda n, a: made.append((n, a)), lambda *a, **k: said.append(k))
+    assert made == [("flight.land", {})]
+    assert [k for k in said if "stopped_at" in k] == []
+    assert [k["summary"] for k in said] == [
+        f"{command}: the aircraft is on the ground, armed: landing in place (it disarms), not taking off"
+    ]
+
+
+def test_a_hold_on_the_ground_armed_is_a_hold() -> None:
+    landed = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 0.0, "landed_state": "on_ground", "armed": True}
+    made: list[str] = []
+    carry_out("abort", "hold", landed, lambda n, a: made.append(n), lambda *a, **k: None)
+    assert made == ["flight.hold"]
+
+
+def test_touching_down_is_not_on_the_ground_yet_a_return_goes_and_says_where_from() -> None:
+    low = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 0.3, "landed_state": "landing", "armed": True}
+    made: list[str] = []
+    said: list[dict[str, Any]] = []
+    carry_out("abort", "rtl", low, lambda n, a: made.append(n), lambda *a, **k: said.append(k))
+    assert made == ["flight.rtl"]
+    assert [k["stopped_at"] for k in said if "stopped_at" in k] == [{**AWAY, "alt_m": 0.3, "landed": True}]
+
+
+def test_spinning_up_to_take_off_is_still_on_the_ground() -> None:
+    spinning = {"lat_deg": AWAY["lat"], "lon_deg": AWAY["lon"], "alt_m": 0.2, "landed_state": "takeoff", "armed": True}
+    made: list[str] = []
+    carry_out("abort", "rtl", spinning, lambda n, a: made.append(n), lambda *a, **k: None)
+    assert made == ["flight.land"]
+    made.clear()
+    carry_out("abort", "rtl", {**spinning, "alt_m": 3.0}, lambda n, a: made.append(n), lambda *a, **k: None)
+    assert made == ["flight.rtl"]  # clear of the ground: a return flies home from there
+
+
+@pytest.mark.parametrize(
+    ("alt_m", "armed", "landed_state", "said"),
+    [
+        (-0.0, True, "landing", "on the ground, armed"),  # a landing asked for on the ground, before it disarms
+        (0.2, True, "takeoff", "on the ground, armed"),  # spinning up
+        (0.0, False, "unknown", "on the ground, disarmed"),
+        (0.0, True, "on_ground", "on the ground, armed"),
+        (0.3, True, "in_air", "in the air at 0.3 m"),  # a hover a hand's breadth up is still flying
+        (3.0, True, "landing", "in the air at 3.0 m"),
+        (3.0, True, "takeoff", "in the air at 3.0 m"),
+    ],
+)
+def test_where_it_ended_says_on_the_ground_only_when_it_is(
+    alt_m: float, armed: bool, landed_state: Any, said: str
+) -> None:
+    sample = TelemetrySample(time_s=9.0, lat_deg=AWAY["lat"], lon_deg=AWAY["lon"], alt_m=alt_m, north_m=30.0,
+                             east_m=40.0, down_m=-alt_m, armed=armed, landed_state=landed_state)  # fmt: skip
+    assert where_it_ended(sample).startswith(f"{said}, 50.0 m from home")
