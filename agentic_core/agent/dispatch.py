@@ -169,12 +169,12 @@ class Dispatcher:
                     self.published(tool, args, result, key)
                     return result
                 hold = self._stop(worker)  # the action ends, superseded by the hold: its result is the interruption's
+                if stop is not None:  # traced while the world still crawls: at the simulated moment the action ended
+                    return self._interrupted(tool, hold, Interrupted(stop))
             finally:
                 with self._watch_lock:
                     self._watching, self._flying = None, False
                     self.pace.urgent(False)
-            if stop is not None:
-                return self._interrupted(tool, hold, Interrupted(stop))
             assert found is not None
             trigger, event = found
             over = self._go_over(event)
