@@ -4,9 +4,8 @@
 An object whose track was lost just now (a person lying still is missed for a few frames) is looked at again for
 up to ``look_again_s`` of the vehicle's clock before it is judged, rather than judged on a stale track; and an
 ``analyze_scene`` that must be sure (``min_confidence``) looks again as long, and judges once more, before an
-unsure assessment fails it. While the
-reasoner thinks, simulated time runs at real time (:class:`~agentic_core.agent.pacing.Pace`), so a slow model
-costs the flight what it would cost a real one.
+unsure assessment fails it. While the reasoner thinks, simulated time runs at real time
+(:class:`~agentic_core.agent.pacing.Pace`), so a slow model costs the flight what it would cost a real one.
 """
 
 from __future__ import annotations
