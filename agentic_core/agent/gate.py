@@ -111,10 +111,10 @@ class Gate:
         ``look_again_s`` more of the vehicle's clock and decide once more, so that one unsure moment of the detector
         (a passer-by over a casualty, a glint) does not fail a confirmation alone. The last decision."""
         decision = self.decide(focus, why)
-        unsure = _unsure(decision, min_confidence)
-        if unsure is None:
+        low = unsure(decision, min_confidence)
+        if low is None:
             return decision
-        self.publish("log", level="info", focus=focus, summary=f"confidence {unsure:.2f} is under the "
+        self.publish("log", level="info", focus=focus, summary=f"confidence {low:.2f} is under the "
                      f"{min_confidence:.2f} asked for: looking again for {self.look_again_s:g} s")  # fmt: skip
         self._watch(lambda: False)
         return self.decide(focus, f"{why}, looked again")
@@ -160,12 +160,13 @@ class Gate:
                     return
 
 
-def _unsure(decision: Decision, min_confidence: float) -> float | None:
-    """The assessment's confidence when it counts persons at less than ``min_confidence``; else None."""
+def unsure(decision: Decision, min_confidence: float) -> float | None:
+    """The assessment's confidence when it counts persons at less than ``min_confidence`` (what fails an
+    ``analyze_scene``); else None."""
     assessment = decision.assessment
     if assessment is None or not assessment.persons_detected or assessment.confidence >= min_confidence:
         return None
     return assessment.confidence
 
 
-__all__ = ["ACT_AT", "Gate", "acts"]
+__all__ = ["ACT_AT", "Gate", "acts", "unsure"]

@@ -32,6 +32,7 @@ from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, po
 from ..agent.control import Operator
 from ..agent.envelope import FLOOR_M, Envelope
 from ..agent.failsafes import TelemetryFailsafes, VehicleTexts
+from ..agent.gate import unsure
 from ..agent.ports import WorldSource
 from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
 from ..contracts.policy_graph import Circle
@@ -285,9 +286,10 @@ class MissionRun:
         decision = self.gate.confident(focus, "analyze_scene", min_confidence)
         if decision.assessment is None:
             raise ToolError(f"the reasoner failed: {decision.error}")
-        if decision.assessment.persons_detected and decision.assessment.confidence < min_confidence:
+        low = unsure(decision, min_confidence)
+        if low is not None:
             raise ToolError(
-                f"confidence {decision.assessment.confidence:.2f} is below the required {min_confidence:.2f}, "
+                f"confidence {low:.2f} is below the required {min_confidence:.2f}, "
                 f"also after looking again for {self.gate.look_again_s:g} s"
             )
         return decision.model_dump(mode="json")

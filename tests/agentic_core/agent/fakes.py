@@ -139,6 +139,26 @@ class FakeReasoner:
             return [focus for focus, _ in self.calls]
 
 
+class Unsure:
+    """A ReasonerPort judging its focus critical, counting ``persons`` at the confidences given, in turn (the last
+    repeats); ``at`` has the vehicle's clock at each call (None without a vehicle)."""
+
+    name = "unsure"
+
+    def __init__(self, confidences: list[float], vehicle: FakeVehicle | None = None, persons: int = 1) -> None:
+        self.confidences = confidences
+        self.vehicle = vehicle
+        self.persons = persons
+        self.at: list[float | None] = []
+
+    def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
+        self.at.append(self.vehicle.clock() if self.vehicle is not None else None)
+        confidence = self.confidences[min(len(self.at), len(self.confidences)) - 1]
+        assessment = Assessment(persons_detected=self.persons, confidence=confidence, severity="critical",
+                                subject_id=focus)  # fmt: skip
+        return Decision(reasoner=self.name, assessment=assessment, processing_time_s=0.0)
+
+
 class Events:
     """A bus stand-in (``publish``) and subscriber: keeps every event in order, thread-safe."""
 

@@ -12,9 +12,19 @@ import pytest
 
 from agentic_core.agent import ACT_AT, Gate, Pace, acts
 from agentic_core.perception.world_model import WorldModel
-from agentic_core.reasoning.assessment import Assessment, Decision
 
-from .fakes import Events, FakeReasoner, FakeVehicle, FakeWorld, decision, eventually, person, wait_for, world_of
+from .fakes import (
+    Events,
+    FakeReasoner,
+    FakeVehicle,
+    FakeWorld,
+    Unsure,
+    decision,
+    eventually,
+    person,
+    wait_for,
+    world_of,
+)
 from .missions import trigger
 
 pytestmark = pytest.mark.timeout(60)
@@ -221,26 +231,6 @@ def test_a_reasoner_that_raises_leaves_the_pace_as_it_was() -> None:
 # ---- a confirmation that must be sure (analyze_scene's min_confidence) looks again before it fails
 
 
-class Unsure:
-    """A ReasonerPort whose assessments count ``persons`` at the confidences given, in turn (the last repeats), and
-    that notes the vehicle's clock at each call."""
-
-    name = "unsure"
-
-    def __init__(self, confidences: list[float], vehicle: FakeVehicle, persons: int = 1) -> None:
-        self.confidences = confidences
-        self.vehicle = vehicle
-        self.persons = persons
-        self.at: list[float] = []
-
-    def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
-        self.at.append(self.vehicle.clock())
-        confidence = self.confidences[min(len(self.at), len(self.confidences)) - 1]
-        assessment = Assessment(persons_detected=self.persons, confidence=confidence, severity="critical",
-                                subject_id=focus)  # fmt: skip
-        return Decision(reasoner=self.name, assessment=assessment, processing_time_s=0.0)
-
-
 def unsure_gate(confidences: list[float], persons: int = 1, step_s: float = 0.01) -> tuple[Gate, Unsure, Events]:
     vehicle, pace = FakeVehicle(step_s=step_s), Pace(None)
     reasoner, events = Unsure(confidences, vehicle, persons), Events()
@@ -252,7 +242,8 @@ def test_an_unsure_confirmation_is_looked_at_again_and_judged_once_more() -> Non
     gate, reasoner, events = unsure_gate([0.42, 0.81])
     decided = gate.confident("P-1", "analyze_scene", 0.5)
     assert decided.assessment is not None and decided.assessment.confidence == 0.81 and gate.last is decided
-    assert len(reasoner.at) == 2 and reasoner.at[1] - reasoner.at[0] >= 0.2  # new frames between the two looks
+    first, second = reasoner.at
+    assert first is not None and second is not None and second - first >= 0.2  # new frames between the two looks
     assert [d["why"] for d in events.of("decision")] == ["analyze_scene", "analyze_scene, looked again"]
     assert events.summaries("log") == ["confidence 0.42 is under the 0.50 asked for: looking again for 0.2 s"]
     kinds = [e.kind for e in events.events]

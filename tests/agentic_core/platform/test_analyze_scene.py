@@ -10,30 +10,12 @@ from pathlib import Path
 import pytest
 
 from agentic_core.agent import Gate
-from agentic_core.perception.world_model import WorldModel
-from agentic_core.reasoning.assessment import Assessment, Decision
 from agentic_core.run.runner import MissionRun, RunSettings
 
-from ..agent.fakes import Events, FakeVehicle, FakeWorld, person, world_of
+from ..agent.fakes import Events, FakeVehicle, FakeWorld, Unsure, person, world_of
 from .conftest import EMERGENCY, NEAR, PARAMS
 
 pytestmark = pytest.mark.timeout(60)
-
-
-class Confidences:
-    """A reasoner judging P-1 critical at the confidences given, in turn (the last repeats)."""
-
-    name = "scripted"
-
-    def __init__(self, *confidences: float) -> None:
-        self.confidences = confidences
-        self.asked = 0
-
-    def assess(self, world: WorldModel, focus: str | None = None) -> Decision:
-        self.asked += 1
-        confidence = self.confidences[min(self.asked, len(self.confidences)) - 1]
-        assessment = Assessment(persons_detected=1, confidence=confidence, severity="critical", subject_id=focus)
-        return Decision(reasoner=self.name, assessment=assessment, processing_time_s=0.0)
 
 
 @pytest.fixture
@@ -43,7 +25,7 @@ def run(tmp_path: Path) -> Iterator[MissionRun]:
     made.close()
 
 
-def judged_by(run: MissionRun, reasoner: Confidences) -> Events:
+def judged_by(run: MissionRun, reasoner: Unsure) -> Events:
     events = Events()
     run.gate = Gate(reasoner, FakeWorld(world_of(person("P-1"))), FakeVehicle(step_s=0.01), events.publish, run.pace,
                     look_again_s=0.2)  # fmt: skip
@@ -51,18 +33,18 @@ def judged_by(run: MissionRun, reasoner: Confidences) -> Events:
 
 
 def test_a_moment_of_doubt_does_not_fail_the_confirmation(run: MissionRun) -> None:
-    reasoner = Confidences(0.46, 0.83)
+    reasoner = Unsure([0.46, 0.83])
     events = judged_by(run, reasoner)
     result = run.executor.call("perception.analyze_scene", {"focus": "P-1", "min_confidence": 0.5})
     assert result.status == "ok", result.error
     assert isinstance(result.output, dict) and result.output["assessment"]["confidence"] == 0.83
-    assert reasoner.asked == 2 and len(events.of("decision")) == 2
+    assert len(reasoner.at) == 2 and len(events.of("decision")) == 2
 
 
 def test_a_doubt_that_stays_fails_the_step_with_an_error_saying_so(run: MissionRun) -> None:
-    reasoner = Confidences(0.46, 0.31)
+    reasoner = Unsure([0.46, 0.31])
     judged_by(run, reasoner)
     result = run.executor.call("perception.analyze_scene", {"focus": "P-1", "min_confidence": 0.5})
-    assert result.status == "error" and reasoner.asked == 2
+    assert result.status == "error" and len(reasoner.at) == 2
     assert result.error is not None
     assert "confidence 0.31 is below the required 0.50, also after looking again for 0.2 s" in result.error
