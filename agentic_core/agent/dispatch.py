@@ -147,7 +147,7 @@ class Dispatcher:
         self, tool: str, args: dict[str, Any], timeout_s: float | None, state: Mapping[str, Any], key: str | None
     ) -> ToolResult | Interrupted:
         while True:
-            already = self._control_stop()
+            already = self.stopping()
             if already is not None:  # never start a movement the operator has already stopped: hold where it is
                 return self._interrupted(tool, self.executor.call(HOLD, {}), Interrupted(already))
             with self._watch_lock:
@@ -158,7 +158,7 @@ class Dispatcher:
             stop: str | None = None
             try:
                 while worker.running(self.poll_s):
-                    stop = self._control_stop()
+                    stop = self.stopping()
                     if stop is not None:
                         break
                     found = self._take_spotted() if self.frame_driven else self._new_event(state)
@@ -196,7 +196,7 @@ class Dispatcher:
         try:
             worker = self._flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
             while worker.running(self.poll_s):
-                stop = self._control_stop()
+                stop = self.stopping()
                 if stop is not None:
                     return self._interrupted(tool, self._stop(worker), Interrupted(stop))
         finally:
@@ -215,7 +215,7 @@ class Dispatcher:
         seen at the first poll, once the action is on its way (the hold must supersede it); until then the world
         crawls."""
         self._wake.clear()
-        if self._control_stop() is not None:
+        if self.stopping() is not None:
             self.pace.urgent(True)
 
     def _heard(self) -> None:
@@ -242,7 +242,8 @@ class Dispatcher:
             return None
         return _Flight(lambda: self.call("flight.fly_to", args), "agent-hold-over")
 
-    def _control_stop(self) -> str | None:
+    def stopping(self) -> str | None:
+        """Why the run is paused or being stopped by the operator (the control port), None to go on."""
         command = self.control.stop_requested()
         if command is not None:
             return f"the operator asked to {command}"

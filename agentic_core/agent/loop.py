@@ -13,6 +13,7 @@ being watched run on a thread of their own while the dispatching thread watches.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -30,6 +31,10 @@ MISSION_EVENTS = frozenset(
     {"fired", "declined", "planned", "plan empty", "replaced", "reflection gave up", "interrupted", "skipped"}
 )
 """Other mission log entries worth an event."""
+
+TIME_LIMIT = "the wall-clock limit"
+"""Who asks for the return of a run past its ``max_wall_s``, on the control port, so that a step that is still
+going (a ``wait_until`` that never comes true, a long hover) gives way too, not only the next superstep."""
 
 
 @dataclass
@@ -71,6 +76,21 @@ class AgentLoop:
         """Run from ``inputs`` (the initial state; None to go on from the checkpoint) to the end or a stop."""
         wall0 = time.monotonic()
         result = LoopResult()
+        limit = threading.Timer(max(self.max_wall_s, 0.0), self.control.rtl, kwargs={"by": TIME_LIMIT})
+        limit.daemon = True
+        limit.start()
+        try:
+            self._drive(inputs, wall0, result)
+        finally:
+            limit.cancel()
+        result.stopped = self.control.stop_requested()
+        if self.control.stopped_by == TIME_LIMIT:
+            result.over_time, result.stopped = True, None
+        result.state = dict(self.graph.get_state(self.config).values)
+        return result
+
+    def _drive(self, inputs: Any, wall0: float, result: LoopResult) -> None:
+        """Stream the graph until it ends, a stop, or past ``max_wall_s`` between supersteps."""
         while True:
             for update in self.graph.stream(inputs, self.config, stream_mode="updates"):
                 for node, change in update.items():
@@ -91,9 +111,6 @@ class AgentLoop:
             inputs = Command(resume={i.id: self.question(dict(i.value)) for i in pending})
             if self.control.stop_requested():
                 break
-        result.stopped = self.control.stop_requested()
-        result.state = dict(self.graph.get_state(self.config).values)
-        return result
 
     def _paused_or_stopped(self) -> bool:
         """Between supersteps: wait out a pause; True when the run must stop streaming (a stop command)."""

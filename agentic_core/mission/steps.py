@@ -51,6 +51,9 @@ class Environment:
     review: Callable[[list[Any]], list[str]] | None = None  # problems of proposed steps beyond the validator's
     clock: Callable[[], float] = time.monotonic
     sleep: Callable[[float], None] = time.sleep
+    stopping: Callable[[], str | None] = lambda: None
+    """Why the run is being paused or stopped (the control port), None to go on: a ``wait_until``, which calls no
+    tool that could be interrupted, gives way to it at its next poll."""
 
 
 class StepFailed(RunFailure):
@@ -270,6 +273,8 @@ def perform(step: Step, args: dict[str, Any], state: Mapping[str, Any], env: Env
     if isinstance(step, WaitUntilStep):
         deadline = None if step.timeout_s is None else env.clock() + step.timeout_s
         while not check(step.condition, scope(state, env)):
+            if (reason := env.stopping()) is not None:
+                raise StepInterrupted(Interrupted(reason))
             if deadline is not None and env.clock() >= deadline:
                 raise StepFailed(f"{step.condition!r} still false after {step.timeout_s:g} s")
             env.sleep(step.poll_s)

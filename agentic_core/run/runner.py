@@ -204,6 +204,7 @@ class MissionRun:
             planner=self.model.plan if self.model.planner is not None else None,
             review=lambda steps: review(steps, self.registry, self.agent) + self.model.reads.problems(steps, self.plan)
             + destination_review(steps, self.config),
+            stopping=self.dispatch.stopping,
         )  # fmt: skip
 
     @classmethod
@@ -415,7 +416,7 @@ class MissionRun:
                 self.bus.publish(
                     "log", level="error", summary=f"over {self.settings.max_wall_s:.0f} s of wall time: RTL"
                 )
-                self.dispatch.call("flight.rtl", {})
+                carry_out("rtl", self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
         except AgenticUAVError:
             raise
         except Exception as exc:  # a bug must still leave a report

@@ -178,7 +178,7 @@ def test_between_a_stop_and_its_hold_the_world_crawls_and_afterwards_it_does_not
     rig.aircraft.on_command = record
     with rig.pace.waiting("vehicle"):  # as a run waiting on its vehicle: full speed unless slowed
         if when == "as the leg is sent":
-            looked = rig.dispatch._control_stop
+            looked = rig.dispatch.stopping
 
             def stop_after_the_look() -> str | None:  # the abort lands between the dispatcher's look and the leg
                 seen = looked()
@@ -186,7 +186,7 @@ def test_between_a_stop_and_its_hold_the_world_crawls_and_afterwards_it_does_not
                     rig.control.abort()
                 return seen
 
-            rig.dispatch._control_stop = stop_after_the_look  # type: ignore[method-assign]
+            rig.dispatch.stopping = stop_after_the_look  # type: ignore[method-assign]
             with step_call("leg", state={}):
                 outcome = rig.dispatch("flight.fly_to", dict(LEG), None)
             assert speeds["flight.fly_to"] == URGENT_SPEED
