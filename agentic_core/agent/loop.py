@@ -135,8 +135,12 @@ class AgentLoop:
 
     def follow(self, node: str, change: Mapping[str, Any]) -> None:
         """Publish what one node changed: step statuses, and the mission's log of triggers, plans and refusals."""
+        errors = change.get("errors") or {}
         for step, status in (change.get("status") or {}).items():
-            self.publish("step", node=node, step=step, status=status, summary=f"{step} {status}")
+            why = errors.get(step) if status in ("failed", "skipped") else None
+            extra = {"error": why} if why else {}
+            self.publish("step", node=node, step=step, status=status, **extra,
+                         summary=f"{step} {status}" + (f": {why}" if why else ""))  # fmt: skip
         for entry in change.get("log") or []:
             status = str(entry.get("status"))
             if status in REFUSALS:

@@ -24,6 +24,7 @@ from ..contracts.failure import Failure
 from ..graph import END, START, Command, CompiledStateGraph, Send, StateGraph
 from ..graph.checkpoint import BaseCheckpointSaver
 from .expressions import ExpressionError
+from .grounded import ground_tool
 from .model import ON_ABORT_TOOLS, PolicyGraph, RepeatStep, Step, Trigger
 from .state import FINISHED, MissionState
 from .steps import (
@@ -393,23 +394,27 @@ class MissionRuntime:
         failed = sorted(k for k, v in (state.get("status") or {}).items() if v == "failed")
         if any(entry.get("step") == ABORT for entry in state.get("log") or []):
             return {"halt": "abort"}
-        tool = ON_ABORT_TOOLS[self.plan.on_abort]
-        try:
-            result = self.env.dispatch(tool, {}, None)
-            done = {"action": self.plan.on_abort, "result": result.status, "error": result.error}
-        except Exception as exc:  # the last resort must not raise past the mission
-            done = {"action": self.plan.on_abort, "result": "error", "error": f"{type(exc).__name__}: {exc}"}
+        status, error = self.last_resort(ON_ABORT_TOOLS[self.plan.on_abort])
+        done = {"action": self.plan.on_abort, "result": status, "error": error}
         return {"halt": "abort", "log": [{"step": ABORT, "status": "aborted", "after": failed, **done}]}
 
     def rtl(self, state: MissionState) -> dict[str, Any]:
         if any(entry.get("step") == RTL for entry in state.get("log") or []):
             return {"halt": "rtl"}  # sent already: the aircraft is on its way home
+        status, error = self.last_resort("flight.rtl")
+        return {"halt": "rtl", "log": [{"step": RTL, "status": status, "error": error}]}
+
+    def last_resort(self, tool: str) -> tuple[str, str | None]:
+        """Call an abort's or a return's ``tool`` as the aircraft's state allows (:func:`ground_tool`: nothing on
+        the ground disarmed, a landing in place on the ground armed); its status and error. It never raises."""
         try:
-            result = self.env.dispatch("flight.rtl", {}, None)
-            entry = {"step": RTL, "status": result.status, "error": result.error}
+            chosen = ground_tool(tool, self.env.vehicle() or {})
+            if chosen is None:
+                return "not needed", None  # on the ground, disarmed: where an abort or a return would leave it
+            result = self.env.dispatch(chosen, {}, None)
+            return str(result.status), result.error
         except Exception as exc:  # the last resort must not raise past the mission
-            entry = {"step": RTL, "status": "error", "error": f"{type(exc).__name__}: {exc}"}
-        return {"halt": "rtl", "log": [entry]}
+            return "error", f"{type(exc).__name__}: {exc}"
 
 
 def compile_mission(

@@ -324,7 +324,7 @@ class MissionRun:
         self.bus.publish("control", command=name, **detail, summary=f"{name} by {detail.get('by')}")
 
     def _say(self, event: RunEvent) -> None:
-        if self.progress is not None and event.summary and event.kind not in ("step",):
+        if self.progress is not None and event.summary and (event.kind != "step" or "error" in event.fields()):
             sim = f"{event.sim_t:7.1f}" if event.sim_t is not None else "      -"
             print(f"[{sim} s] {event.kind}: {readable(event.summary, self.links)}", file=self.progress, flush=True)
 

@@ -16,6 +16,7 @@ from typing import Any
 from ..contracts.geodesy import local_offset
 from ..contracts.policy_graph import ON_ABORT_TOOLS, OnAbort
 from ..contracts.telemetry import TelemetrySample
+from ..mission.grounded import ground_tool, on_the_ground
 
 STOP_OUTCOMES = {"abort": "aborted", "rtl": "returned", "land": "landed", "hold": "held"}
 
@@ -34,16 +35,16 @@ def carry_out(command: str, on_abort: OnAbort, view: Mapping[str, Any], call: Ca
     (``stopped_at``), for a resumed run to go back to. On the ground a stop never starts a flight: disarmed, there
     is nothing to do; armed (just landed beside a casualty, or spinning up to take off), a return, which would
     need a take-off and which PX4 denies there, becomes a landing in place, which disarms."""
-    state, alt = view.get("landed_state"), view.get("alt_m") or 0.0
-    on_ground = state == "on_ground" or (state == "takeoff" and alt <= 0.5)  # spinning up, or not yet clear of it
-    if on_ground and not view.get("armed"):
+    alt = view.get("alt_m") or 0.0
+    wanted = stop_tool(command, on_abort)
+    tool = ground_tool(wanted, view)
+    if tool is None:
         publish("log", level="info", summary=f"{command}: the aircraft is on the ground, disarmed: nothing to do")
         return
-    tool = stop_tool(command, on_abort)
-    if on_ground and tool != "flight.hold":
+    if tool == "flight.land" and on_the_ground(view):
         publish("log", level="info", summary=f"{command}: the aircraft is on the ground, armed: landing in place "
                 "(it disarms), not taking off")  # fmt: skip
-        call("flight.land", {})
+        call(tool, {})
         return
     lat, lon = view.get("lat_deg"), view.get("lon_deg")
     landed = alt <= 0.5  # touching down or lifting off: not on the ground yet, as the vehicle reports it

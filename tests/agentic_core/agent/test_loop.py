@@ -231,3 +231,57 @@ def test_an_edit_that_takes_the_landing_outside_the_fence_is_refused_by_the_enve
     assert result.state["status"]["down"] == "failed"
     assert "flight.land" not in [tool for tool, *_ in executor.calls]
     assert "outside the flight envelope" in str(result.state["errors"]["down"])
+
+
+TIMES_OUT = """
+plan_id: times_out
+goal: a wait that fails, on the ground
+steps:
+  - {id: wait, action: wait_until, condition: "1 > 2", timeout_s: 0.2, poll_s: 0.05}
+"""
+
+
+def test_a_failed_step_says_why_in_its_event() -> None:
+    """The reason a step failed reaches the trace and the terminal, not only ``wait failed``."""
+    looping = Looping(TIMES_OUT)
+    looping.run()
+    (failed,) = [e for e in looping.events.of("step") if e["step"] == "wait"]
+    assert failed["status"] == "failed"
+    assert "'1 > 2' still false after 0.2 s" in failed["error"]
+    assert failed["summary"] == f"wait failed: {failed['error']}"
+
+
+NEVER = """
+plan_id: never
+goal: wait for what never comes
+steps:
+  - {id: up, action: takeoff, args: {altitude_m: 10}}
+  - {id: wait, action: wait_until, depends_on: [up], condition: "1 > 2", poll_s: 0.05}
+"""
+
+
+@pytest.mark.parametrize("stop", ["abort", "wall clock"])
+def test_a_wait_that_never_comes_true_gives_way_to_a_stop(stop: str) -> None:
+    """A ``wait_until`` calls no tool a dispatcher could interrupt: it asks the environment at each poll whether the
+    run is being stopped, so an abort, or the wall-clock limit, ends it (before, the loop waited forever)."""
+    looping = Looping(NEVER, max_wall_s=0.5 if stop == "wall clock" else 60.0)
+    control = looping.control
+    polls: list[float] = []
+
+    def stopping() -> str | None:
+        polls.append(1.0)
+        return "stop" if control.stop_requested() else None
+
+    env = Environment(looping.dispatch, stopping=stopping)
+    looping.loop.graph = compile_mission(looping.plan, env, checkpointer=InMemorySaver())
+    looping.start()
+    if stop == "abort":
+        wait_for(lambda: len(polls) >= 3, what="the wait to poll")
+        threading.Thread(target=lambda: control.abort(by="test")).start()
+    result = looping.finish()
+    if stop == "abort":
+        assert result.stopped == "abort" and not result.over_time
+    else:
+        assert result.over_time and result.stopped is None
+    assert result.state["status"]["wait"] == "blocked"  # given way, to run again if the run goes on
+    assert {"step": "wait", "status": "interrupted", "error": "stop", "trigger": None} in result.state["log"]

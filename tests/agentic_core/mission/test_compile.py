@@ -159,6 +159,37 @@ def test_an_aborted_mission_does_what_its_on_abort_says(on_abort: str | None, to
     assert aborted["action"] == (on_abort or "rtl") and aborted["after"] == ["risky"]
 
 
+GROUND = {"landed_state": "on_ground", "armed": False, "alt_m": 0.0}
+SPINNING_UP = {"landed_state": "takeoff", "armed": True, "alt_m": 0.3}
+FLYING = {"landed_state": "in_air", "armed": True, "alt_m": 20.0}
+
+
+@pytest.mark.parametrize(
+    ("policy", "on_abort", "vehicle", "sent", "result"),
+    [
+        ("abort", "rtl", GROUND, [], "not needed"),
+        ("rtl", None, GROUND, [], "not needed"),
+        ("abort", "rtl", SPINNING_UP, ["flight.land"], "ok"),
+        ("rtl", None, SPINNING_UP, ["flight.land"], "ok"),
+        ("abort", "hold", SPINNING_UP, ["flight.hold"], "ok"),
+        ("abort", "rtl", FLYING, ["flight.rtl"], "ok"),
+        ("rtl", None, FLYING, ["flight.rtl"], "ok"),
+    ],
+)
+def test_an_abort_or_return_on_the_ground_never_asks_for_a_take_off(
+    policy: str, on_abort: str | None, vehicle: dict[str, Any], sent: list[str], result: str
+) -> None:
+    """A step failing on the ground (a wait that timed out before take-off): a return would need a take-off, which
+    the vehicle denies ("Return denied: not flying") and the run reported as a tool error. Disarmed, nothing is
+    sent; armed (spinning up), the aircraft lands in place; in the air, the mission's own choice."""
+    rec = Recorder({"svc.flaky": flaky(99)})
+    text = POLICY.replace("POLICY", policy).replace("on_abort: hold\n", f"on_abort: {on_abort}\n" if on_abort else "")
+    out = run(text, rec, env={"vehicle": lambda: vehicle})
+    assert [t for t in rec.tools() if t in ("flight.rtl", "flight.land", "flight.hold")] == sent
+    (last,) = [e for e in out["log"] if e.get("step") in ("__abort__", "__rtl__")]
+    assert last.get("result", last.get("status")) == result and last.get("error") is None
+
+
 def test_reflection_splices_revised_steps_and_dependents_wait_for_them() -> None:
     seen: list[Failure] = []
 
