@@ -18,7 +18,7 @@ from evaluation.stats import effect_sizes as es
 from evaluation.stats import pvalues
 from evaluation.stats import studentized_range as srange
 from evaluation.stats._typing import FloatArray
-from evaluation.stats.models import OmnibusResult, PairwiseEffect, PairwiseResult, PosthocResult
+from evaluation.stats.models import NOT_FINITE, OmnibusResult, PairwiseEffect, PairwiseResult, PosthocResult
 from evaluation.stats.power import anova_power
 
 ANOVA = "one-way ANOVA"
@@ -45,6 +45,8 @@ class Moments:
         n = int(values.size)
         mean = float(np.mean(values)) if n else math.nan
         var = float(np.var(values, ddof=1)) if n >= 2 else math.nan
+        if var == 0.0 and float(np.ptp(values)) > 0.0:
+            var = math.nan  # underflowed: values far smaller than another group's, on one scale (not constant)
         return cls(label, n, mean, var)
 
     @classmethod
@@ -161,6 +163,8 @@ def tukey_hsd(groups: Sequence[Moments], confidence: float = 0.95) -> PosthocRes
         mse = sum((g.n - 1) * g.var for g in groups if g.n >= 2) / (n_total - k)
         if mse == 0.0:
             reason = "no within-group variance: every group is constant"
+        elif not math.isfinite(mse) or not all(math.isfinite(g.mean) for g in groups):
+            reason = NOT_FINITE
     if reason is not None:
         return PosthocResult(test=TUKEY, adjustment="studentized range", comparisons=[], reason=reason)
     df = float(n_total - k)
@@ -224,6 +228,13 @@ def games_howell(groups: Sequence[Moments], confidence: float = 0.95) -> Posthoc
             )
             continue
         se = math.sqrt(va + vb)
+        if not (math.isfinite(se) and math.isfinite(diff)):
+            comparisons.append(
+                PairwiseResult(
+                    a=a.label, b=b.label, estimate_name="mean difference", statistic_name="t", reason=NOT_FINITE
+                )
+            )
+            continue
         t = diff / se
         df = (va + vb) ** 2 / (va**2 / (a.n - 1) + vb**2 / (b.n - 1))
         q_crit = srange.ppf(confidence, k, df)
