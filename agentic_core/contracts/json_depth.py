@@ -13,6 +13,7 @@ JSON nested more than 100 levels deep
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from typing import Any
 
 from .errors import InputError
@@ -39,11 +40,12 @@ def depth_of(value: Any, limit: int = MAX_JSON_DEPTH) -> int:
     return deepest
 
 
-def loads(text: str | bytes, max_depth: int = MAX_JSON_DEPTH) -> Any:
-    """``json.loads`` that refuses input nested more than ``max_depth`` levels (:class:`JsonTooDeep`)."""
+def loads(text: str | bytes, max_depth: int = MAX_JSON_DEPTH, *, parse_int: Callable[[str], Any] | None = None) -> Any:
+    """``json.loads`` that refuses input nested more than ``max_depth`` levels (:class:`JsonTooDeep`);
+    ``parse_int``, as ``json.loads`` takes it, turns each integer's digits into a value."""
     too_deep = JsonTooDeep(f"JSON nested more than {max_depth} levels deep")
     try:
-        value = json.loads(text)
+        value = json.loads(text, parse_int=parse_int)
     except RecursionError:
         raise too_deep from None
     if depth_of(value, max_depth) > max_depth:

@@ -123,7 +123,7 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pydantic import ValidationError
 
     from agentic_core.contracts.errors import InputError
-    from agentic_core.run.detector_choice import camera_spec, parse_detector
+    from agentic_core.run.detector_choice import camera_spec, load_detector, parse_detector
 
     from .early_stop import parse_stop_rule
     from .episode import EpisodeSettings
@@ -161,6 +161,7 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     scenes, source = _scenes(args)
     try:
         detector = parse_detector(args.detector)
+        load_detector(detector)  # a missing or unusable model is bad input, found before any scene runs
     except InputError as exc:
         raise _UsageError(str(exc)) from None
     settings = EpisodeSettings(

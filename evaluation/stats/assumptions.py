@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 
@@ -10,7 +11,7 @@ from scipy import stats as st
 
 from evaluation.stats import pvalues
 from evaluation.stats._typing import FloatArray
-from evaluation.stats.models import NormalityTest, VarianceTest
+from evaluation.stats.models import NOT_FINITE, NormalityTest, VarianceTest
 
 #: scipy's Shapiro–Wilk p-value approximation (Royston 1995) is validated up to this sample size.
 SHAPIRO_VALIDATED_N = 5000
@@ -26,6 +27,8 @@ def shapiro_wilk(group: str, values: FloatArray) -> NormalityTest:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = st.shapiro(values)
+    if not (math.isfinite(result.statistic) and math.isfinite(result.pvalue)):
+        return NormalityTest(group=group, n=n, reason=NOT_FINITE)
     caveat = None
     if n > SHAPIRO_VALIDATED_N:
         caveat = f"n = {n} > {SHAPIRO_VALIDATED_N}: the p-value approximation is not validated this far"

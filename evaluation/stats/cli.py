@@ -25,7 +25,7 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
         "--value",
         metavar="COL",
         action="append",
-        help="outcome column (repeat, or separate with commas; default: detected)",
+        help="outcome column (repeat, or separate with commas; a column's own name wins; default: detected)",
     )
     parser.add_argument(
         "--categorical", metavar="COL", action="append", default=[], help="treat a numeric column as categories"
@@ -46,9 +46,10 @@ def configure_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser
 
 
 def _split(values: Sequence[str] | None) -> list[str] | None:
+    """The names as given; the data set splits at commas once it knows the columns (a name may hold one)."""
     if not values:
         return None
-    return [v.strip() for item in values for v in item.split(",") if v.strip()]
+    return [v.strip() for v in values if v.strip()]
 
 
 def run(args: argparse.Namespace, stdout: TextIO | None = None, stderr: TextIO | None = None) -> int:

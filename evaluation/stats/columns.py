@@ -16,7 +16,7 @@ import numpy as np
 from evaluation.stats._typing import FloatArray, IntArray
 from evaluation.stats.errors import InputError
 from evaluation.stats.models import SkippedColumn
-from evaluation.stats.readers import MISSING_TOKENS, RawTable
+from evaluation.stats.readers import MISSING_TOKENS, HugeInteger, RawTable
 
 TRUE_TOKENS = frozenset({"true", "yes"})
 FALSE_TOKENS = frozenset({"false", "no"})
@@ -153,8 +153,13 @@ def parse_mixed(
             if first_bool < 0:
                 first_bool = row
             continue
+        if isinstance(cell, HugeInteger):
+            raise cell_error(raw, name, row, f"an integer of {len(cell.digits)} digits is too large for a number")
         if isinstance(cell, int | float):
-            value = float(cell)
+            try:
+                value = float(cell)
+            except OverflowError:
+                raise cell_error(raw, name, row, "an integer too large for a number (above 1.8e308)") from None
             if math.isnan(value):
                 continue
             if math.isinf(value):
@@ -224,10 +229,8 @@ def categorical(raw: RawTable, name: str, texts: Sequence[str | None], explicit:
     lookup: dict[str, int] = {}
     codes = np.empty(len(texts), dtype=np.int64)
     for row, text in enumerate(texts):
-        if text is None:
-            codes[row] = -1
-            continue
-        codes[row] = level_code(lookup, text, raw, row, name)
+        # Free text is told by its count of levels, so an outcome column is never held to the groups' limit.
+        codes[row] = -1 if text is None else lookup.setdefault(text, len(lookup))
     n_levels = len(lookup)
     if n_levels > MAX_CATEGORICAL_LEVELS or n_levels >= raw.n_rows:
         message = f"{n_levels} distinct text values: neither numeric nor categorical (at most {MAX_CATEGORICAL_LEVELS})"

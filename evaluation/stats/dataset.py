@@ -168,10 +168,13 @@ def build_dataset(
         raise InputError("no data rows", source=raw.source)
     header = raw.header
     ours = {"system", "processing_time_s"} <= set(header)
+    values = column_names(values, header, ours) if values else values
+    categorical = column_names(categorical, header, ours)
     for name in [*(values or ()), *categorical, *([group] if group else [])]:
         known = name in header or (ours and derivable(name, header))
         if not known:
-            raise InputError(f"no column {name!r}; the columns are: {', '.join(header)}", source=raw.source)
+            listing = ", ".join(repr(h) for h in header)
+            raise InputError(f"no column {name!r}; the columns are: {listing}", source=raw.source)
     group_name = group or _detect_group(raw, ours)
     group_labels, group_codes = _parse_groups(raw, group_name)
     if len(group_labels) < 2:
@@ -253,6 +256,30 @@ def build_dataset(
 # --------------------------------------------------------------------------- detection
 
 
+def column_names(items: Sequence[str], header: Sequence[str], ours: bool = False) -> list[str]:
+    """Column names as given (``--value "a,b"`` names two): a column's own name wins, commas and all; the rest
+    is split at commas, each piece the longest run of pieces that names a column.
+
+    >>> column_names(["time, s", "a,b", "time, s,a"], ["group", "time, s", "a", "b"])
+    ['time, s', 'a', 'b', 'time, s', 'a']
+    """
+
+    def known(name: str) -> bool:
+        return name in header or (ours and derivable(name, header))
+
+    out: list[str] = []
+    for item in items:
+        parts = item.split(",")
+        start = 0
+        while start < len(parts):
+            end = next(
+                (e for e in range(len(parts), start + 1, -1) if known(",".join(parts[start:e]).strip())), start + 1
+            )
+            out.append(",".join(parts[start:end]).strip())
+            start = end
+    return [n for n in out if n]
+
+
 def _is_identifier(name: str) -> bool:
     low = name.lower()
     return low in {"id", "index", "row"} or low.endswith(("_id", "-id", " id"))
@@ -315,5 +342,6 @@ __all__ = [
     "ContinuousColumn",
     "Dataset",
     "build_dataset",
+    "column_names",
     "load_dataset",
 ]

@@ -1,21 +1,60 @@
 """Result models of the statistics pipeline (pydantic, so every report exports to JSON).
 
-Numbers that cannot be computed are ``None`` with a ``reason``; no model holds NaN or infinity.
+Numbers that cannot be computed are ``None`` with a ``reason``; no model holds NaN or infinity: every model
+turns a non-finite number given to it into ``None``, and a test whose statistic or degrees of freedom are not
+finite into one that was not computable, its p-value dropped (a NaN statistic never reaches the report with a
+p-value).
 """
 
 from __future__ import annotations
 
-from typing import Literal
+import math
+from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from evaluation.stats.pvalues import PValue
 
 ColumnKind = Literal["continuous", "binary", "categorical"]
 
+NOT_FINITE = "not computable: the statistic is not a finite number (the values are beyond double precision)"
+
+
+def _finite(x: object) -> bool:
+    return not isinstance(x, float) or math.isfinite(x)
+
+
+def _finite_only(value: object) -> object:
+    if isinstance(value, dict):
+        return {k: v for k, v in value.items() if _finite(v)}
+    return value if _finite(value) else None
+
+
+def _all_finite(data: dict[str, Any]) -> bool:
+    for value in data.values():
+        items = value.values() if isinstance(value, dict) else value if isinstance(value, tuple) else (value,)
+        if not all(_finite(x) for x in items):
+            return False
+    return True
+
 
 class _Model(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _finite_or_not_computable(cls, data: Any) -> Any:
+        if not isinstance(data, dict) or _all_finite(data):
+            return data
+        out = {k: _finite_only(v) for k, v in data.items()}
+        df = data.get("df")
+        several = isinstance(df, tuple | list)
+        dfs: tuple[object, ...] = tuple(df) if isinstance(df, tuple | list) else (df,)
+        if not _finite(data.get("statistic")) or not all(_finite(d) for d in dfs):
+            out.update(statistic=None, p=None, reason=NOT_FINITE, df=() if several else None)
+            if "p_adjusted" in cls.model_fields:
+                out["p_adjusted"] = None
+        return out
 
 
 class GroupSummary(_Model):
@@ -195,6 +234,7 @@ class SkippedColumn(_Model):
 
 
 __all__ = [
+    "NOT_FINITE",
     "CategoricalAnalysis",
     "ColumnKind",
     "ContinuousAnalysis",

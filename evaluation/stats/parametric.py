@@ -18,7 +18,7 @@ from evaluation.stats import effect_sizes as es
 from evaluation.stats import pvalues
 from evaluation.stats import studentized_range as srange
 from evaluation.stats._typing import FloatArray
-from evaluation.stats.models import OmnibusResult, PairwiseEffect, PairwiseResult, PosthocResult
+from evaluation.stats.models import NOT_FINITE, OmnibusResult, PairwiseEffect, PairwiseResult, PosthocResult
 from evaluation.stats.power import anova_power
 
 ANOVA = "one-way ANOVA"
@@ -45,6 +45,8 @@ class Moments:
         n = int(values.size)
         mean = float(np.mean(values)) if n else math.nan
         var = float(np.var(values, ddof=1)) if n >= 2 else math.nan
+        if var == 0.0 and float(np.ptp(values)) > 0.0:
+            var = math.nan  # underflowed: values far smaller than another group's, on one scale (not constant)
         return cls(label, n, mean, var)
 
     @classmethod
@@ -52,11 +54,11 @@ class Moments:
         return cls(label, n, mean, sd * sd)
 
 
-def studentized_range_p(q: float, k: int, df: float) -> pvalues.PValue:
-    """P(Q_{k,df} > q). Where the integral falls below its accuracy, report the union bound instead:
-    Q > q iff some pair differs by more than q, and each pair's difference over s*sqrt(2) is t(df), so
-    P(Q > q) <= C(k, 2) * 2 * P(t_df > q / sqrt(2)) — a true upper bound, and tight in the far tail."""
-    p = srange.sf(q, k, df)
+def studentized_range_p(q: float, k: int, df: float, tail: float | None = None) -> pvalues.PValue:
+    """P(Q_{k,df} > q) (``tail``, when already computed). Where the integral falls below its accuracy, report the
+    union bound instead: Q > q iff some pair differs by more than q, and each pair's difference over s*sqrt(2) is
+    t(df), so P(Q > q) <= C(k, 2) * 2 * P(t_df > q / sqrt(2)) — a true upper bound, and tight in the far tail."""
+    p = srange.sf(q, k, df) if tail is None else tail
     if p >= STUDENTIZED_RANGE_FLOOR:
         return pvalues.exact(p)
     n_pairs = k * (k - 1) / 2.0
@@ -161,16 +163,20 @@ def tukey_hsd(groups: Sequence[Moments], confidence: float = 0.95) -> PosthocRes
         mse = sum((g.n - 1) * g.var for g in groups if g.n >= 2) / (n_total - k)
         if mse == 0.0:
             reason = "no within-group variance: every group is constant"
+        elif not math.isfinite(mse) or not all(math.isfinite(g.mean) for g in groups):
+            reason = NOT_FINITE
     if reason is not None:
         return PosthocResult(test=TUKEY, adjustment="studentized range", comparisons=[], reason=reason)
     df = float(n_total - k)
     q_crit = srange.ppf(confidence, k, df)
+    pairs = _pairs(groups)
+    ses = [math.sqrt(mse / 2.0 * (1.0 / a.n + 1.0 / b.n)) for a, b in pairs]
+    qs = np.array([abs(a.mean - b.mean) / se for (a, b), se in zip(pairs, ses, strict=True)])
+    tails = srange.sf_many(qs, k, np.full(qs.shape, df))
     comparisons = []
-    for a, b in _pairs(groups):
+    for (a, b), se, q, tail in zip(pairs, ses, qs.tolist(), tails.tolist(), strict=True):
         diff = a.mean - b.mean
-        se = math.sqrt(mse / 2.0 * (1.0 / a.n + 1.0 / b.n))
-        q = abs(diff) / se
-        p = studentized_range_p(q, k, df)
+        p = studentized_range_p(q, k, df, tail)
         comparisons.append(
             PairwiseResult(
                 a=a.label,
@@ -196,7 +202,8 @@ def games_howell(groups: Sequence[Moments], confidence: float = 0.95) -> Posthoc
     k = len(groups)
     if k < 2:
         return PosthocResult(test=GAMES_HOWELL, adjustment="studentized range", comparisons=[], reason="< 2 groups")
-    comparisons = []
+    comparisons: list[PairwiseResult] = []
+    pending: list[tuple[int, float, float, float]] = []  # (index, t, df, se) of the pairs still to finish
     for a, b in _pairs(groups):
         if a.n < 2 or b.n < 2:
             comparisons.append(
@@ -224,11 +231,16 @@ def games_howell(groups: Sequence[Moments], confidence: float = 0.95) -> Posthoc
             )
             continue
         se = math.sqrt(va + vb)
+        if not (math.isfinite(se) and math.isfinite(diff)):
+            comparisons.append(
+                PairwiseResult(
+                    a=a.label, b=b.label, estimate_name="mean difference", statistic_name="t", reason=NOT_FINITE
+                )
+            )
+            continue
         t = diff / se
         df = (va + vb) ** 2 / (va**2 / (a.n - 1) + vb**2 / (b.n - 1))
-        q_crit = srange.ppf(confidence, k, df)
-        p = studentized_range_p(math.sqrt(2.0) * abs(t), k, df)
-        half = q_crit / math.sqrt(2.0) * se
+        pending.append((len(comparisons), t, df, se))
         comparisons.append(
             PairwiseResult(
                 a=a.label,
@@ -238,13 +250,21 @@ def games_howell(groups: Sequence[Moments], confidence: float = 0.95) -> Posthoc
                 statistic_name="t",
                 statistic=t,
                 df=df,
-                ci_low=diff - half,
-                ci_high=diff + half,
-                p=p,
-                p_adjusted=p,
                 extra={"se": se},
             )
         )
+    if pending:
+        dfs = np.array([d for _, _, d, _ in pending])
+        qs = np.array([math.sqrt(2.0) * abs(t) for _, t, _, _ in pending])
+        q_crits = srange.ppf_many(confidence, k, dfs).tolist()
+        tails = srange.sf_many(qs, k, dfs).tolist()
+        for (index, _, df, se), q, q_crit, tail in zip(pending, qs.tolist(), q_crits, tails, strict=True):
+            c = comparisons[index]
+            p = studentized_range_p(q, k, df, tail)
+            half = q_crit / math.sqrt(2.0) * se
+            diff = c.estimate if c.estimate is not None else math.nan
+            update = {"ci_low": diff - half, "ci_high": diff + half, "p": p, "p_adjusted": p}
+            comparisons[index] = c.model_copy(update=update)
     return PosthocResult(test=GAMES_HOWELL, adjustment="studentized range (family-wise)", comparisons=comparisons)
 
 

@@ -8,10 +8,16 @@ from importlib import metadata
 
 import numpy as np
 
-from evaluation.stats import assumptions, categorical, descriptive, nonparametric, parametric, selection
+from evaluation.stats import assumptions, categorical, descriptive, nonparametric, parametric, scaling, selection
 from evaluation.stats._typing import FloatArray
 from evaluation.stats.dataset import CategoricalColumn, ContinuousColumn, Dataset, load_dataset
-from evaluation.stats.models import CategoricalAnalysis, ContinuousAnalysis, RateSummary
+from evaluation.stats.models import (
+    CategoricalAnalysis,
+    ContinuousAnalysis,
+    GroupSummary,
+    NormalityTest,
+    RateSummary,
+)
 from evaluation.stats.report import StatsReport
 
 
@@ -81,9 +87,32 @@ def analyze_continuous(
     alpha: float = 0.05,
 ) -> ContinuousAnalysis:
     """Descriptives, assumption checks, all omnibus and post-hoc tests, effect sizes and the rule's choice.
-    Groups without any value are described but left out of the tests."""
+    Groups without any value are described but left out of the tests; values too large or small for double
+    arithmetic are analysed scaled by a power of two (:mod:`evaluation.stats.scaling`)."""
+    summaries = []
+    normality = []
+    for g, s, m in zip(groups, samples, missing, strict=True):
+        own, own_e = scaling.own_scale(s)
+        summaries.append(scaling.summary_in_unit(descriptive.summarize(g, own, m), own_e))
+        if s.size:
+            normality.append(assumptions.shapiro_wilk(g, own))
+    e = scaling.exponent(samples)
+    if e:
+        samples = scaling.scaled(samples, e)
+    analysis = _analyze_continuous(column, groups, samples, missing, alpha, summaries, normality)
+    return scaling.in_unit(analysis, e)
+
+
+def _analyze_continuous(
+    column: ContinuousColumn,
+    groups: Sequence[str],
+    samples: Sequence[FloatArray],
+    missing: Sequence[int],
+    alpha: float,
+    summaries: list[GroupSummary],
+    normality: list[NormalityTest],
+) -> ContinuousAnalysis:
     notes: list[str] = []
-    summaries = [descriptive.summarize(g, s, m) for g, s, m in zip(groups, samples, missing, strict=True)]
     present = [(g, s) for g, s in zip(groups, samples, strict=True) if s.size > 0]
     absent = [g for g, s in zip(groups, samples, strict=True) if s.size == 0]
     if absent:
@@ -93,7 +122,6 @@ def analyze_continuous(
     labels = [g for g, _ in present]
     data = [s for _, s in present]
     moments = [parametric.Moments.of(g, s) for g, s in present]
-    normality = [assumptions.shapiro_wilk(g, s) for g, s in present]
     homogeneity = assumptions.levene(data)
     kruskal, dunn = nonparametric.kruskal_dunn(labels, data)
     decision = selection.choose_continuous(normality, homogeneity, alpha)

@@ -33,6 +33,23 @@ MISSING_TOKENS = frozenset({"", "na", "n/a", "nan", "null", "-"})
 FAST_CSV_BYTES = 4 * 1024 * 1024
 
 Cells = Sequence[object]
+#: More digits than the largest double has (1.8e308 has 309): such a JSON integer is kept as its text.
+MAX_INTEGER_DIGITS = 400
+
+
+@dataclass(frozen=True)
+class HugeInteger:
+    """A JSON integer too long to be a number here (Python refuses to read more than 4300 digits; no double holds
+    more than 309): kept as its digits so the cell, not the parser, is named in the error."""
+
+    digits: str
+
+    def __str__(self) -> str:
+        return self.digits
+
+
+def _json_int(text: str) -> int | HugeInteger:
+    return int(text) if len(text) <= MAX_INTEGER_DIGITS else HugeInteger(text)
 
 
 @dataclass
@@ -154,7 +171,7 @@ def _read_json_any(p: Path, source: str) -> RawTable:
 def _read_json(p: Path, source: str) -> RawTable:
     text = p.read_text(encoding="utf-8-sig")
     try:
-        data = bounded_json.loads(text)
+        data = bounded_json.loads(text, parse_int=_json_int)
     except json.JSONDecodeError as exc:
         raise InputError(f"invalid JSON: {exc.msg}", source=source, line=exc.lineno, col=exc.colno) from None
     except bounded_json.JsonTooDeep as exc:
@@ -180,7 +197,7 @@ def _read_jsonl(p: Path, source: str) -> RawTable:
             if not line.strip():
                 continue
             try:
-                row = bounded_json.loads(line)
+                row = bounded_json.loads(line, parse_int=_json_int)
             except json.JSONDecodeError as exc:
                 raise InputError(f"invalid JSON: {exc.msg}", source=source, line=number, col=exc.colno) from None
             except bounded_json.JsonTooDeep as exc:
@@ -301,4 +318,12 @@ def _read_csv_fast(p: Path, source: str, delimiter: str, raw_header: list[str]) 
     return RawTable(source, header, columns, len(frame), "line", None, 2, exact=False, positional=True)
 
 
-__all__ = ["FAST_CSV_BYTES", "MISSING_TOKENS", "RawTable", "read_path", "read_records"]
+__all__ = [
+    "FAST_CSV_BYTES",
+    "MAX_INTEGER_DIGITS",
+    "MISSING_TOKENS",
+    "HugeInteger",
+    "RawTable",
+    "read_path",
+    "read_records",
+]

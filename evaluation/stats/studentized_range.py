@@ -4,8 +4,9 @@ Games–Howell.
 scipy's ``studentized_range`` integrates adaptively (about 10 ms per value, 130 ms per quantile). Here the same
 double integral — P(Q <= q) = ∫ g_ν(s) H(q s) ds with H(w) = k ∫ φ(z) [Φ(z) - Φ(z - w)]^(k-1) dz and s the
 scaled chi distribution — uses fixed Gauss–Legendre rules (160 × 160 nodes, the outer one in log χ²), and
-agrees with scipy to about 1e-11 (tests check 1e-9). Like scipy, df >= 100 000 uses the df = ∞ form. Outside
-the validated range (df < 2 or k > 20) scipy is called directly.
+agrees with scipy to about 1e-11 for k <= 20 and 1e-9 up to k = 100 (tests check both). Like scipy, df >= 100 000
+uses the df = ∞ form. Outside the validated range (df < 2 or k > 100) scipy is called directly. Many values at
+once (every pair of 100 groups) go through :func:`sf_many` and :func:`ppf_many`.
 """
 
 from __future__ import annotations
@@ -26,7 +27,11 @@ _Z_WEIGHTS = _Z_HALF_WIDTH * _WEIGHTS * np.exp(-0.5 * _Z * _Z) / math.sqrt(2.0 *
 _PHI_Z = special.ndtr(_Z)
 _ASYMPTOTIC_DF = 100_000.0
 _MIN_FAST_DF = 2.0
-_MAX_FAST_K = 20
+_MAX_FAST_K = 100
+#: q values integrated at once by :func:`sf_many` (each is a 160 × 160 grid).
+_CHUNK = 128
+#: Chebyshev nodes over log df for :func:`ppf_many`; below this many distinct df each is solved exactly.
+_PPF_NODES = 32
 
 
 def _range_cdf_infinite_df(w: FloatArray, k: int) -> FloatArray:
@@ -45,6 +50,17 @@ def _outer_rule(df: float) -> tuple[FloatArray, FloatArray]:
     c = np.exp(x)
     weights = 0.5 * (hi - lo) * _WEIGHTS * np.exp(st.chi2.logpdf(c, df) + x)
     return np.sqrt(c / df), weights
+
+
+def _outer_rules(df: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`_outer_rule` for many df at once, through scipy's special functions (rows of nodes and weights)."""
+    half = df[:, None] / 2.0
+    lo = np.log(2.0 * special.gammaincinv(half, 1e-17))
+    hi = np.log(2.0 * special.gammainccinv(half, 1e-17))
+    x = 0.5 * (hi - lo) * _NODES[None, :] + 0.5 * (hi + lo)
+    c = np.exp(x)
+    log_pdf = (half - 1.0) * x - c / 2.0 - half * math.log(2.0) - special.gammaln(half)
+    return np.sqrt(c / df[:, None]), 0.5 * (hi - lo) * _WEIGHTS[None, :] * np.exp(log_pdf + x)
 
 
 def _fast(k: int, df: float) -> bool:
@@ -83,4 +99,38 @@ def ppf(p: float, k: int, df: float) -> float:
     return float(optimize.brentq(lambda q: cdf(q, k, df) - p, low * 0.99, high, xtol=1e-13, rtol=1e-14))
 
 
-__all__ = ["cdf", "ppf", "sf"]
+def sf_many(q: FloatArray, k: int, df: FloatArray) -> FloatArray:
+    """:func:`sf` of each ``q[i]`` with ``df[i]``, vectorised (the same numbers, a few hundred times faster)."""
+    q = np.asarray(q, dtype=np.float64)
+    df = np.broadcast_to(np.asarray(df, dtype=np.float64), q.shape)
+    out = np.empty(q.shape)
+    for i, (qi, di) in enumerate(zip(q.tolist(), df.tolist(), strict=True)):
+        if qi <= 0.0 or not _fast(k, di) or di >= _ASYMPTOTIC_DF:
+            out[i] = sf(qi, k, di)
+    fast = (q > 0.0) & (df >= _MIN_FAST_DF) & (df < _ASYMPTOTIC_DF) & (2 <= k <= _MAX_FAST_K)
+    todo = np.flatnonzero(fast)
+    for start in range(0, len(todo), _CHUNK):
+        rows = todo[start : start + _CHUNK]
+        s, weights = _outer_rules(df[rows])
+        inner = _range_cdf_infinite_df((q[rows, None] * s).ravel(), k).reshape(s.shape)
+        out[rows] = 1.0 - np.clip((inner * weights).sum(axis=1), 0.0, 1.0)
+    return out
+
+
+def ppf_many(p: float, k: int, df: FloatArray) -> FloatArray:
+    """:func:`ppf` at each df: solved exactly for a few distinct df, else interpolated in log df through
+    Chebyshev nodes each solved exactly (smooth in log df; relative error below 1e-7, as tests check)."""
+    df = np.asarray(df, dtype=np.float64)
+    distinct = np.unique(df)
+    if distinct.size <= _PPF_NODES or not 2 <= k <= _MAX_FAST_K or distinct[0] < _MIN_FAST_DF:
+        exact = {d: ppf(p, k, d) for d in distinct.tolist()}
+        return np.array([exact[d] for d in df.tolist()])
+    lo, hi = math.log(float(distinct[0])), math.log(float(min(distinct[-1], _ASYMPTOTIC_DF)))
+    fit = np.polynomial.Chebyshev.interpolate(
+        lambda x: np.array([ppf(p, k, math.exp(v)) for v in np.atleast_1d(x).tolist()]), _PPF_NODES - 1, (lo, hi)
+    )
+    result: FloatArray = fit(np.log(np.minimum(df, _ASYMPTOTIC_DF)))
+    return result
+
+
+__all__ = ["cdf", "ppf", "ppf_many", "sf", "sf_many"]

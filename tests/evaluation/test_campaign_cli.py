@@ -224,3 +224,21 @@ def test_generated_scenes_by_count_and_seed(tmp_path: Path, capsys: pytest.Captu
     assert [r.key for r in read_records(out / "results.jsonl")] == [
         ("campaign-5-01", "yolo"), ("campaign-5-01", "rules"), ("campaign-5-02", "yolo"), ("campaign-5-02", "rules"),
     ]  # fmt: skip
+
+
+@pytest.mark.parametrize("spec", ["onnx:{missing}", "onnx:{not_onnx}"])
+def test_an_unusable_detector_model_is_bad_input_before_any_scene_runs(
+    spec: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A model that is missing or not ONNX exits 2 and writes nothing, as ``run --detector`` does."""
+    not_onnx = tmp_path / "model.onnx"
+    not_onnx.write_bytes(b"this is not a model")
+    missing = tmp_path / "nowhere" / "model.onnx"
+    detector = spec.format(missing=missing, not_onnx=not_onnx)
+    out = tmp_path / "out"
+    argv = ["--scenes", "1", "--frames", "5", "--detector", detector, "--out", str(out), "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    path = str(missing if "missing" in spec else not_onnx)
+    assert path in err and "Traceback" not in err
+    assert not out.exists()

@@ -117,7 +117,7 @@ def test_missing_file() -> None:
 
 def test_unknown_column_lists_the_columns(tmp_path: Path) -> None:
     path = write(tmp_path, "u.csv", "group,x\na,1\nb,2\n")
-    with pytest.raises(InputError, match=r"u\.csv: no column 'y'; the columns are: group, x"):
+    with pytest.raises(InputError, match=r"u\.csv: no column 'y'; the columns are: 'group', 'x'"):
         load_dataset(path, values=["y"])
     with pytest.raises(InputError, match="no column 'grp'"):
         load_dataset(path, group="grp")
