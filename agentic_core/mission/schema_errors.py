@@ -8,6 +8,7 @@ action or field gets a did-you-mean; a missing field is reported at its parent.
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
 from collections.abc import Iterable
@@ -23,6 +24,12 @@ def suggest(word: str, choices: Iterable[str]) -> str:
     """A did-you-mean hint for the closest of ``choices`` (``" (did you mean 'x'?)"``), or ``""``."""
     match = difflib.get_close_matches(word, list(choices), n=1)
     return f" (did you mean {match[0]!r}?)" if match else ""
+
+
+def _union_tag(part: Any) -> bool:
+    """Whether a part of a pydantic location names a union member (``Circle``, ``list[LatLon]``), not a field:
+    mission fields are snake_case names."""
+    return isinstance(part, str) and part != "[key]" and (part[:1].isupper() or "[" in part or "-" in part)
 
 
 def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
@@ -43,10 +50,33 @@ def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
         elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
             path.append(part.rstrip("_"))  # if_ / else_ are written if / else
             node = node[part.rstrip("_")]
+        elif _union_tag(part):
+            continue
         elif isinstance(part, str) and isinstance(node, dict) and part not in ACTIONS and part != "[key]":
             path.append(part)  # a missing field: its parent's position is used
             break
     return tuple(path)
+
+
+def _other_shape(data: Any, loc: tuple[int | str, ...]) -> bool:
+    """Whether an error comes from a union member of another shape than the value (a list member for a mapping,
+    a mapping member for a list): that member was not what the author meant, so its errors are noise."""
+    node = data
+    for part in loc:
+        if _union_tag(part):
+            wants_list = str(part).startswith("list[")
+            if isinstance(node, dict) and wants_list:
+                return True
+            if isinstance(node, list) and not wants_list and str(part)[:1].isupper():
+                return True
+            continue
+        if isinstance(node, list) and isinstance(part, int) and part < len(node):  # noqa: SIM114 - apart, so mypy narrows each
+            node = node[part]
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
+            node = node[part.rstrip("_")]
+    return False
 
 
 def _model_at(data: Any, path: Path) -> type[BaseModel] | None:
@@ -124,13 +154,23 @@ def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[
     """The problems of a document pydantic rejected, positioned through ``smap``."""
     problems: list[Problem] = []
     grouped: dict[Path, list[Any]] = {}
-    for err in error.errors():
+    errors = error.errors()
+    shaped = [e for e in errors if not _other_shape(data, tuple(e["loc"]))] or errors
+    for err in shaped:
         grouped.setdefault(_data_path(data, tuple(err["loc"])), []).append(err)
+    meant = _meant_fields(data, grouped)
     for path, group in grouped.items():
         errs = _relevant(group)
         kinds = [str(e["type"]) for e in errs]
         where = _describe(data, path)
-        if any("[key]" in e["loc"] for e in errs):
+        keys = [e for e in errs if "[key]" in e["loc"]]
+        if keys and keys[0]["type"] == "literal_error":
+            allowed = re.findall(r"'([^']*)'", str(keys[0].get("ctx", {}).get("expected", "")))
+            name = str(path[-1]) if path else "?"
+            hint = f" (one of {', '.join(allowed)}{suggest(name, allowed).replace(' (', '; ').rstrip(')')})"
+            problems.append(smap.problem(path, f"unknown key {name!r} in {_describe(data, path[:-1])}{hint}", key=True))
+            continue
+        if keys:
             problems.append(
                 smap.problem(
                     path, f"{where}: a name must be letters, digits and _ (not starting with a digit)", key=True
@@ -161,8 +201,10 @@ def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[
                 if len(others) == 1 and others[0]["type"] not in ("float_type", "float_parsing")
                 else ""
             )
-            message = f"{where}: expected {' or '.join(wanted)} or a ${{...}} expression, got {errs[0]['input']!r}"
-            problems.append(smap.problem(path, message + (f" ({detail})" if detail else "")))
+            given = errs[0]["input"]
+            message = f"{where}: expected {' or '.join(wanted)} or a ${{...}} expression, got {given!r}"
+            note = number_note(given) if {"float", "int"} & {k.split("_")[0] for k in kinds} else ""
+            problems.append(smap.problem(path, message + (f" ({detail})" if detail else "") + note))
             continue
         for err in errs:
             kind = err["type"]
@@ -177,11 +219,68 @@ def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[
             elif kind == "missing":
                 missing = str(err["loc"][-1]).rstrip("_")
                 parent = path[:-1] if path and path[-1] == missing else path
+                if (parent, missing) in meant:
+                    continue  # an unknown field beside it is this one misspelt, and says so
                 problems.append(smap.problem(parent, f"{_describe(data, parent)}: missing required field {missing!r}"))
             else:
                 message = str(err["msg"]).removeprefix("Value error, ")
-                problems.append(smap.problem(path, f"{where}: {message}"))
+                note = number_note(err["input"]) if kind in ("float_type", "int_type", "float_parsing") else ""
+                problems.append(smap.problem(path, f"{where}: {message}{note}"))
     return problems
+
+
+_SEXAGESIMAL = re.compile(r"[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?")
+_OTHER_BASE = re.compile(r"[-+]?0(?:x[0-9a-fA-F_]+|o[0-7_]+|b[01_]+|[0-7_]+)")
+_GROUPED = re.compile(r"[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?")
+
+
+def number_note(value: Any) -> str:
+    """Why text written where a number goes is not one, for a message (``""`` when it is not text): a quoted
+    number, or one of YAML 1.1's number forms, which missions read as text (:mod:`.source`).
+
+    >>> number_note("1:30")
+    ' (text, not a number: base-60 numbers are not read, YAML 1.1 would make it 90; write it in decimal)'
+    >>> number_note("21.4134")
+    ' (text, not a number: it is quoted; write it without quotes)'
+    """
+    if not isinstance(value, str):
+        return ""
+    text = value.strip()
+    if _SEXAGESIMAL.fullmatch(text):
+        sign = -1 if text.startswith("-") else 1
+        total = 0.0
+        for part in text.lstrip("+-").replace("_", "").split(":"):
+            total = total * 60 + float(part)
+        read = f"{sign * total:g}" if "." in text else str(sign * int(total))
+        why = f"base-60 numbers are not read, YAML 1.1 would make it {read}; write it in decimal"
+    elif _OTHER_BASE.fullmatch(text):
+        why = "hexadecimal, octal, binary and leading-zero numbers are not read; write it in decimal, no leading 0"
+    elif "_" in text and _GROUPED.fullmatch(text):
+        why = "digits grouped with _ are not read; write it without the _"
+    else:
+        try:
+            float(text)
+        except ValueError:
+            return ""
+        why = "it is quoted; write it without quotes"
+    return f" (text, not a number: {why})"
+
+
+def _meant_fields(data: Any, grouped: dict[Path, list[Any]]) -> set[tuple[Path, str]]:
+    """The missing fields an unknown field beside them is a misspelling of (``radius`` for ``radius_m``), by the
+    mapping's path: the did-you-mean of the unknown field says it all."""
+    missing: dict[Path, list[str]] = {}
+    for path, group in grouped.items():
+        for err in group:
+            if err["type"] == "missing":
+                name = str(err["loc"][-1]).rstrip("_")
+                missing.setdefault(path[:-1] if path and path[-1] == name else path, []).append(name)
+    meant: set[tuple[Path, str]] = set()
+    for path, group in grouped.items():
+        if path and any(e["type"] == "extra_forbidden" for e in group):
+            match = difflib.get_close_matches(str(path[-1]), missing.get(path[:-1], []), n=1)
+            meant.update((path[:-1], m) for m in match)
+    return meant
 
 
 _MAPPING_ERRORS = frozenset({"dict_type", "model_type", "model_attributes_type"})
