@@ -16,6 +16,8 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from agentic_core.contracts import policy_graph
+
 from .model import ACTIONS, STEP_MODELS, PolicyGraph
 from .source import Path, Problem, SourceMap
 
@@ -206,9 +208,15 @@ def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[
             note = number_note(given) if {"float", "int"} & {k.split("_")[0] for k in kinds} else ""
             problems.append(smap.problem(path, message + (f" ({detail})" if detail else "") + note))
             continue
+        if len(errs) > 1 and set(kinds) <= _SHAPE_ERRORS:  # a scalar where a list or a mapping goes
+            wanted = sorted({_shape_wanted(e) for e in errs})
+            problems.append(smap.problem(path, f"{where}: expected {' or '.join(wanted)}, got {errs[0]['input']!r}"))
+            continue
         for err in errs:
             kind = err["type"]
-            if kind == "extra_forbidden":
+            if kind in ("model_type", "model_attributes_type"):
+                problems.append(smap.problem(path, f"{where}: expected {_shape_wanted(err)}, got {err['input']!r}"))
+            elif kind == "extra_forbidden":
                 field = str(path[-1]) if path else "?"
                 model = _model_at(data, path[:-1])
                 known = [f.alias or n for n, f in model.model_fields.items()] if model else []
@@ -281,6 +289,23 @@ def _meant_fields(data: Any, grouped: dict[Path, list[Any]]) -> set[tuple[Path, 
             match = difflib.get_close_matches(str(path[-1]), missing.get(path[:-1], []), n=1)
             meant.update((path[:-1], m) for m in match)
     return meant
+
+
+_MODELS: dict[str, type[BaseModel]] = {
+    name: model
+    for name, model in vars(policy_graph).items()
+    if isinstance(model, type) and issubclass(model, BaseModel) and model is not BaseModel
+}
+_SHAPE_ERRORS = frozenset({"list_type", "dict_type", "model_type", "model_attributes_type"})
+
+
+def _shape_wanted(err: Any) -> str:
+    """What a list or mapping error wanted, as the author writes it: ``a mapping (lat, lon)``, ``a list``."""
+    if err["type"] == "list_type":
+        return "a list"
+    model = _MODELS.get(str(err.get("ctx", {}).get("class_name", "")))
+    fields = [f.alias or n for n, f in model.model_fields.items()] if model is not None else []
+    return f"a mapping ({', '.join(fields)})" if fields else "a mapping"
 
 
 _MAPPING_ERRORS = frozenset({"dict_type", "model_type", "model_attributes_type"})

@@ -40,14 +40,16 @@ def over_message(count_at_least: int | None = None) -> str:
 
 
 def step_paths(data: Any) -> Iterator[Path]:
-    """The document path of every step of parsed mission data: the plan's steps (each before the steps nested in
-    it), then each trigger's."""
+    """The document path of every step of parsed mission data, in the order written (each step before the steps
+    nested in it; the plan's steps and the triggers' as their keys come)."""
     if not isinstance(data, dict):
         return
-    lists: list[tuple[Path, Any]] = [(("steps",), data.get("steps"))]
-    triggers = data.get("triggers")
-    if isinstance(triggers, list):
-        lists += [(("triggers", t, "steps"), tr.get("steps")) for t, tr in enumerate(triggers) if isinstance(tr, dict)]
+    lists: list[tuple[Path, Any]] = []
+    for key, value in data.items():  # in the order written
+        if key == "steps":
+            lists.append((("steps",), value))
+        elif key == "triggers" and isinstance(value, list):
+            lists += [(("triggers", t, "steps"), tr.get("steps")) for t, tr in enumerate(value) if isinstance(tr, dict)]
     for base, steps in lists:
         if not isinstance(steps, list):
             continue
