@@ -28,10 +28,17 @@ def suggest(word: str, choices: Iterable[str]) -> str:
     return f" (did you mean {match[0]!r}?)" if match else ""
 
 
+_SCALAR_TAGS = frozenset({"str", "int", "float", "bool", "none"})
+
+
 def _union_tag(part: Any) -> bool:
-    """Whether a part of a pydantic location names a union member (``Circle``, ``list[LatLon]``), not a field:
-    mission fields are snake_case names."""
-    return isinstance(part, str) and part != "[key]" and (part[:1].isupper() or "[" in part or "-" in part)
+    """Whether a part of a pydantic location names a union member (``Circle``, ``list[LatLon]``, ``str``), not a
+    field: mission fields are snake_case names."""
+    return (
+        isinstance(part, str)
+        and part != "[key]"
+        and (part[:1].isupper() or "[" in part or "-" in part or part in _SCALAR_TAGS)
+    )
 
 
 def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
@@ -60,17 +67,15 @@ def _data_path(data: Any, loc: tuple[int | str, ...]) -> Path:
     return tuple(path)
 
 
-def _other_shape(data: Any, loc: tuple[int | str, ...]) -> bool:
-    """Whether an error comes from a union member of another shape than the value (a list member for a mapping,
-    a mapping member for a list): that member was not what the author meant, so its errors are noise."""
+def _branch(data: Any, loc: tuple[int | str, ...]) -> tuple[tuple[int | str, ...], bool | None] | None:
+    """The first union member in ``loc`` whose value is a list or a mapping: the location up to it, and whether
+    the member has the value's shape (a list member for a list, a model for a mapping; None: neither)."""
     node = data
-    for part in loc:
+    for i, part in enumerate(loc):
         if _union_tag(part):
-            wants_list = str(part).startswith("list[")
-            if isinstance(node, dict) and wants_list:
-                return True
-            if isinstance(node, list) and not wants_list and str(part)[:1].isupper():
-                return True
+            wants_list, wants_map = str(part).startswith("list["), str(part)[:1].isupper()
+            if isinstance(node, dict | list) and (wants_list or wants_map):
+                return loc[:i], wants_list == isinstance(node, list)
             continue
         if isinstance(node, list) and isinstance(part, int) and part < len(node):  # noqa: SIM114 - apart, so mypy narrows each
             node = node[part]
@@ -78,7 +83,18 @@ def _other_shape(data: Any, loc: tuple[int | str, ...]) -> bool:
             node = node[part]
         elif isinstance(node, dict) and isinstance(part, str) and part.rstrip("_") in node:
             node = node[part.rstrip("_")]
-    return False
+        else:
+            return None
+    return None
+
+
+def _of_the_meant_member(data: Any, errors: list[Any]) -> list[Any]:
+    """The errors less those of a union member of another shape than the value (a list member's for a mapping)
+    where a member of the value's shape is there to say what is wrong: the author meant that one."""
+    branches = [_branch(data, tuple(e["loc"])) for e in errors]
+    meant = {b[0] for b in branches if b is not None and b[1]}
+    kept = [e for e, b in zip(errors, branches, strict=True) if b is None or b[1] or b[0] not in meant]
+    return kept or errors
 
 
 def _model_at(data: Any, path: Path) -> type[BaseModel] | None:
@@ -157,11 +173,15 @@ def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[
     problems: list[Problem] = []
     grouped: dict[Path, list[Any]] = {}
     errors = error.errors()
-    shaped = [e for e in errors if not _other_shape(data, tuple(e["loc"]))] or errors
-    for err in shaped:
+    for err in _of_the_meant_member(data, errors):
         grouped.setdefault(_data_path(data, tuple(err["loc"])), []).append(err)
     meant = _meant_fields(data, grouped)
     for path, group in grouped.items():
+        if len(group) > 1 and {str(e["type"]) for e in group} <= _SHAPE_ERRORS | {"string_type"}:
+            wanted = list(dict.fromkeys(_shape_wanted(e) for e in group))  # no member fits the value: say them all
+            message = f"{_describe(data, path)}: expected {' or '.join(wanted)}, got {group[0]['input']!r}"
+            problems.append(smap.problem(path, message))
+            continue
         errs = _relevant(group)
         kinds = [str(e["type"]) for e in errs]
         where = _describe(data, path)
@@ -301,8 +321,16 @@ _SHAPE_ERRORS = frozenset({"list_type", "dict_type", "model_type", "model_attrib
 
 def _shape_wanted(err: Any) -> str:
     """What a list or mapping error wanted, as the author writes it: ``a mapping (lat, lon)``, ``a list``."""
+    tag = next((str(p) for p in reversed(err["loc"]) if _union_tag(p)), "")
+    if err["type"] == "string_type":
+        return "a ${...} expression" if tag == "constrained-str" else "text"
     if err["type"] == "list_type":
-        return "a list"
+        inner = _MODELS.get(tag.removeprefix("list[").removesuffix("]"))
+        return (
+            f"a list of mappings ({', '.join(f.alias or n for n, f in inner.model_fields.items())})"
+            if inner
+            else "a list"
+        )
     model = _MODELS.get(str(err.get("ctx", {}).get("class_name", "")))
     fields = [f.alias or n for n, f in model.model_fields.items()] if model is not None else []
     return f"a mapping ({', '.join(fields)})" if fields else "a mapping"

@@ -213,19 +213,34 @@ def test_failsafe_keys_are_checked_against_the_failsafes() -> None:
 
 
 @pytest.mark.parametrize(
-    "limits",
+    "written",
     [
-        "geofence: {polygon: [{lat: 21.41, lon: 39.89}, {lat: 21.42, lon: 39.90}]}",
-        "geofence: {center: [21.41, 39.89], radius_m: 100}",
-        "geofence: [{lat: 21.41, lon: 39.89}, {lat: 21.42}, {lat: 21.43, lon: 39.9}]",
-        "geofence: 100",
-        "failsafe_actions: [gps, land]",
+        "limits: {geofence: {polygon: [{lat: 21.41, lon: 39.89}, {lat: 21.42, lon: 39.90}]}}",
+        "limits: {geofence: {center: [21.41, 39.89], radius_m: 100}}",
+        "limits: {geofence: [{lat: 21.41, lon: 39.89}, {lat: 21.42}, {lat: 21.43, lon: 39.9}]}",
+        "limits: {geofence: 100}",
+        "limits: {failsafe_actions: [gps, land]}",
+        "swarm: [1, 2]",
+        "steps: [{id: s, action: survey, args: {polygon: {lat: 1, lon: 2}, altitude_m: 20}}]",
+        "steps: [{id: s, action: survey, args: {polygon: 5, altitude_m: 20}}]",
+        "steps: [{id: n, action: notify, args: {to: {a: 1}, subject: s, body: b}}]",
+        "steps: [{id: o, action: orbit, args: {center: [1, 2], radius_m: 10}}]",
     ],
 )
-def test_no_message_names_a_union_member(limits: str) -> None:
-    """Hostile: every way of writing a geofence wrong; pydantic's member names (Circle, list[LatLon]) are not in
-    the file and must not be in a message."""
-    found = problems(f"plan_id: g\ngoal: x\nlimits:\n  {limits}\n" + STEPS)
+def test_no_message_names_a_union_member(written: str) -> None:
+    """Hostile: values of the wrong shape wherever the schema has a union; pydantic's member names (Circle,
+    list[LatLon], constrained-str, str) are not in the file and must not be in a message, nor one member's
+    complaint that a mapping is not a list."""
+    found = problems(f"plan_id: g\ngoal: x\n{written}\n" + ("" if written.startswith("steps") else STEPS))
     assert found
     for message in found:
-        assert "Circle" not in message and "list[" not in message and "LatLon" not in message, message
+        for leak in ("Circle", "list[", "LatLon", "constrained", " str:", "valid list", "valid string"):
+            assert leak not in message, message
+
+
+def test_a_value_no_member_fits_is_told_every_shape_it_may_take() -> None:
+    text = "plan_id: g\ngoal: x\nsteps: [{id: s, action: survey, args: {polygon: {lat: 1, lon: 2}, altitude_m: 20}}]\n"
+    [message] = problems(text)
+    assert message.endswith(
+        "step 's' args polygon: expected a list of mappings (lat, lon) or a ${...} expression, got {'lat': 1, 'lon': 2}"
+    )
