@@ -9,6 +9,8 @@ written as YAML to a temporary file, then each run times
   checks (the YAML parse, the checks and the schema alone are also timed apart, in their own runs, to show where
   the time goes);
 * ``compile_mission(plan, Environment(dispatch=...))`` with a dispatcher that is never called;
+* apart, the refusal of a mission far past the bound on steps (40,000 chained ``hover`` steps, 3 MB), which
+  reading stops at the first step past it;
 
 and the table shows medians over ``--runs`` runs after one warm-up, garbage collection included, as a caller
 sees it. Target: total < 100 ms for 500 steps.
@@ -36,7 +38,7 @@ if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
 from agentic_core.mission import Environment, PolicyGraph, compile_mission, iter_steps, load_mission  # noqa: E402
-from agentic_core.mission.source import load_document  # noqa: E402
+from agentic_core.mission.source import MissionError, load_document  # noqa: E402
 from agentic_core.mission.validate import validate_document  # noqa: E402
 
 TABLE_HEADER = "mission load/validate/compile benchmark"
@@ -179,6 +181,23 @@ def measure(fn: Callable[[], Any], runs: int) -> list[float]:
     return samples
 
 
+def refuse_ms(runs: int) -> list[float]:
+    """Milliseconds to refuse a mission of 40,000 chained steps (3 MB), far past the bound on steps."""
+    chain = "".join(
+        f"  - {{id: s{i}, action: hover, depends_on: [s{i - 1}], args: {{duration_s: 1}}}}\n" for i in range(1, 40_000)
+    )
+    text = "plan_id: big\ngoal: x\nsteps:\n  - {id: s0, action: takeoff}\n" + chain
+
+    def refuse() -> None:
+        try:
+            load_document(text, "big.yaml")
+        except MissionError:
+            return
+        raise AssertionError("a mission of 40,000 steps was not refused")
+
+    return measure(refuse, runs)
+
+
 def run(steps: int, runs: int, seed: int, keep: Path | None) -> bool:
     document = generate_mission(steps, seed)
     text = yaml.safe_dump(document, sort_keys=False, default_flow_style=None, width=120)
@@ -220,6 +239,7 @@ def run(steps: int, runs: int, seed: int, keep: Path | None) -> bool:
         ("    schema alone (pydantic)", schema_ms),
         ("compile (compile_mission)", compile_ms),
         ("total (load + validate + compile)", total_ms),
+        ("refuse 40,000 steps, 3 MB (apart)", refuse_ms(runs)),
     ]
     print(f"{'phase':<36}{'median ms':>11}{'min ms':>9}{'max ms':>9}")
     print("-" * 65)

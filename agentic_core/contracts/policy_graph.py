@@ -36,6 +36,11 @@ Latitude = flight_args.Latitude | Template
 Longitude = flight_args.Longitude | Template
 StepId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 OnFail = Literal["trigger_reflection", "retry", "skip", "abort", "rtl"]
+MAX_STEPS = 1000
+"""The most steps a mission may have, nested and trigger steps included: real missions have tens, and checking
+one grows with their number."""
+NESTED_STEP_LISTS = ("steps", "then", "else")
+"""The keys of a step (a repeat's, a branch's) that hold steps, as written."""
 
 
 class Contract(BaseModel):
@@ -395,8 +400,13 @@ class PolicyGraph(Contract):
 
     @model_validator(mode="after")
     def _uav_names(self) -> PolicyGraph:
-        named = [s.uav for s in walk_steps(self.steps)] + [t.uav for t in self.triggers]
-        named += [s.uav for t in self.triggers for s in walk_steps(t.steps)]
+        steps = walk_steps(self.steps) + [s for t in self.triggers for s in walk_steps(t.steps)]
+        if len(steps) > MAX_STEPS:
+            raise ValueError(
+                f"a mission has at most {MAX_STEPS:,} steps, nested and trigger steps included; this one has "
+                f"{len(steps):,}"
+            )
+        named = [s.uav for s in steps] + [t.uav for t in self.triggers]
         problems = uav_problems((n for n in named if n is not None), self.swarm)
         if problems:
             raise ValueError("; ".join(problems))
@@ -440,6 +450,8 @@ for _model in (RepeatStep, BranchStep, Trigger, PolicyGraph):
 __all__ = [
     "ACTIONS",
     "ACTION_TOOLS",
+    "MAX_STEPS",
+    "NESTED_STEP_LISTS",
     "ON_ABORT_TOOLS",
     "STEP_MODELS",
     "TEMPLATE_PATTERN",

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import math
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -16,6 +18,8 @@ import yaml
 
 from agentic_core.contracts.problems import LocatedProblem, ProblemsError
 from agentic_core.contracts.yaml_positions import node_position, position_at
+
+from .step_bound import EVENT_COUNT_FROM, count_over, first_step_over, over_message
 
 Path = tuple[str | int, ...]
 
@@ -112,7 +116,7 @@ def _build(node: yaml.Node, smap: SourceMap, loader: yaml.SafeLoader, walk: _Wal
     Values that are plain strings (most of a mission) are taken straight off their node, without a call per
     value; PyYAML's constructors run only for the other scalars (numbers, booleans, null, ...)."""
     if isinstance(node, yaml.ScalarNode):
-        return _scalar(node, loader)
+        return _scalar(node, loader, smap)
     active = walk.active
     if id(node) in active:
         line, col = node_position(node)
@@ -180,14 +184,39 @@ def _mapping(node: yaml.MappingNode, smap: SourceMap, loader: yaml.SafeLoader, w
     return out
 
 
-def _scalar(node: yaml.ScalarNode, loader: yaml.SafeLoader) -> Any:
+def _scalar(node: yaml.ScalarNode, loader: yaml.SafeLoader, smap: SourceMap) -> Any:
     if node.tag == _STR_TAG:
         return node.value  # no constructor needed
     construct = loader.yaml_constructors.get(node.tag)
-    return construct(loader, node) if construct is not None else loader.construct_object(node)
+    value = construct(loader, node) if construct is not None else loader.construct_object(node)
+    if node.tag == _FLOAT_TAG and math.isinf(value) and not _SPECIAL_FLOAT.fullmatch(node.value):
+        line, col = node_position(node)
+        message = f"{node.value} is out of range for a number (beyond ±1.8e308); write a smaller number"
+        raise MissionError([Problem(smap.file, line, col, message)])
+    return value
 
 
 _STR_TAG = "tag:yaml.org,2002:str"
+_INT_TAG = "tag:yaml.org,2002:int"
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_DECIMAL_INT = re.compile(r"[-+]?(?:0|[1-9][0-9]*)")
+_DECIMAL_FLOAT = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?")
+_SPECIAL_FLOAT = re.compile(r"[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)")
+
+
+def _number_tag(tag: str, value: str) -> str:
+    """The tag of a plain scalar with YAML 1.2's numbers (as JSON writes them), not YAML 1.1's: ``1:30``,
+    ``0x1F``, ``012`` and ``1_000`` are text (PyYAML would read 90, 31, 10 and 1000, silently), and ``1.0e12``
+    is a number (PyYAML would read text, its exponent having no sign)."""
+    if tag == _INT_TAG and not _DECIMAL_INT.fullmatch(value):
+        return _STR_TAG
+    if tag == _FLOAT_TAG and not (_DECIMAL_FLOAT.fullmatch(value) or _SPECIAL_FLOAT.fullmatch(value)):
+        return _STR_TAG
+    if tag == _STR_TAG and _DECIMAL_FLOAT.fullmatch(value):
+        return _FLOAT_TAG
+    return tag
+
+
 _MERGE_TAG = "tag:yaml.org,2002:merge"
 _VALUE_TAG = "tag:yaml.org,2002:value"  # a plain ``=`` key; flatten_mapping makes it a string
 
@@ -196,7 +225,8 @@ _SafeLoader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoade
 
 
 class _Loader(_SafeLoader):  # type: ignore[misc,valid-type]  # a base class chosen at run time
-    """The safe loader, resolving the tag of each distinct plain scalar once per document.
+    """The safe loader, resolving the tag of each distinct plain scalar once per document, numbers as YAML 1.2
+    writes them (:func:`_number_tag`).
 
     libyaml's composer calls the (Python) resolver for every scalar, which tries a few regular expressions each
     time; a mission repeats the same keys and values (``id``, ``action``, ``args``, ``30``) hundreds of times.
@@ -213,7 +243,7 @@ class _Loader(_SafeLoader):  # type: ignore[misc,valid-type]  # a base class cho
                 return _STR_TAG
             tag = self._tags.get(value)
             if tag is None:
-                tag = self._tags[value] = str(super().resolve(kind, value, implicit))
+                tag = self._tags[value] = _number_tag(str(super().resolve(kind, value, implicit)), value)
             return tag
         return str(super().resolve(kind, value, implicit))
 
@@ -256,15 +286,27 @@ def _cyclic_gc_paused() -> Iterator[None]:
 
 def _parse(text: str, smap: SourceMap) -> Any:
     """Compose ``text`` and build its data; the tree is dropped on return (``smap`` composes it again if a
-    position is needed)."""
+    position is needed). A mission past the bound on steps is refused first: a large text before it is built."""
+    if len(text) >= EVENT_COUNT_FROM:
+        counter = _Loader(text)
+        try:
+            over = first_step_over(counter)
+        finally:
+            counter.dispose()
+        if over is not None:
+            raise MissionError([Problem(smap.file, *over, over_message())])
     loader = _Loader(text)
     try:
         node = loader.get_single_node()
         if node is None:
             raise MissionError([Problem(smap.file, 1, 1, "the file is empty; a mission needs plan_id, goal and steps")])
-        return _build(node, smap, loader, _Walk(smap))
+        data = _build(node, smap, loader, _Walk(smap))
     finally:
         loader.dispose()
+    over_data = count_over(data)
+    if over_data is not None:
+        raise MissionError([smap.problem(over_data[0], over_message(over_data[1]))])
+    return data
 
 
 def _compose_for_positions(text: str) -> yaml.Node | None:

@@ -1,0 +1,138 @@
+"""The bound on a mission's steps: at most :data:`MAX_STEPS`, nested and trigger steps included, refused with
+the file, line and column of the first step past it.
+
+A real mission has tens of steps; a file of hundreds of thousands (30 MB of ``hover``) would take gigabytes to
+check. A large text is counted from the parser's events before it is built, stopping at the first step past the
+bound, so such a file is refused in the time it takes to read that far; any text is counted again once built
+(aliases can repeat a step in a few bytes).
+
+>>> import yaml
+>>> text = "steps:\\n" + "".join(f"  - {{id: s{i}, action: rtl}}\\n" for i in range(MAX_STEPS + 1))
+>>> first_step_over(yaml.SafeLoader(text))
+(1002, 5)
+>>> next(step_paths({"steps": [{"id": "a"}, {"id": "b", "then": [{"id": "c"}]}]}))
+('steps', 0)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import yaml
+
+from agentic_core.contracts.policy_graph import MAX_STEPS, NESTED_STEP_LISTS
+
+Path = tuple[str | int, ...]
+
+EVENT_COUNT_FROM = 1 << 20
+"""Texts of at least this many characters are counted from events before they are built: a mission of 1,000
+steps is well under it, so an ordinary mission is parsed once."""
+
+
+def over_message(count_at_least: int | None = None) -> str:
+    """What a mission past the bound is told, at its first step past it."""
+    return (
+        f"a mission has at most {MAX_STEPS:,} steps, nested and trigger steps included; this is step "
+        f"{MAX_STEPS + 1:,}{f' of {count_at_least:,}' if count_at_least else ''} (split the mission, or use a "
+        "repeat for a patrol)"
+    )
+
+
+def step_paths(data: Any) -> Iterator[Path]:
+    """The document path of every step of parsed mission data, in the order written (each step before the steps
+    nested in it; the plan's steps and the triggers' as their keys come)."""
+    if not isinstance(data, dict):
+        return
+    lists: list[tuple[Path, Any]] = []
+    for key, value in data.items():  # in the order written
+        if key == "steps":
+            lists.append((("steps",), value))
+        elif key == "triggers" and isinstance(value, list):
+            lists += [(("triggers", t, "steps"), tr.get("steps")) for t, tr in enumerate(value) if isinstance(tr, dict)]
+    for base, steps in lists:
+        if not isinstance(steps, list):
+            continue
+        stack: list[tuple[Path, Iterator[tuple[int, Any]]]] = [(base, enumerate(steps))]
+        while stack:
+            where, items = stack[-1]
+            item = next(items, None)
+            if item is None:
+                stack.pop()
+                continue
+            i, step = item
+            yield (*where, i)
+            if isinstance(step, dict):
+                for key in reversed(NESTED_STEP_LISTS):
+                    body = step.get(key)
+                    if isinstance(body, list):
+                        stack.append(((*where, i, key), enumerate(body)))
+
+
+def count_over(data: Any) -> tuple[Path, int] | None:
+    """The path of the first step past the bound and the number of steps, or None within it."""
+    first: Path | None = None
+    count = 0
+    for path in step_paths(data):
+        count += 1
+        if count == MAX_STEPS + 1:
+            first = path
+    return (first, count) if first is not None else None
+
+
+class _Open:
+    """An open collection while reading events: a mapping or a sequence, what it is in a mission (``root``,
+    ``step``, ``trigger``, ``steps`` (a list of steps), ``triggers`` or ``other``) and, for a mapping, the key of
+    the value being read (None while a key is expected)."""
+
+    __slots__ = ("key", "mapping", "role")
+
+    def __init__(self, mapping: bool, role: str) -> None:
+        self.mapping, self.role = mapping, role
+        self.key: Any = None
+
+
+_LISTS = {("root", "steps"): "steps", ("root", "triggers"): "triggers", ("trigger", "steps"): "steps"}
+_LISTS.update({("step", key): "steps" for key in ("steps", "then", "else")})
+_ITEMS = {"steps": "step", "triggers": "trigger"}
+
+
+def first_step_over(loader: yaml.SafeLoader) -> tuple[int, int] | None:
+    """The 1-based line and column of the first step past the bound, read from ``loader``'s events (consumed:
+    the loader is done with after), or None when the document is within it."""
+    stack: list[_Open] = []
+    count = 0
+    reading_key = False
+    while loader.check_event():
+        event = loader.get_event()  # type: ignore[no-untyped-call]
+        if isinstance(event, yaml.MappingEndEvent | yaml.SequenceEndEvent):
+            stack.pop()
+            reading_key = bool(stack) and stack[-1].mapping
+            continue
+        if not isinstance(event, yaml.NodeEvent):
+            continue
+        parent = stack[-1] if stack else None
+        if parent is not None and parent.mapping and reading_key:
+            parent.key = event.value if isinstance(event, yaml.ScalarEvent) else None
+            role = "other"
+            reading_key = False
+        elif parent is None:
+            role = "root"
+        elif parent.mapping:
+            role = _LISTS.get((parent.role, parent.key), "other")
+            reading_key = True
+        else:
+            role = _ITEMS.get(parent.role, "other")
+            if parent.role == "steps":
+                count += 1
+                if count > MAX_STEPS:
+                    mark = event.start_mark
+                    return (mark.line + 1, mark.column + 1) if mark is not None else (1, 1)
+        if isinstance(event, yaml.CollectionStartEvent):
+            mapping = isinstance(event, yaml.MappingStartEvent)
+            stack.append(_Open(mapping, role if mapping == (role in ("root", "step", "trigger")) else "other"))
+            reading_key = mapping
+    return None
+
+
+__all__ = ["EVENT_COUNT_FROM", "count_over", "first_step_over", "over_message", "step_paths"]
