@@ -60,6 +60,7 @@ from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import TrackPoint, write_report
 from .responses import ResponseLedger
+from .run_clock import resumed_at
 from .run_memory import start_memory, with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
@@ -103,7 +104,8 @@ class MissionRun:
         self.pace = fleet.pace if fleet else Pace(settings.speed)
         tlog = self.run_dir / "flight.tlog"
         self.backend: Backend = fleet.backend(self) if fleet else (
-            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key)
+            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key,
+                        start_s=resumed_at(self.run_dir, snapshot.sim_t if snapshot else None) if self.resuming else 0)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
