@@ -3,14 +3,14 @@ with a live run its stream (server-sent events) and its controls.
 
 Reads of the API need the token (``Authorization: Bearer``, or ``?token=`` for the event stream); every change
 (a control command, an answer, resuming or forking a run) is a POST with the token in its header and the
-console's own Origin (:mod:`~agentic_core.console.access`). The page itself loads nothing from anywhere else:
+console's own Origin (:mod:`~agentic_core.console.access`), and a body of at most 64 KiB of JSON
+(:mod:`~agentic_core.console.bodies`). The page itself loads nothing from anywhere else:
 a Content-Security-Policy of ``'self'`` holds the browser to that.
 """
 
 from __future__ import annotations
 
 import inspect
-import json
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from importlib.resources import files
@@ -23,6 +23,7 @@ from ..contracts.errors import InputError
 from ..contracts.extras import require
 from .access import Guard
 from .basemap import GroundPictures
+from .bodies import BodyRefused, parse_object, read_bounded
 from .campaigns import list_campaigns
 from .feed import LiveFeed
 from .launch import Launcher, RunBusy
@@ -100,11 +101,9 @@ def build_app(
             if why:
                 return refused(why)
             try:
-                body = json.loads(await request.body() or b"{}")
-            except (json.JSONDecodeError, UnicodeDecodeError):
-                return JSONResponse({"error": "the body is not JSON"}, status_code=400)
-            if not isinstance(body, dict):
-                return JSONResponse({"error": "the body is not a JSON object"}, status_code=400)
+                body = parse_object(await read_bounded(request.headers, request.stream()))
+            except BodyRefused as exc:
+                return JSONResponse({"error": str(exc)}, status_code=exc.status)
             if steers and live is None:
                 return JSONResponse({"error": "no live run to steer: this console replays runs"}, status_code=409)
             answer = handler(request, body)

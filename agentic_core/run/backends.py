@@ -9,8 +9,11 @@
   It also streams to a ground station (``gcs``), PX4-style: a ground station there that talks back is answered
   and can command it.
 * :class:`LinkBackend` — any vehicle at a MAVLink address (``udp://HOST:PORT``): ``agentic-uav sim`` in another
-  process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives; a resumed run re-attaches.
-  Given a ``signing_key`` file, the client signs with the key in it (a bad file is an InputError naming it).
+  process, or PX4 SITL. Its samples come from the agent's client as telemetry arrives, their times counted from
+  the first one heard (``start_s`` there, :mod:`~agentic_core.run.run_clock`), not from the vehicle's boot; a
+  resumed run re-attaches.
+  Given a ``signing_key`` file, the client signs with the key in it (a bad file is an InputError naming it); a
+  vehicle not signing as the key says is refused at :meth:`LinkBackend.start` (:mod:`~agentic_core.run.link_probe`).
 
 Either one records its link in a ``.tlog`` (``tlog``, :mod:`flight.tlog`): the simulated vehicle's every frame sent
 and taken in, stamped on its simulated clock; for a vehicle of its own, what the agent's client sends and hears.
@@ -25,7 +28,6 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
-from urllib.parse import urlsplit
 
 from flight.client.streams import CAMERA_STREAMS
 from flight.mavlink import MavlinkVehicle
@@ -40,6 +42,8 @@ from flight.vehicle import VehicleClient
 
 from ..agent.pacing import Pace
 from ..contracts import InputError, TelemetrySample
+from .link_probe import SigningMismatch, parse_link, signing_problem
+from .run_clock import RunClock
 
 SampleHook = Callable[[TelemetrySample], None]
 
@@ -169,7 +173,13 @@ class LinkBackend:
     kind = "link"
 
     def __init__(
-        self, url: str, *, camera_hz: float = 30.0, tlog: Path | None = None, signing_key: Path | None = None
+        self,
+        url: str,
+        *,
+        camera_hz: float = 30.0,
+        tlog: Path | None = None,
+        signing_key: Path | None = None,
+        start_s: float = 0.0,
     ) -> None:
         self.url = url
         self.tlog_path = tlog
@@ -184,6 +194,10 @@ class LinkBackend:
         self._worker: threading.Thread | None = None
         self._fed: TelemetrySample | None = None
         self.dropped = 0
+        self.probe_first = True
+        self.run_clock: RunClock | None = RunClock(start_s)
+        """What puts each sample on the run's clock before the hooks see it (None: the vehicle's own, uptime)."""
+        """Whether :meth:`start` asks the vehicle how it signs before anything is sent (a swarm has asked already)."""
 
     @property
     def address(self) -> tuple[str, int]:
@@ -219,8 +233,9 @@ class LinkBackend:
 
     def _feed(self) -> None:
         while (sample := self._queue.get()) is not None:
+            seen = self.run_clock(sample) if self.run_clock is not None else sample
             for hook in self._hooks:
-                hook(sample)
+                hook(seen)
             self._fed = sample
 
     def link_clock(self) -> float:
@@ -240,7 +255,13 @@ class LinkBackend:
             time.sleep(0.005)  # the feed thread is the one that calls the hooks; a short poll is the wait
 
     def start(self) -> None:
-        """Nothing to start: the vehicle runs on its own."""
+        """Nothing to start (the vehicle runs on its own); but first the vehicle is asked how it signs its link,
+        :class:`SigningMismatch` when not as ``--signing-key`` says (:func:`signing_problem`)."""
+        if self.probe_first:
+            self.probe_first = False  # once: a resumed run probes again in its own process
+            why = signing_problem(self.url, self.signing_key)
+            if why is not None:
+                raise SigningMismatch(why)
 
     def snapshot(self) -> dict[str, Any] | None:
         """None: a vehicle of its own keeps its state; a resumed run re-attaches to it."""
@@ -268,18 +289,6 @@ def resolve(address: tuple[str, int]) -> tuple[str, int]:
     except (OSError, UnicodeError) as exc:
         raise InputError(f"--gcs {address[0]}:{address[1]}: cannot find that host ({exc})") from None
     return str(found[0][4][0]), address[1]
-
-
-def parse_link(url: str) -> tuple[str, int]:
-    """``udp://HOST:PORT`` (or ``HOST:PORT``) as an address; :class:`InputError` for anything else.
-
-    >>> parse_link("udp://127.0.0.1:14540")
-    ('127.0.0.1', 14540)
-    """
-    parts = urlsplit(url if "://" in url else f"udp://{url}")
-    if parts.scheme not in ("udp", "udpout") or not parts.hostname or parts.port is None:
-        raise InputError(f"--connect {url!r}: expected udp://HOST:PORT")
-    return parts.hostname, parts.port
 
 
 __all__ = ["Backend", "LinkBackend", "SampleHook", "SimBackend", "parse_link", "resolve"]

@@ -45,7 +45,9 @@ class RunSummary(BaseModel):
     mission: str
     scene: str | None
     reasoner: str
-    outcome: str = Field(description="completed, aborted, returned (rtl), failed or interrupted")
+    outcome: str = Field(
+        description="completed, returned (rtl), landed, held, degraded, aborted, failed, interrupted or lost"
+    )
     sim_duration_s: float
     wall_duration_s: float
     alerts: list[str] = Field(default_factory=list, description="files of the alerts sent or kept in the outbox")

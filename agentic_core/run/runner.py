@@ -60,6 +60,7 @@ from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import TrackPoint, write_report
 from .responses import ResponseLedger
+from .run_clock import resumed_at
 from .run_memory import start_memory, with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
@@ -67,6 +68,7 @@ from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_r
 from .stops import STOP_OUTCOMES, carry_out, go_back, where_it_ended
 from .summary import summarise
 from .trace import TelemetryLog, TraceWriter
+from .vehicle_lost import check_end, silence_bound
 from .world_map import WORLD_MAP_FILE, WorldMapLog
 
 DEFAULT_CEILING_M = 120.0
@@ -103,7 +105,8 @@ class MissionRun:
         self.pace = fleet.pace if fleet else Pace(settings.speed)
         tlog = self.run_dir / "flight.tlog"
         self.backend: Backend = fleet.backend(self) if fleet else (
-            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key)
+            LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key,
+                        start_s=resumed_at(self.run_dir, snapshot.sim_t if snapshot else None) if self.resuming else 0)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
@@ -254,6 +257,7 @@ class MissionRun:
     async def _connect(self) -> VehicleClient:
         host, port = self.backend.address
         client = await VehicleClient.connect(f"{host}:{port}", timeout_s=10.0, signing_key=self.backend.signing_key)
+        client.link_silent_s = silence_bound(self.plan.limits.link_loss_s, client.link_silent_s)
         self.backend.attach(client)
         await self.backend.raise_rates(client)
         self._client = client
@@ -428,12 +432,13 @@ class MissionRun:
             self.failsafes.close()
             self.backend.flush()
             ended = self.where_it_ended()
+            outcome = (verdict := check_end(self, outcome)).outcome  # lost, or not home, as its telemetry says
             if self.memory:
                 self.memory.finish(self.bus)
             self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
             self.close()
         summary = summarise(self, outcome, time.monotonic() - wall0)
-        summary.notes += [*self.responses.notes(), f"The aircraft ended {ended}."]
+        summary.notes += [*self.responses.notes(), f"The aircraft ended {ended}.", *filter(None, [verdict.note])]
         summary.notes += [self.model_note] if self.model_note else []
         track = self.track()
         report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)

@@ -21,49 +21,27 @@ while the run has one would refuse (or be refused by) every command: :class:`Sig
 
 from __future__ import annotations
 
-import contextlib
 import select
-import socket
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
-from pymavlink.dialects.v20.common import (
-    MAV_AUTOPILOT_INVALID,
-    MAV_CMD_GET_HOME_POSITION,
-    MAV_COMP_ID_ONBOARD_COMPUTER,
-    MAV_TYPE_GCS,
-    MAV_TYPE_ONBOARD_CONTROLLER,
-)
-
-from flight.signing import Signer, Verdict
 from flight.sim.environment import Home
 
 from ..contracts import TelemetrySample
-from ..contracts.errors import InputError, RunFailure
+from ..contracts.errors import InputError
 from ..contracts.geodesy import local_offset
 from ..contracts.polygon import outside_by
-from .backends import LinkBackend, SampleHook, parse_link
+from .backends import LinkBackend, SampleHook
+from .link_probe import ASK_EVERY_S, Probe, SigningMismatch, VehicleUnreachable, parse_link
+
+_Probe = Probe  # the probe's name here before it moved to link_probe
 
 PROBE_TIMEOUT_S = 3.0
 """How long a URL has to answer with a heartbeat and its home before the swarm run gives up on it."""
-ASK_EVERY_S = 0.25
-PROBE_SYSTEM = 254
-"""The probe's own system id (not 255, the agent's client's: it is no ground station)."""
 FAR_M = 2_000.0
 """A vehicle whose home lies farther than this outside the mission's area is refused."""
-
-
-class VehicleUnreachable(RunFailure):
-    """A ``--connect`` URL whose vehicle did not answer (exit status 1)."""
-
-
-class SigningMismatch(RunFailure):
-    """A ``--connect`` vehicle whose link is not signed as ``--signing-key`` says: it would refuse the run's
-    commands, or its telemetry the run's client (exit status 1)."""
 
 
 @dataclass(frozen=True)
@@ -90,91 +68,12 @@ class Vehicle:
         return local_offset(self.origin.lat_deg, self.origin.lon_deg, self.home[0], self.home[1])[1]
 
 
-class _Probe:
-    """One URL asked who and where its vehicle is, over a socket of its own. It speaks as an onboard computer, not a
-    ground station, so the vehicle never takes it for the commander whose silence is a lost data link."""
-
-    def __init__(self, url: str, signing_key: bytes | None = None) -> None:
-        self.url = url
-        self.address = parse_link(url)
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setblocking(False)
-        self.mav = mavlink2.MAVLink(None, srcSystem=PROBE_SYSTEM, srcComponent=MAV_COMP_ID_ONBOARD_COMPUTER)
-        self.plain = mavlink2.MAVLink(None, srcSystem=PROBE_SYSTEM, srcComponent=MAV_COMP_ID_ONBOARD_COMPUTER)
-        self.signer = Signer(signing_key, required=True, allow_unsigned=frozenset()) if signing_key else None
-        if self.signer is not None:
-            self.signer.attach(self.mav)
-        self.signed: set[str] = set()
-        """How the vehicle's frames came: ``ours`` (with the key), ``other`` (another key), ``signed``, ``unsigned``."""
-        self.system_id: int | None = None
-        self.home: tuple[float, float, float] | None = None
-
-    def _signing_of(self, msg: Any) -> str:
-        if self.signer is None:
-            return "signed" if msg.get_header().incompat_flags & mavlink2.MAVLINK_IFLAG_SIGNED else "unsigned"
-        verdict = self.signer.check(msg)
-        return {Verdict.SIGNED: "ours", Verdict.REPLAYED: "ours", Verdict.BAD_SIGNATURE: "other"}.get(
-            verdict, "unsigned"
-        )
-
-    def ask(self) -> None:
-        beat = self.mav.heartbeat_encode(MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0, 0)
-        # the heartbeat goes unsigned (taken unsigned by every vehicle, as PX4 does): a vehicle with another key
-        # still learns the probe and streams to it, so the probe can say what is wrong rather than hear nothing
-        frames = [bytes(beat.pack(self.plain))]
-        if self.system_id is not None:
-            if self.signer is not None:
-                self.signer.tick()
-            ask = self.mav.command_long_encode(self.system_id, 0, MAV_CMD_GET_HOME_POSITION, 0, *[0.0] * 7)
-            frames.append(bytes(ask.pack(self.mav)))
-        for frame in frames:
-            with contextlib.suppress(OSError):  # nobody there (ICMP refused): the deadline says so
-                self.sock.sendto(frame, self.address)
-
-    def read(self) -> None:
-        while True:
-            try:
-                data, _ = self.sock.recvfrom(65535)
-            except OSError:
-                return
-            parser = mavlink2.MAVLink(None)  # no key: a frame signed with another key is parsed, then judged
-            parser.robust_parsing = True
-            for msg in parser.parse_buffer(data) or []:
-                kind = msg.get_type()
-                if kind == "HEARTBEAT" and msg.type != MAV_TYPE_GCS and self.system_id is None:
-                    self.system_id = msg.get_srcSystem()
-                if kind == "BAD_DATA" or msg.get_srcSystem() != self.system_id:
-                    continue
-                signed = self._signing_of(msg)
-                self.signed.add(signed)
-                trusted = self.signer is None or signed == "ours"
-                if kind == "HOME_POSITION" and trusted:
-                    self.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
-
-    def mismatch(self) -> str | None:
-        """Why the run's client and this vehicle could not talk, signing-wise (None: they can)."""
-        who = f"--connect {self.url}: the vehicle (system id {self.system_id})"
-        if self.signer is None:
-            if "signed" in self.signed and "unsigned" not in self.signed:
-                return f"{who} signs its link and refuses unsigned commands: give its key with --signing-key FILE"
-            return None
-        if "ours" in self.signed:
-            return None
-        if "other" in self.signed:
-            return f"{who} signs with another key than --signing-key's: it would refuse every command"
-        return f"{who} does not sign its link (it has no key): give it the key, or fly without --signing-key"
-
-    @property
-    def answered(self) -> bool:
-        return self.system_id is not None and self.home is not None
-
-
 def _probe_all(
     urls: Sequence[str], timeout_s: float, signing_key: bytes | None = None
 ) -> list[tuple[int, tuple[float, float, float]]]:
     """Every URL's system id and home, all asked at once; :class:`VehicleUnreachable` for the first silent one,
     :class:`SigningMismatch` for the first whose link is not signed as ``signing_key`` says."""
-    probes = [_Probe(u, signing_key) for u in urls]
+    probes = [Probe(u, signing_key) for u in urls]
     try:
         deadline = time.monotonic() + timeout_s
         next_ask = 0.0
@@ -242,6 +141,8 @@ class ConnectedBackend(LinkBackend):
     ) -> None:
         super().__init__(vehicle.url, camera_hz=camera_hz, tlog=tlog)
         self.signing_key = signing_key  # the run's client signs with it, as a single run's does
+        self.probe_first = False  # find_fleet has probed it already
+        self.run_clock = None  # the swarm puts its connected vehicles on its own clock
         self.vehicle = vehicle
 
     def in_swarm_frame(self, sample: TelemetrySample) -> TelemetrySample:

@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 import threading
+import time
 from collections import deque
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
@@ -32,6 +34,8 @@ from flight.client.telemetry import Telemetry, TelemetryState, TelemetryStore, T
 
 ACK_TIMEOUT_S = 1.5
 ACK_ATTEMPTS = 3
+LINK_SILENT_S = 15.0
+"""Nothing heard from the vehicle for this long: an action waiting on it gives up (the link is gone)."""
 SAMPLE_MESSAGE = "GLOBAL_POSITION_INT"
 """Each of these makes a new sample for ``on_sample`` listeners: it carries the vehicle's clock and position."""
 
@@ -100,6 +104,8 @@ class ClientBase:
         self.ack_timeout_s = ack_timeout_s
         """How long to wait for an answer (COMMAND_ACK, a mission message) before sending the request again."""
         self.ack_attempts = max(1, ack_attempts)
+        self.link_silent_s = LINK_SILENT_S
+        """Nothing heard from the vehicle for this long ends any action waiting on it (:attr:`silent_s`)."""
         self._mav = mavlink2.MAVLink(None, srcSystem=source_system, srcComponent=source_component)
         self._lock = threading.RLock()
         self._store = TelemetryStore()
@@ -234,6 +240,13 @@ class ClientBase:
         """(lat, lon, alt above mean sea level) of home, once HOME_POSITION has arrived."""
         with self._lock:
             return self._store.state.home
+
+    @property
+    def silent_s(self) -> float:
+        """Wall seconds since the last message from the vehicle (infinite before the first, or once closed)."""
+        with self._lock:
+            last = self._store.state.last_rx
+        return math.inf if self.closed else max(0.0, time.monotonic() - last)
 
     @property
     def _state(self) -> TelemetryState:

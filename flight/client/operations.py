@@ -10,6 +10,7 @@ returns, with the state observed at its end.
 from __future__ import annotations
 
 import asyncio
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -33,6 +34,7 @@ failsafe, or another client) interrupts it."""
 WALL_SLACK = 20.0
 """How many times its budget of the vehicle's time an action may take in wall time (a frozen vehicle's bound)."""
 OUT_OF_TIME = "out of the vehicle's time"
+LINK_GONE = "the link is gone"
 
 
 @dataclass(eq=False, slots=True)
@@ -99,7 +101,8 @@ class OperationsClient(CommandClient):
 
     async def _wait_on_vehicle_clock(self, check: Callable[[Any], Any], timeout_s: float, start: float | None) -> Any:
         """:meth:`_wait` for ``check``, in one-second slices: it ends when ``check`` answers, when ``timeout_s`` of
-        wall time has passed with the vehicle's clock standing still (a vehicle that stopped), or after
+        wall time has passed with the vehicle's clock standing still (a vehicle that stopped), when nothing at all
+        has been heard from the vehicle for ``link_silent_s`` (:data:`LINK_GONE`: its link is gone), or after
         :data:`WALL_SLACK` × ``timeout_s`` of wall time in any case; without a vehicle clock, after ``timeout_s``."""
         loop = asyncio.get_running_loop()
         now = loop.time()
@@ -110,6 +113,8 @@ class OperationsClient(CommandClient):
             now = loop.time()
             if outcome is not None or now >= deadline:
                 return outcome
+            if self.silent_s >= self.link_silent_s:
+                return LINK_GONE
             clock = self._state.time_boot_s
             if clock is not None and clock != last_clock:
                 last_clock, last_progress = clock, now
@@ -155,6 +160,10 @@ class OperationsClient(CommandClient):
             return "ok", None, True
         if outcome == OUT_OF_TIME:
             outcome = None
+        if outcome == LINK_GONE:
+            silent = self.silent_s
+            heard = f"for {silent:.0f} s" if math.isfinite(silent) else "since the link closed"
+            return "timeout", f"the link is gone: nothing heard from the vehicle {heard}", False
         texts = self.texts_since(op.text_mark)
         if outcome is None:
             why = f"not reached in {timeout_s:.0f} s"
