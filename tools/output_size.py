@@ -78,12 +78,14 @@ def _text_size(text: str, budget: int) -> int:
 
 def _scalar_size(value: Any, budget: int) -> int | None:
     """The JSON length of a scalar, or None when ``value`` is not one."""
-    if value is None or isinstance(value, bool):
+    if value is None or value is True:
+        return 4
+    if value is False:
         return 5
     if isinstance(value, str):
         return _text_size(value, budget)
-    if isinstance(value, int):  # by its bit length: str() of a huge int is itself the cost to avoid
-        return value.bit_length() * 30103 // 100000 + 1
+    if isinstance(value, int):
+        return _int_size(value)
     if isinstance(value, float):
         return len(repr(value))
     if isinstance(value, bytes | bytearray):
@@ -95,6 +97,13 @@ def _scalar_size(value: Any, budget: int) -> int | None:
     if isinstance(value, _SMALL_SCALARS):
         return len(str(value)) + 2
     return None
+
+
+def _int_size(value: int) -> int:
+    """Its digits: printed when it is small, else from its bit length, maybe one over (printing a huge int is the
+    cost to avoid)."""
+    bits = value.bit_length()
+    return len(str(value)) if bits <= 64 else bits * 30103 // 100000 + 1 + (value < 0)
 
 
 def _kind(value: Any) -> str:
@@ -154,7 +163,7 @@ def measure(value: Any, limit: int) -> OutputSize:
             if has_key:
                 keys.append(key)
             open_ids.add(id(node))
-            walking.append((id(node), not isinstance(node, Mapping), members))
+            walking.append((id(node), isinstance(node, list | tuple | set | frozenset), members))
         if size > limit:
             return _too_large(size, limit)
         while walking:  # the members of the innermost open container; plain scalars sized here, in one loop
@@ -172,8 +181,10 @@ def measure(value: Any, limit: int) -> OutputSize:
                 elif kind is float:
                     size += len(repr(node))
                 elif kind is int:
-                    size += node.bit_length() * 30103 // 100000 + 1
-                elif node is None or kind is bool:
+                    size += _int_size(node)
+                elif node is None or node is True:
+                    size += 4
+                elif node is False:
                     size += 5
                 else:
                     has_key = True
