@@ -96,6 +96,8 @@ def _scalar_size(value: Any, budget: int) -> int | None:
         return _scalar_size(value.value, budget)
     if isinstance(value, _SMALL_SCALARS):
         return len(str(value)) + 2
+    if type(value).__module__ == "numpy":  # without importing numpy: a scalar prints short, an array by its bytes
+        return int(value.nbytes) * 2 + 2 if getattr(value, "ndim", 0) else len(str(value))
     return None
 
 

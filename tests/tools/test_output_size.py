@@ -100,3 +100,12 @@ def test_a_mapping_of_ten_million_items_is_walked_only_to_the_limit() -> None:
 
 def test_configured_limit_reads_positive_whole_numbers_only() -> None:
     assert configured_limit({"AGENTIC_UAV_MAX_TOOL_OUTPUT_BYTES": " 12 "}) == 12
+
+
+def test_numpy_scalars_are_data_and_arrays_count_their_bytes() -> None:
+    import numpy as np
+
+    assert measure({"a": np.float32(1.5), "b": np.int64(3), "c": np.bool_(True)}, 1000).problem is None
+    size, problem = measure(np.zeros((1000, 1000)), 10**9)  # eight million bytes of float64
+    assert problem is None and size >= 8_000_000
+    assert measure(np.zeros((1000, 1000)), 10**6).problem is not None
