@@ -12,6 +12,8 @@ Variants:
 * ``sync, all guards`` — scopes, a per-tool and per-caller rate limit, and a JSONL audit file.
 
 Case 2 counts calls per second with 8 concurrent callers (8 threads on ``call``; 8 tasks on ``acall``).
+Case 3 gives the time and the executor's memory peak (tracemalloc, over the output the tool made) for one call by
+output size, prose text from 10 kB up to just under the 1 MiB bound and 8 MiB over it (an error result).
 Target: under 50 µs of overhead per call on the default path.
 
 Case 1 runs twice: as the OS schedules it, and again in a child process pinned to one CPU (Linux). On a VM,
@@ -34,6 +36,7 @@ import sys
 import tempfile
 import threading
 import time
+import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -42,7 +45,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
-from tools import Caller, JsonlAuditLog, ToolExecutor, ToolRegistry  # noqa: E402
+from tools import Caller, JsonlAuditLog, ToolExecutor, ToolRegistry, ToolSpec  # noqa: E402
 
 TABLE_HEADER = "tool executor overhead benchmark"
 TARGET_US = 50.0
@@ -179,6 +182,30 @@ def case_concurrency(calls: int) -> list[tuple[str, float]]:
     return rows
 
 
+def case_output_size(quick: bool) -> list[tuple[str, float, float]]:
+    """(output, ms per call, executor's peak / output size) for prose outputs of growing size."""
+    registry = ToolRegistry()
+    answer: dict[str, Any] = {}
+    registry.register(ToolSpec.from_schema("bench.output", lambda args: answer["value"], {"type": "object"}))
+    executor = ToolExecutor(registry, default_caller=CALLER)
+    line = "wind 12 kt from 320, gusts 20; visibility good; "
+    sizes = (10_000, 100_000) if quick else (10_000, 100_000, 1_000_000, 8 * 1024 * 1024)
+    rows = []
+    for size in sizes:
+        answer["value"] = {"text": (line * (size // len(line) + 1))[:size]}
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        start = time.perf_counter()
+        result = executor.call("bench.output", {})
+        elapsed = time.perf_counter() - start
+        peak = tracemalloc.get_traced_memory()[1] - base
+        tracemalloc.stop()
+        label = f"{size / 1e6:.2f} MB of text ({'ok' if result.ok else 'refused'})"
+        rows.append((label, elapsed * 1e3, peak / size))
+    executor.close()
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     parser.add_argument("--calls", type=int, default=20_000)
@@ -206,6 +233,10 @@ def main(argv: list[str] | None = None) -> int:
     print("\nCase 2: throughput with 8 concurrent callers")
     for label, rate in case_concurrency(calls):
         print(f"  {label:<34} {rate:>10,.0f} calls/s")
+    print("\nCase 3: one call by output size (the executor's tracemalloc peak over the output's own size)")
+    print(f"  {'output':<34} {'ms':>10} {'peak / size':>12}")
+    for label, ms, ratio in case_output_size(args.quick):
+        print(f"  {label:<34} {ms:>10.1f} {ratio:>11.1f}x")
     default_overhead = overhead[0][2]
     met = default_overhead < TARGET_US
     print("\nTargets")

@@ -1,12 +1,14 @@
 """One executor for every tool: lookup, argument validation, authorization, the idempotency key, rate limits,
-cache, circuit breaker, retries with backoff, timeouts, output validation, the injection guard and the audit log,
-in that order.
+cache, circuit breaker, retries with backoff, timeouts, the output's size bound, output validation, the injection
+guard and the audit log, in that order.
 
 Every call returns a :class:`ToolResult`; nothing raises across this boundary (but an ``acall`` cancelled by its
 caller: the cancellation goes on, after the call is audited). The cache is consulted before the breaker, so a
 cached answer is still served while a tool's breaker is open. The breaker counts one failure per call, after its
 retries; a :class:`ToolError` is the tool's answer, not a sign of ill health. A side-effect tool called with an
-``idempotency_key`` that its audit log records as ended ok is not run again: that result is replayed.
+``idempotency_key`` that its audit log records as ended ok is not run again: that result is replayed. An output
+over ``max_output_bytes`` of JSON (1 MiB unless configured), or one that is not JSON data, is an error result
+naming the tool and the size, found without serialising the output.
 """
 
 from __future__ import annotations
@@ -19,18 +21,16 @@ from collections.abc import Awaitable, Callable, Mapping
 from datetime import UTC, datetime
 from typing import Any, Literal
 
+from .arguments import argument_errors
 from .attempts import AttemptRunner, CallState
 from .audit import AuditLog, AuditRecord, MemoryAuditLog, completes, redact, secret_values
 from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority, unverified_caller
 from .errors import DeadlinePassed, ToolError
 from .idempotency import KEPT_OUTPUT_LIMIT_BYTES, Flight, GateKey, KeyGate, kept_output, key_problem
+from .output_size import configured_limit, measure
 from .registry import ToolRegistry, is_available
 from .result import ToolResult, ToolStatus, construct
 from .security import DEFAULT_THRESHOLD, InjectionReport, scan_value
-
-
-def _path(error: Any) -> str:
-    return str(error.json_path)
 
 
 def _describe(exc: BaseException) -> str:
@@ -80,7 +80,15 @@ class ToolExecutor:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         async_sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
+        max_output_bytes: int | None = None,
     ) -> None:
+        """``max_output_bytes`` bounds a tool's answer as compact JSON (None: ``AGENTIC_UAV_MAX_TOOL_OUTPUT_BYTES``,
+        else 1 MiB); a bigger answer is an error result, never held in memory several times over."""
+        if max_output_bytes is None:
+            max_output_bytes = configured_limit()
+        if isinstance(max_output_bytes, bool) or not isinstance(max_output_bytes, int) or max_output_bytes <= 0:
+            raise ValueError(f"max_output_bytes must be a positive number of bytes, not {max_output_bytes!r}")
+        self.max_output_bytes = max_output_bytes
         self.registry = registry
         self._owns_audit = audit is None
         self.audit: AuditLog = audit if audit is not None else MemoryAuditLog()
@@ -235,13 +243,10 @@ class ToolExecutor:
             call.stage("validate_args", "failed")
             return self._finish(call, "error", error=f"invalid arguments: expected an object, got {call.args!r}")
         call.args = dict(call.args)
-        quick = entry.quick_check
-        errors = [] if quick and quick(call.args) else sorted(entry.validator.iter_errors(call.args), key=_path)
-        if errors:
-            detail = "; ".join(f"{e.json_path}: {e.message}" for e in errors[:3])
-            more = f" (and {len(errors) - 3} more)" if len(errors) > 3 else ""
+        detail = argument_errors(entry, call.args)
+        if detail is not None:
             call.stage("validate_args", "failed", detail)
-            return self._finish(call, "error", error=f"invalid arguments: {detail}{more}")
+            return self._finish(call, "error", error=f"invalid arguments: {detail}")
         if call.key is not None:
             problem = key_problem(call.key)
             if problem is not None:
@@ -393,6 +398,9 @@ class ToolExecutor:
         assert entry is not None
         call.stage("invoke", "passed", None if call.attempts == 1 else f"{call.attempts} attempts")
         try:
+            refusal = measure(value, self.max_output_bytes).problem
+            if refusal is not None:
+                raise ToolError(f"the output of {call.name!r} is {refusal}")
             if entry.spec.convert_output is not None:
                 value = entry.spec.convert_output(value)
             elif entry.output_validator is not None:

@@ -1,13 +1,15 @@
 """A fast yes/no for the commonest argument schema: a flat object of strings, numbers, integers and booleans.
 
-jsonschema stays the authority: this only answers "valid" when jsonschema would, for schemas it fully
-understands, and the executor asks jsonschema for the errors whenever it says anything else. It saves most of
-the cost of validating a typical tool's arguments on every call.
+jsonschema stays the authority: this only answers "valid" when jsonschema would (and no number is NaN or
+infinite, which the executor refuses besides), for schemas it fully understands, and the executor asks jsonschema
+for the errors whenever it says anything else. It saves most of the cost of validating a typical tool's arguments
+on every call.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from math import isfinite
 from typing import Any
 
 _SCHEMA_KEYS = {"type", "properties", "required", "additionalProperties", "title", "description", "$schema"}
@@ -23,9 +25,17 @@ def _is_integer(value: Any) -> bool:
 _TYPES: dict[str, Callable[[Any], bool]] = {
     "string": lambda v: isinstance(v, str),
     "integer": _is_integer,
-    "number": lambda v: isinstance(v, int | float) and not isinstance(v, bool),
+    "number": lambda v: (isinstance(v, int) and not isinstance(v, bool)) or (isinstance(v, float) and isfinite(v)),
     "boolean": lambda v: isinstance(v, bool),
 }
+
+
+def _plain(value: Any) -> bool:
+    """An argument the schema does not describe, passed by the quick check: not a container (it might hold a NaN
+    deep inside), not a NaN or an infinity."""
+    if isinstance(value, float):
+        return isfinite(value)
+    return not isinstance(value, Mapping | list | tuple)
 
 
 def flat_checker(schema: Mapping[str, Any]) -> Callable[[Mapping[str, Any]], bool] | None:
@@ -52,7 +62,7 @@ def flat_checker(schema: Mapping[str, Any]) -> Callable[[Mapping[str, Any]], boo
         for name, value in args.items():
             test = checks.get(name)
             if test is None:
-                if closed:
+                if closed or not _plain(value):
                     return False
             elif not test(value):
                 return False

@@ -19,12 +19,12 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hashlib
-import json
 import threading
 from collections.abc import Callable
 from typing import Any
 
 from .audit import redact
+from .output_size import measure
 
 MAX_KEY_LENGTH = 256
 KEPT_OUTPUT_LIMIT_BYTES = 64 * 1024
@@ -57,13 +57,10 @@ def header_value(key: str) -> str:
 
 def kept_output(value: Any, sensitive: frozenset[str]) -> tuple[Any, bool, int]:
     """What the audit log keeps of a side-effect call's output: the redacted value, whether it is kept (not when
-    its JSON is over :data:`KEPT_OUTPUT_LIMIT_BYTES`), and its size in bytes."""
+    its JSON is over :data:`KEPT_OUTPUT_LIMIT_BYTES`), and its size in bytes (counted no further than the limit)."""
     hidden = redact(value, sensitive)
-    try:
-        size = len(json.dumps(hidden, default=repr).encode())
-    except (TypeError, ValueError):  # e.g. a circular structure: nothing a replay could return
-        return None, False, 0
-    if size > KEPT_OUTPUT_LIMIT_BYTES:
+    size, problem = measure(hidden, KEPT_OUTPUT_LIMIT_BYTES)  # counted, not serialised: it may be 1 MiB
+    if problem is not None:  # too big, or not data a replay could return (a cycle)
         return None, False, size
     return hidden, True, size
 

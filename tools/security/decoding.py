@@ -36,18 +36,18 @@ class Blob:
 
 _B64 = re.compile(r"(?<![A-Za-z0-9+/_-])[A-Za-z0-9+/_-]{20,}={0,2}")
 _HEX = (  # plain, "\\x"-escaped and "0x"-prefixed; one regex each keeps the prefix scan fast
-    re.compile(r"[0-9A-Fa-f]{2}(?:[ :]?[0-9A-Fa-f]{2}){11,}"),
-    re.compile(r"(?:\\x[0-9A-Fa-f]{2}){8,}"),
-    re.compile(r"(?:0x[0-9A-Fa-f]{2},? ?){8,}"),
+    re.compile(r"[0-9A-Fa-f]{2}(?:[ :]?[0-9A-Fa-f]{2}){11,}+"),
+    re.compile(r"(?:\\x[0-9A-Fa-f]{2}){8,}+"),
+    re.compile(r"(?:0x[0-9A-Fa-f]{2},? ?){8,}+"),
 )
 _ESCAPE = re.compile(r"%[0-9A-Fa-f]{2}|&#(?:[xX][0-9A-Fa-f]{1,6}|[0-9]{1,7});?|\\u[0-9A-Fa-f]{4}")
 _TAGS = re.compile("[\U000e0001\U000e0020-\U000e007f]{4,}")
 _TAG_TO_ASCII = {0xE0000 + c: c for c in range(0x80)}
 _SELECTORS = re.compile("[\ufe00-\ufe0f\U000e0100-\U000e01ef]{4,}")
 _RLO = re.compile("[\u202e\u202d]([^\u202a-\u202e\u2066-\u2069\n]{1,4000})")
-_NONTEXT = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ufffd]")
-_LETTER = re.compile(r"[^\W\d_]")
-_HEXPAIR = re.compile(r"[0-9A-Fa-f]{2}")
+_NONTEXT = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ufffd]+")
+_NOT_LETTER = re.compile(r"[\W\d_]+")
+_NOT_HEX = re.compile(r"[^0-9A-Fa-f]+")
 _UNICODE_ESCAPE = re.compile(r"\\u([0-9A-Fa-f]{4})")
 
 
@@ -63,8 +63,10 @@ def _readable(data: bytes) -> str | None:
 
 
 def _looks_like_text(text: str) -> bool:
-    n = len(text)
-    return n >= 6 and len(_NONTEXT.findall(text)) * 20 <= n and len(_LETTER.findall(text)) * 3 >= n
+    n = len(text)  # counted by what a substitution leaves: a list of every match would cost 60 bytes a character
+    if n < 6 or (n - len(_NONTEXT.sub("", text))) * 20 > n:
+        return False
+    return len(_NOT_LETTER.sub("", text)) * 3 >= n
 
 
 def _b64decode(run: str) -> str | None:
@@ -117,20 +119,40 @@ def unescaped(text: str) -> Blob | None:
     return Blob(first.start(), last.end(), decoded, "escapes") if decoded != text else None
 
 
-_SPACED = re.compile(r"(?<![^\W_])(?:[^\W\d_][ .*_-]{1,2}){3,}[^\W\d_](?![^\W_])")
+# Four or more letters, each after one or two separators; possessive, as a backtracking repeat of a group costs
+# the regex engine tens of bytes a character. A run glued to a word ("a b c d ef") gives its last letter back.
+_SPACED = re.compile(r"(?<![^\W_])[^\W\d_](?:[ .*_-]{1,2}[^\W\d_]){3,}+")
+_WORD_CHAR = re.compile(r"[^\W_]")
+_SEPARATOR = " .*_-"
+_UNSPACE = str.maketrans("", "", _SEPARATOR)
+
+
+def _spaced_runs(raw: str) -> Iterator[tuple[int, int]]:
+    """The spans of spelt-out runs: four letters or more, not inside a word."""
+    for m in _SPACED.finditer(raw):
+        start, end = m.span()
+        if end < len(raw) and _WORD_CHAR.match(raw, end):
+            end -= 2 if raw[end - 3] in _SEPARATOR else 1  # the last letter and the separators before it
+            end -= 1
+            if sum(1 for c in raw[start:end] if c not in _SEPARATOR) < 4:
+                continue
+        yield start, end
 
 
 def despaced(raw: str) -> Blob | None:
     """``raw`` (a folded view) with letters spelt out one by one ("i g n o r e") joined up, if it has any."""
-    runs = list(_SPACED.finditer(raw))
-    if not runs:
+    parts: list[str] = []
+    done, first = 0, -1
+    for start, end in _spaced_runs(raw):
+        joined = raw[start:end].translate(_UNSPACE)
+        if not joined.isalpha():  # a letter to the regex, not to str.isalpha ("²"): dropped
+            joined = "".join(c for c in joined if c.isalpha())
+        parts += [raw[done:start], joined]
+        done, first = end, start if first < 0 else first
+    if first < 0:
         return None
-    parts, done = [], 0
-    for m in runs:
-        parts += [raw[done : m.start()], "".join(c for c in m.group() if c.isalpha())]
-        done = m.end()
     parts.append(raw[done:])
-    return Blob(runs[0].start(), runs[-1].end(), "".join(parts), "spaced")
+    return Blob(first, done, "".join(parts), "spaced")
 
 
 def blobs(text: str, *, hidden: bool = True) -> Iterator[Blob]:
@@ -142,7 +164,8 @@ def blobs(text: str, *, hidden: bool = True) -> Iterator[Blob]:
     for regex in _HEX:
         for m in regex.finditer(text):
             digits = m.group().replace("\\x", "").replace("0x", "")
-            decoded = _readable(bytes.fromhex("".join(_HEXPAIR.findall(digits))))
+            pairs = _NOT_HEX.sub("", digits)  # the separators and prefixes gone, the pairs stay aligned
+            decoded = _readable(bytes.fromhex(pairs[: len(pairs) - len(pairs) % 2]))
             if decoded is not None:
                 yield Blob(m.start(), m.end(), decoded, "hex")
     if hidden and not text.isascii():
