@@ -14,6 +14,10 @@ from agentic_core.contracts.geodesy import offset_position
 from agentic_core.contracts.policy_graph import Limits
 from agentic_core.mission import MissionError, load_mission
 
+from .fakes import Aircraft, executor_for
+from .stand_ins import PlainExecutor
+from .test_dispatch_keys import dispatcher, run
+
 HOME = (21.4133, 39.8933)
 FENCE_NORTH_M = 111.0  # the tester's case: the fence's centre 111 m north of home, radius 50 m
 CENTRE = offset_position(*HOME, FENCE_NORTH_M, 0.0)
@@ -73,3 +77,16 @@ def test_the_validate_command_uses_home_from_its_options(tmp_path: Path, capsys:
     assert main(["validate", str(path), "--home", f"{HOME[0]},{HOME[1]}"]) == 2
     assert f"{path}:6:" in capsys.readouterr().err
     assert main(["validate", str(path), "--home", f"{CENTRE[0]},{CENTRE[1]}"]) == 0
+
+
+def test_the_dispatcher_never_sends_a_takeoff_from_outside_the_fence() -> None:
+    executor = PlainExecutor(executor_for(Aircraft(instant=True)))
+    envelope = Envelope(CIRCLE, home=lambda: HOME)
+    text = MISSION.format(lat=CENTRE[0], lon=CENTRE[1])
+    out = run(text, dispatcher(executor, envelope=envelope))
+    assert out["status"]["up"] == "failed"
+    assert "outside the flight envelope" in str(out["errors"]["up"]) and "61 m outside" in str(out["errors"]["up"])
+    assert "flight.takeoff" not in [tool for tool, *_ in executor.calls]
+    inside = PlainExecutor(executor_for(Aircraft(instant=True)))
+    run(text, dispatcher(inside, envelope=Envelope(CIRCLE, home=lambda: CENTRE)))
+    assert "flight.takeoff" in [tool for tool, *_ in inside.calls]
