@@ -91,16 +91,16 @@ def _run_eval(command: str, argv: Sequence[str]) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from tools.cli import registry_from_args
     from tools.errors import ToolDefinitionError
+    from tools.loading import build_registry
 
     from .mission.source import MissionError
     from .mission.validate import iter_steps, load_mission
-    from .swarm.fleet_tools import register_swarm_tools
+    from .run.own_tools import register_stand_ins, reserved_names
 
     try:
-        registry = registry_from_args(args)
-        register_swarm_tools(registry, None, "validate")  # a swarm mission's tools, for their names and arguments
+        registry = build_registry(args.tools, builtins=not args.no_builtins, reserved=reserved_names())
+        register_stand_ins(registry, swarm=True)  # the run's own tools: their names, arguments and scopes
         home = _validate_home(args)
     except (ToolDefinitionError, ValueError) as exc:
         print(f"agentic-uav validate: error: {exc}", file=sys.stderr)

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import inspect
 import sys
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import replace
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -111,9 +112,11 @@ def build_registry(
     builtins: bool = True,
     plugins: bool = True,
     config: Any = None,
+    reserved: Collection[str] = (),
 ) -> ToolRegistry:
     """The registry the command line and the mission runner use: built-ins (configured from the environment
-    unless ``config`` is given), installed plugins, then ``sources`` in order.
+    unless ``config`` is given), installed plugins, then ``sources`` in order. A plugin or source defining a tool
+    named in ``reserved`` (the tools the caller registers itself afterwards) is a :class:`ToolDefinitionError`.
 
     >>> registry = build_registry(plugins=False)
     >>> "weather.get_forecast" in registry and "alerts.notify" in registry
@@ -125,7 +128,41 @@ def build_registry(
 
         register_builtins(registry, config)
     if plugins:
-        load_entry_points(registry)
+        _refuse_reserved(registry, load_entry_points(registry), f"an installed plugin ({ENTRY_POINT_GROUP})", reserved)
     for source in sources:
-        load_tools(registry, source)
+        _refuse_reserved(registry, load_tools(registry, source), source, reserved)
     return registry
+
+
+def _refuse_reserved(registry: ToolRegistry, names: Iterable[str], origin: str, reserved: Collection[str]) -> None:
+    """A :class:`ToolDefinitionError` for each tool ``origin`` defined under a name the caller registers itself
+    (a run's ``flight.*``), naming the file and the line of the tool's function where it can be found."""
+    problems = []
+    for name in names:
+        if name in reserved:
+            file, line = _defined_at(registry.get(name).handler, origin)
+            why = f"tool {name!r} clashes with the built-in tool {name}, which the run registers itself; rename it"
+            problems.append(LocatedProblem(file, line, None, why))
+    if problems:
+        raise ToolDefinitionError(problems)
+
+
+def _defined_at(handler: Any, origin: str) -> tuple[str, int | None]:
+    """Where a tool's function is written: ``origin`` and, when the function (the handler, or the function a
+    ``@tool`` handler wraps) is in that file, its ``def`` line."""
+    if Path(origin).suffix != ".py":
+        return origin, None
+    file = Path(origin).resolve()
+    cells = [_contents(cell) for cell in getattr(handler, "__closure__", None) or ()]
+    for candidate in (handler, *cells):
+        code = getattr(inspect.unwrap(candidate), "__code__", None) if callable(candidate) else None
+        if code is not None and Path(code.co_filename).resolve() == file:
+            return origin, int(code.co_firstlineno)
+    return origin, None
+
+
+def _contents(cell: Any) -> Any:
+    try:
+        return cell.cell_contents
+    except ValueError:  # a cell not yet filled
+        return None

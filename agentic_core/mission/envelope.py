@@ -3,9 +3,9 @@ templates filled in, ``target_id`` looked up, north/east turned into a place —
 refused before it leaves, with a reason the agent sees and can reflect on.
 
 Checked: a destination (``lat``/``lon``, ``north_m``/``east_m`` from home, or ``target_id``) inside the geofence
-(polygon or circle); an orbit's whole circle inside it; a landing place inside it; every altitude at most
-``max_altitude_m`` and, but for take-off and landing, at least the floor above home. Commands that name no place
-(hover, hold, rtl, the payload) pass.
+(polygon or circle); an orbit's whole circle inside it; a landing place inside it; a take-off from where the
+aircraft stands (``position``, else home) inside it; every altitude at most ``max_altitude_m`` and, but for take-off
+and landing, at least the floor above home. Commands that name no place (hover, hold, rtl, the payload) pass.
 
 >>> from agentic_core.contracts.policy_graph import Limits
 >>> fence = Limits(geofence={"center": {"lat": 21.4133, "lon": 39.8933}, "radius_m": 200}, max_altitude_m=25)
@@ -14,6 +14,8 @@ Checked: a destination (``lat``/``lon``, ``north_m``/``east_m`` from home, or ``
 []
 >>> env.check("flight.fly_to", {"north_m": 215.0, "east_m": 0.0, "alt_m": 30.0})
 ['the destination is 15 m outside the geofence', 'alt_m 30 m is above the ceiling of 25 m (limits.max_altitude_m)']
+>>> Envelope(fence, home=lambda: (21.4133, 39.8933), position=lambda: (21.4163, 39.8933)).check("flight.takeoff", {})
+['the aircraft stands 132 m outside the geofence: taking off there would break it at once']
 """
 
 from __future__ import annotations
@@ -39,10 +41,17 @@ class Envelope:
     """The mission's limits as a check of resolved flight commands."""
 
     def __init__(
-        self, limits: Limits | None, *, home: Home, targets: Resolve | None = None, floor_m: float = FLOOR_M
+        self,
+        limits: Limits | None,
+        *,
+        home: Home,
+        targets: Resolve | None = None,
+        floor_m: float = FLOOR_M,
+        position: Home | None = None,
     ) -> None:
         self.limits = limits or Limits()
         self.home = home
+        self.position = position  # where the aircraft is now (lat, lon); without it a take-off is from home
         self.targets = targets
         self.floor_m = floor_m
         self._fence: tuple[tuple[float, float], Any] | None = None  # (home, the fence in north/east metres)
@@ -53,9 +62,15 @@ class Envelope:
 
     def violations(self, tool: str, args: Mapping[str, Any]) -> list[tuple[str, str]]:
         """Every limit ``tool(args)`` would break, each with the argument that breaks it (``alt_m``, ``lat``,
-        ``north_m``, ``target_id``, ``center``, ``radius_m``): what ``validate`` points a file's line at."""
+        ``north_m``, ``target_id``, ``center``, ``radius_m``; ``position`` for where a take-off stands): what
+        ``validate`` points a file's line at."""
         problems: list[tuple[str, str]] = []
         if tool == "flight.takeoff":
+            standing = self._standing()
+            outside = self._outside_by(standing) if standing is not None else 0.0
+            if outside > 0:
+                why = "taking off there would break it at once"
+                problems.append(("position", f"the aircraft stands {outside:.0f} m outside the geofence: {why}"))
             self._altitude(args.get("altitude_m"), "altitude_m", problems, floor=False)
         elif tool == "flight.fly_to":
             self._place(args, self._destination(args, problems), "the destination", problems)
@@ -92,6 +107,13 @@ class Envelope:
                 return None
             return self._local(found[0], found[1], problems)
         return None
+
+    def _standing(self) -> tuple[float, float] | None:
+        """Where the aircraft is (north/east from home): its reported position, else home; None if unknown."""
+        here = self.position() if self.position is not None else None
+        if here is None:
+            return (0.0, 0.0) if self.home() is not None else None
+        return self._local(here[0], here[1], [])
 
     def _centre(self, args: Mapping[str, Any], problems: Problems) -> tuple[float, float] | None:
         centre = args.get("center")

@@ -12,7 +12,8 @@ small tree-walking interpreter; it is never handed to ``eval``. The language:
 * calls to :data:`FUNCTIONS` only (defined in :mod:`.functions`): ``min max abs len round sum any all``,
   ``distance_m(a, b)`` and
   ``count(items, **filters)`` and ``find(world, relation=..., **filters)`` (filters ``field=value`` or
-  ``field__gte=value`` and the like; ``class_=``/``cls=`` filter on the ``class`` field).
+  ``field__gte=value`` and the like; ``class_=``/``cls=`` filter on the ``class`` field). An unknown operator
+  (``field__ge``), or a field World Model objects lack where the items are theirs, is refused when parsed.
 
 Syntax errors and refused constructs raise :class:`ExpressionError` from :meth:`Expression.parse`, unknown names
 from :meth:`Expression.check_names`, so a bad mission fails when it is loaded. Evaluation failures raise
@@ -35,9 +36,19 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from agentic_core.contracts.errors import InputError
+from agentic_core.contracts.world_model import WorldObject
 
 from .functions import ARITY as _ARITY
-from .functions import FUNCTIONS, count, distance_m, find
+from .functions import (
+    FUNCTIONS,
+    count,
+    distance_m,
+    filter_keys,
+    filter_operator_problem,
+    find,
+    readable_fields,
+    split_filter,
+)
 from .functions import MISSING as _MISSING
 from .functions import TAKES_FILTERS as _TAKES_FILTERS
 from .functions import get_field as _get_field
@@ -207,6 +218,7 @@ class Expression:
 
 
 _NO_FIELDS: frozenset[str] = frozenset()
+_OBJECT_FIELDS = frozenset(readable_fields(WorldObject))
 
 
 class _Checker:
@@ -271,7 +283,34 @@ class _Checker:
             raise fail(
                 node, f"{name}() takes {low if low == high else f'{low} or more'} argument(s), not {len(node.args)}"
             )
+        for kw in node.keywords:
+            self.filter(name, node, kw)
         return [*node.args, *(kw.value for kw in node.keywords)]
+
+    def filter(self, function: str, call: ast.Call, kw: ast.keyword) -> None:
+        """Refuse a filter of ``find``/``count`` with an unknown operator, or naming a field World Model objects
+        do not have (when the items are World Model objects: ``find``'s, or ``count`` of ``find`` or
+        ``world.objects``), so the condition cannot silently never hold."""
+        name = str(kw.arg)
+        if function == "find" and name == "relation":
+            return
+        problem = filter_operator_problem(name)
+        if problem is not None:
+            raise self.expr._fail(kw, problem)
+        if not (function == "find" or _world_objects(call.args[0] if call.args else None)):
+            return
+        if not any(key in _OBJECT_FIELDS for key in filter_keys(name)):
+            field = split_filter(name)[0]
+            fields = readable_fields(WorldObject)
+            hint = f"fields: {', '.join(fields)}{_suggest(filter_keys(name)[0], fields)}"
+            raise self.expr._fail(kw, f"World Model objects have no field {field!r} (filter {name!r})", hint)
+
+
+def _world_objects(node: ast.expr | None) -> bool:
+    """Whether ``node`` is ``world.objects`` or a ``find(...)`` call: items known to be World Model objects."""
+    if isinstance(node, ast.Attribute):
+        return node.attr == "objects" and isinstance(node.value, ast.Name) and node.value.id == "world"
+    return isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "find"
 
 
 # ---- evaluation ----

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import difflib
 import keyword
 import math
 import operator
@@ -17,6 +18,7 @@ from types import MappingProxyType, SimpleNamespace
 from typing import Any
 
 from agentic_core.contracts import geodesy
+from agentic_core.contracts.world_model import WorldObject
 
 MISSING: Any = object()
 """What :func:`get_field` returns for a field that is not there."""
@@ -151,12 +153,40 @@ _LOOKUPS: dict[str, Callable[[Any, Any], bool]] = {
 }
 
 
+FILTER_OPERATORS = tuple(_LOOKUPS)
+"""The operators a filter name may end with (``field__op``); a name without one compares with ``==``."""
+
+
+def split_filter(name: str) -> tuple[str, str | None]:
+    """``stationary_s__gte`` -> ``('stationary_s', 'gte')``, ``class_`` -> ``('class_', None)``. The part after a
+    name's last ``__`` is its operator, whatever it says: a misspelt one is an error, never part of the field."""
+    field, sep, op = name.rpartition("__")
+    return (field, op) if sep and field else (name, None)
+
+
+def filter_operator_problem(name: str) -> str | None:
+    """Why the filter ``name`` has no valid operator (a did-you-mean among :data:`FILTER_OPERATORS`), or None."""
+    field, op = split_filter(name)
+    if op is None or op in _LOOKUPS:
+        return None
+    close = difflib.get_close_matches(op, FILTER_OPERATORS, n=1, cutoff=0.5)
+    hint = f"; did you mean '{field}__{close[0]}'?" if close else ""
+    return f"unknown filter operator {op!r} in {name!r} (operators: {', '.join(FILTER_OPERATORS)}{hint})"
+
+
+def filter_keys(name: str) -> tuple[str, ...]:
+    """The fields a filter name reads, its operator left off (``class_`` reads ``class``, then ``class_``)."""
+    return _filter_keys(split_filter(name)[0])
+
+
 def _lookup(name: str) -> tuple[tuple[str, ...], Callable[[Any, Any], bool]]:
-    """``stationary_s__gte`` -> (the field's keys, >=); a plain name compares with ==."""
-    field, _, op = name.rpartition("__")
-    if field and op in _LOOKUPS:
-        return _filter_keys(field), _LOOKUPS[op]
-    return _filter_keys(name), _LOOKUPS["eq"]
+    """``stationary_s__gte`` -> (the field's keys, >=); a plain name compares with ==; a name ending with an
+    unknown operator (``stationary_s__ge``) is a ValueError."""
+    problem = filter_operator_problem(name)
+    if problem is not None:
+        raise ValueError(problem)
+    field, op = split_filter(name)
+    return _filter_keys(field), _LOOKUPS[op or "eq"]
 
 
 def _matches(item: Any, keys: tuple[str, ...], test: Callable[[Any, Any], bool], wanted: Any) -> bool:
@@ -167,7 +197,12 @@ def _matches(item: Any, keys: tuple[str, ...], test: Callable[[Any, Any], bool],
                 return bool(test(value, wanted))
             except TypeError:  # None >= 10 and the like: not a match
                 return False
-    return False
+    if isinstance(item, WorldObject):  # its fields are the contract's: one it lacks is misspelt
+        known = readable_fields(type(item))
+        close = difflib.get_close_matches(keys[0], known, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ValueError(f"a {type(item).__name__} has no field {keys[0]!r} (fields: {', '.join(known)}{hint})")
+    return False  # a mapping without that key: not a match
 
 
 def _select(items: Iterable[Any], filters: Mapping[str, Any]) -> list[Any]:
@@ -175,10 +210,22 @@ def _select(items: Iterable[Any], filters: Mapping[str, Any]) -> list[Any]:
     return [item for item in items if all(_matches(item, keys, test, value) for keys, test, value in wanted)]
 
 
+def readable_fields(cls: type) -> list[str]:
+    """The fields an expression may read of a pydantic model class: its fields, their aliases, its properties."""
+    fields: Mapping[str, Any] = getattr(cls, "model_fields", {})
+    names = [alias for info in fields.values() if isinstance(alias := getattr(info, "alias", None), str)]
+    names += [name for name in fields if name not in names]
+    for klass in cls.__mro__:
+        if not klass.__module__.startswith("pydantic"):  # BaseModel's own properties are not the record's fields
+            names += [n for n, v in vars(klass).items() if not n.startswith("_") and isinstance(v, property)]
+    return list(dict.fromkeys(names))
+
+
 def count(items: Iterable[Any], **filters: Any) -> int:
     """How many items match every filter; ``count(items)`` is their number. A filter is ``field=value``, or
-    ``field__op=value`` with op one of eq, ne, gt, gte, lt, lte, in. ``class`` is a Python keyword, so filter on
-    it with ``class_=`` (or ``cls=``)."""
+    ``field__op=value`` with op one of eq, ne, gt, gte, lt, lte, in (any other is a ValueError). ``class`` is a
+    Python keyword, so filter on it with ``class_=`` (or ``cls=``). A World Model object without the field is an
+    error (a misspelling); another item without it does not match."""
     return len(_select(items, filters))
 
 

@@ -4,7 +4,8 @@ dispatcher checks each resolved command with — so a place is judged the same w
 as north/east metres from home, and whether ``validate`` or the flight finds it.
 
 Positions in north/east metres need the home they are measured from: ``home`` (``validate --home``, a scene's home,
-the simulator's default). Without one only lat/lon positions are placed. Values written as ``${...}`` and world-model
+the simulator's default). Without one only lat/lon positions are placed. With it a take-off is checked too: the
+aircraft takes off from home, which must lie inside the geofence. Values written as ``${...}`` and world-model
 targets are known only in flight, where the envelope checks them.
 
 >>> from agentic_core.mission.validate import load_mission
@@ -94,7 +95,10 @@ class LimitsCheck:
         if self.home is None and ("north_m" in known or "east_m" in known):
             known = {k: v for k, v in known.items() if k not in ("north_m", "east_m")}
         for field, message in self.envelope.violations(tool, known):
-            yield (*where, field), f"{action}: {message}"
+            if field != "position":
+                yield (*where, field), f"{action}: {message}"
+            elif self.home is not None:  # the aircraft stands at home when the mission starts
+                yield (*where[:-1], "action"), f"{action}: home is {message.removeprefix('the aircraft stands ')}"
 
     def _survey(self, step: SurveyStep, args: Mapping[str, Any], path: Path) -> Iterator[tuple[Path, str]]:
         where = (*path, "args")

@@ -1,15 +1,23 @@
 """Checking ``call_tool`` steps against the tool catalogue before take-off: the tool exists (else the closest
 names), and the arguments written in the mission fit the tool's input schema. A value holding ``${...}`` is
 known only at run time, so a complaint about that value itself is left to the executor; the rest (required
-fields, unknown fields, literal values) is checked here."""
+fields, unknown fields, literal values) is checked here. A mission's ``scopes:`` must hold what the run itself
+calls (:data:`RUN_TOOLS`) and every tool its steps call (:func:`missing_scopes`).
+
+>>> missing_scopes(["flight:command"], {"flight.status": ("flight:read",), "flight.fly_to": ("flight:command",)})
+{'flight:read': ['flight.status']}
+"""
 
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import Any, Protocol
 
 import jsonschema
+
+from agentic_core.contracts.policy_graph import ON_ABORT_TOOLS
+from tools.auth import Caller
 
 ArgPath = tuple[str | int, ...]
 Validators = dict[str, jsonschema.protocols.Validator]
@@ -22,6 +30,28 @@ class ToolCatalog(Protocol):
     def __contains__(self, name: object) -> bool: ...
     def names(self) -> list[str]: ...
     def input_schema(self, name: str) -> Mapping[str, Any]: ...
+    def get(self, name: str) -> Scoped: ...
+
+
+class Scoped(Protocol):
+    """A tool as the scope check sees it (``tools.ToolSpec`` is one)."""
+
+    @property
+    def scopes(self) -> tuple[str, ...]: ...
+
+
+RUN_TOOLS = frozenset({"flight.status", "flight.set_fence", "flight.hold", *ON_ABORT_TOOLS.values()})
+"""What the run itself calls, whatever the mission: reach the vehicle, hand it the fence, stop, come home, land."""
+
+
+def missing_scopes(held: Iterable[str], needs: Mapping[str, Iterable[str]]) -> dict[str, list[str]]:
+    """Each scope of ``needs`` (tool -> the scopes it asks) that ``held`` lacks, with the tools that ask it."""
+    caller = Caller(id="mission", scopes=frozenset(held))  # the very rule the executor applies
+    missing: dict[str, list[str]] = {}
+    for tool, scopes in needs.items():
+        for scope in caller.missing(scopes):
+            missing.setdefault(scope, []).append(tool)
+    return missing
 
 
 def unknown_tool_message(name: str, catalog: ToolCatalog) -> str:

@@ -24,12 +24,12 @@ from agentic_core.contracts.input_files import InputFileError, check_input_file
 
 from .expressions import Expression, ExpressionError
 from .limits_check import LimitsCheck
-from .model import BranchStep, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
+from .model import ACTION_TOOLS, BranchStep, PolicyGraph, RepeatStep, Step, Trigger, WaitUntilStep, step_args
 from .schema_errors import schema_problems, suggest
 from .source import MissionError, Path, Problem, SourceMap, load_document
 from .steps import SCOPE_ROOTS
 from .templates import find_templates
-from .tool_check import ToolCatalog, Validators, argument_problems, unknown_tool_message
+from .tool_check import RUN_TOOLS, ToolCatalog, Validators, argument_problems, missing_scopes, unknown_tool_message
 
 
 @dataclass(frozen=True)
@@ -58,6 +58,11 @@ def iter_steps(plan: PolicyGraph) -> Iterator[StepSite]:
     yield from walk_steps(plan.steps)
     for t, trigger in enumerate(plan.triggers):
         yield from walk_steps(trigger.steps, ("triggers", t, "steps"), f"trigger:{trigger.id}")
+
+
+def step_tool(step: Step) -> str | None:
+    """The tool a step calls (``call_tool``'s own, an action's, none for the control steps)."""
+    return getattr(step, "tool", None) if step.action == "call_tool" else ACTION_TOOLS.get(step.action)
 
 
 def _template_path(where: str) -> Path:
@@ -137,6 +142,7 @@ class _Checker:
         self.check_expressions()
         self.check_nesting()
         self.check_tools()
+        self.check_scopes()
         self.check_limits()
         return self.problems
 
@@ -404,6 +410,31 @@ class _Checker:
                 continue
             for where, message in argument_problems(tool, step_args(site.step), self.tools, validators):
                 self.add((*site.path, "args", *where), message)
+
+    def check_scopes(self) -> None:
+        """A mission's ``scopes:`` must hold what the run itself calls and what every step's tool asks: an agent
+        lacking one would fail in flight (or before take-off) on a file that could have been fixed."""
+        if self.tools is None or self.plan.scopes is None or self.outer_ids:
+            return  # no catalogue, no declared scopes, or a revision (its tools are reviewed against the agent)
+        needs: dict[str, tuple[str, ...]] = {}
+        where: dict[str, str] = {}
+        for site in self.sites:
+            tool = step_tool(site.step)
+            if tool is not None and tool in self.tools and tool not in needs:
+                needs[tool], where[tool] = tuple(self.tools.get(tool).scopes), f"step {site.step.id!r}"
+        for tool in sorted(RUN_TOOLS):
+            if tool in self.tools and tool not in needs:
+                needs[tool], where[tool] = tuple(self.tools.get(tool).scopes), "the run itself"
+        missing = missing_scopes(self.plan.scopes, needs)
+        if missing:
+            parts = [
+                f"{scope} (for {', '.join(f'{t} in {where[t]}' for t in tools)})" for scope, tools in missing.items()
+            ]
+            self.add(
+                ("scopes",),
+                f"scopes leaves out {', '.join(missing)}, which this mission needs: {'; '.join(parts)}; add them, "
+                "or leave scopes out to hold exactly what the tools ask",
+            )
 
     def check_limits(self) -> None:
         check = LimitsCheck(self.plan, self.home)

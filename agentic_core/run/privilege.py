@@ -22,17 +22,11 @@ from tools import Caller, ToolRegistry
 from tools.builtin.allowlist import destination_problems
 from tools.builtin.config import BuiltinConfig
 
-from ..mission.model import ACTION_TOOLS, ON_ABORT_TOOLS, PolicyGraph, Step
-from ..mission.validate import iter_steps, walk_steps
+from ..mission.model import PolicyGraph, Step
+from ..mission.tool_check import RUN_TOOLS
+from ..mission.validate import iter_steps, step_tool, walk_steps
 
-RUN_TOOLS = frozenset({"flight.status", "flight.set_fence", "flight.hold", *ON_ABORT_TOOLS.values()})
-"""What the run itself calls, whatever the mission: reach the vehicle, hand it the fence, stop, come home, land."""
 ALLOWED_WHY = "its steps' tools and allow_tools"
-
-
-def step_tool(step: Step) -> str | None:
-    """The tool a step calls (``call_tool``'s own, an action's, none for the control steps)."""
-    return getattr(step, "tool", None) if step.action == "call_tool" else ACTION_TOOLS.get(step.action)
 
 
 def mission_tools(plan: PolicyGraph) -> frozenset[str]:

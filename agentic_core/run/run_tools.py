@@ -16,13 +16,15 @@ from tools import Caller, ToolRegistry
 from tools.builtin.config import BuiltinConfig
 from tools.loading import build_registry
 
+from .own_tools import reserved_names
 from .settings import AGENT
 
 
 def run_tools(sources: Sequence[str], config: BuiltinConfig, *, plugins: bool = True) -> tuple[ToolRegistry, Caller]:
-    """The run's registry and the agent that may call every tool in it. A source that cannot be loaded raises
-    :class:`~tools.errors.ToolDefinitionError` (bad input, exit 2) naming it, before anything flies."""
-    registry = build_registry(sources, config=config, plugins=plugins)
+    """The run's registry and the agent that may call every tool in it. A source that cannot be loaded, or that
+    defines a tool the run registers itself (``flight.fly_to``), raises :class:`~tools.errors.ToolDefinitionError`
+    (bad input, exit 2) naming it, before anything flies."""
+    registry = build_registry(sources, config=config, plugins=plugins, reserved=reserved_names())
     granted = {scope for name in registry.names() for scope in registry.get(name).scopes}
     return registry, AGENT.model_copy(update={"scopes": AGENT.scopes | granted})
 

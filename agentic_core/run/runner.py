@@ -34,7 +34,7 @@ from ..agent.envelope import FLOOR_M, Envelope
 from ..agent.failsafes import TelemetryFailsafes, VehicleTexts
 from ..agent.gate import unsure
 from ..agent.ports import WorldSource
-from ..contracts import AgenticUAVError, RunEvent, RunFailure, TelemetrySample
+from ..contracts import AgenticUAVError, InputError, RunEvent, RunFailure, TelemetrySample
 from ..contracts.policy_graph import Circle
 from ..graph.checkpoint.sqlite import SqliteSaver
 from ..mission import Environment, compile_mission, initial_state
@@ -54,6 +54,7 @@ from .link_key import keep_signing_key, run_signing_key
 from .model_check import require_model
 from .model_side import ModelSide
 from .operator import OperatorAnswer, TerminalOperator
+from .own_tools import ANALYZE_SCENE, ANALYZE_SCENE_SCOPES
 from .perception_loop import PerceptionLoop
 from .plan_review import review
 from .privilege import destination_review, mission_caller
@@ -141,8 +142,8 @@ class MissionRun:
         register_flight_tools(self.registry, self._connect, targets=self._target)
         if self.fleet is not None:
             self.fleet.tools(self.registry, self)
-        self.registry.register(spec_from_function(self._analyze_scene, name="perception.analyze_scene",
-                                                  scopes=["perception:read"], timeout_s=120.0))  # fmt: skip
+        self.registry.register(spec_from_function(self._analyze_scene, name=ANALYZE_SCENE,
+                                                  scopes=list(ANALYZE_SCENE_SCOPES), timeout_s=120.0))  # fmt: skip
         self.plan = load_run_mission(settings.mission, self.registry, self._home())
         self.agent = mission_caller(self.plan, self.registry)  # the scopes this mission needs, no more
         chosen = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
@@ -191,7 +192,8 @@ class MissionRun:
         self.dispatch = Dispatcher(
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
-            hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target),
+            hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target,
+                                                         position=self._standing_at),
         )  # fmt: skip
         if self.loop is not None:  # the watch looks at every frame, in lockstep with the camera
             self.loop.on_world.append(WorldMapLog(self.run_dir / WORLD_MAP_FILE))  # what the replay's map draws
@@ -250,6 +252,11 @@ class MissionRun:
         if home is not None:
             return home[0], home[1]
         return (self.scene.home.lat_deg, self.scene.home.lon_deg) if self.scene is not None else None
+
+    def _standing_at(self) -> tuple[float, float] | None:
+        """Where the aircraft is now, from its telemetry (a take-off is checked against the fence from there)."""
+        sample = self.last_sample
+        return (sample.lat_deg, sample.lon_deg) if sample is not None else None
 
     def _target(self, object_id: str) -> tuple[float, float] | None:
         return self.loop.target(object_id) if self.loop else None
@@ -349,6 +356,8 @@ class MissionRun:
     def reach_vehicle(self) -> None:
         """Connect to the vehicle before anything flies; :class:`RunFailure` when it does not answer."""
         status = self.executor.call("flight.status", {})
+        if status.status == "denied":  # the mission's scopes leave out flight:read (load refuses such missions)
+            raise InputError(f"the agent may not read the vehicle ({status.error}): the scopes need flight:read")
         if status.status != "ok":
             raise RunFailure(f"cannot reach the vehicle at {self.backend.address}: {status.error}")
 

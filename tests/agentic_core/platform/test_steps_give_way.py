@@ -69,8 +69,8 @@ def test_a_signal_ends_a_wait_that_never_comes_true(tmp_path: Path) -> None:
 
         def waiting() -> bool:
             assert proc.poll() is None, f"the run ended first ({proc.returncode}): {output.read_text()[-2000:]}"
-            folders = [p for p in runs.iterdir() if p.is_dir()] if runs.is_dir() else []
-            return bool(folders) and bool(tools_ok(trace(folders[0]), "flight.takeoff"))
+            traces = [p / "trace.jsonl" for p in runs.iterdir()] if runs.is_dir() else []
+            return any(t.is_file() and tools_ok(trace(t.parent), "flight.takeoff") for t in traces)
 
         wait_for(waiting, timeout_s=90.0, what="the take-off before the endless wait")
         proc.send_signal(signal.SIGINT)
