@@ -20,7 +20,7 @@ from pathlib import Path
 from ..contracts import TelemetrySample
 
 TAIL_BYTES = 64 * 1024
-"""How much of the end of ``telemetry.jsonl`` a resumed run reads for where its time stood."""
+"""How much of the end of ``telemetry.jsonl`` and ``trace.jsonl`` a resumed run reads for where its time stood."""
 
 
 class RunClock:
@@ -44,19 +44,27 @@ class RunClock:
 
 
 def resumed_at(run_dir: Path, snapshot_s: float | None) -> float:
-    """Where a resumed run's time stood: the latest of its snapshot's time and its last telemetry line's (which
-    may come after the last snapshot), so its telemetry and trace go on from there and never back."""
+    """Where a resumed run's time stood: the latest of its snapshot's time, its last telemetry line's and its last
+    trace record's (both may come after the last snapshot; the trace's end record is stamped when the run ended,
+    between telemetry lines), so its telemetry and trace go on from there and never back."""
     latest = snapshot_s if snapshot_s is not None and math.isfinite(snapshot_s) else 0.0
-    path = run_dir / "telemetry.jsonl"
+    for name, key in (("telemetry.jsonl", "time_s"), ("trace.jsonl", "sim_t")):
+        latest = max(latest, _last_time(run_dir / name, key))
+    return latest
+
+
+def _last_time(path: Path, key: str) -> float:
+    """The largest finite ``key`` among the JSON lines at the end of ``path`` (0 when there are none)."""
     try:
         with path.open("rb") as f:
             f.seek(max(0, path.stat().st_size - TAIL_BYTES))
             tail = f.read(TAIL_BYTES)
     except OSError:
-        return latest
+        return 0.0
+    latest = 0.0
     for line in tail.splitlines()[1:] if len(tail) == TAIL_BYTES else tail.splitlines():  # a cut first line: skip
         try:
-            t = json.loads(line).get("time_s")
+            t = json.loads(line).get(key)
         except (ValueError, AttributeError):
             continue  # a line cut short by a kill, or not a record
         if isinstance(t, int | float) and math.isfinite(t):
