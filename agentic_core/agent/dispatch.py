@@ -10,12 +10,12 @@ from here, with
 * the watch during a long flight action (``flight.fly_to``, ``orbit``, ``hover``): the control port (pause, abort,
   rtl, land) and the triggers' rules, evaluated on the mission state the step started from (during ``takeoff``,
   ``land``, ``rtl`` and ``start_mission``, and during every flight action of a trigger's own sub-plan, the control
-  port alone: a pause or a stop holds the aircraft at once; a stop that lands lets a descent under way land). When a
-  rule holds for an object the reasoner has not judged, the
-  aircraft goes to hold over it (``hold_over`` names where; else it holds where it is) while the reasoner thinks,
-  so the object stays in view however slow the model; if the reasoner lets the trigger act the action ends
-  :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the object, else the action is sent
-  again and flies on.
+  port alone: a pause or a stop holds the aircraft at once, unless the stop asks for what the action does already,
+  an ``rtl`` during a return or a ``land`` during a descent). When a rule holds for an object the reasoner has not
+  judged, the aircraft goes to hold over it (``hold_over`` names where; else it holds where it is) while the
+  reasoner thinks, so the object stays in view however slow the model; if the reasoner lets the trigger act the
+  action ends :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the object, else the
+  action is sent again and flies on.
 
 Every call and every interruption is published as a ``tool`` event.
 """
@@ -48,7 +48,11 @@ for an hour). The triggers wait for the next barrier: sent again after a decline
 refused in the air, a mission start over, and a trigger's rule must not turn back a return or a landing. A trigger's
 own sub-plan is watched this way too, whatever its flight actions."""
 LAND = "flight.land"
-"""The one action that may fly elsewhere before it does what a ``land`` stop asks (descend where it is)."""
+DESCENDS = frozenset({LAND, "flight.rtl"})
+"""The actions that end in a descent to land, which a ``land`` stop lets go on once it has begun (before it, they
+fly elsewhere)."""
+FAILSAFE = "failsafe"
+"""Who a telemetry failsafe's stop is by (:mod:`~agentic_core.agent.failsafes`)."""
 
 VEHICLE_WAITS = ("flight.", "swarm.")
 """Tools whose wait is a wait on vehicles (its own, or the swarm's flying a task): the simulation runs at full speed."""
@@ -96,7 +100,7 @@ class Dispatcher:
         self.on_abort = on_abort
         """The mission's ``on_abort``: an abort lets a return (``rtl``) or a descent (``land``) under way go on as
         that says (unknown: it holds, and the run's stop does the rest)."""
-        self.vehicle = vehicle if vehicle is not None else gate.vehicle
+        self.vehicle: VehicleView = vehicle if vehicle is not None else gate.vehicle
         """The vehicle's telemetry, read to tell a descent from the flight to where it lands."""
         self.frame_driven = False
         """Set when perception calls :meth:`spot` after every frame: the watch then looks in lockstep with the
@@ -234,15 +238,17 @@ class Dispatcher:
         return result
 
     def _goes_on(self, tool: str) -> bool:
-        """The standing stop asks for what ``tool`` is doing already: an ``rtl`` during a return, a ``land`` during
-        a descent to land (an ``abort`` as the mission's ``on_abort`` says; unknown, it holds). Letting the action go
-        on does what the stop asks without a hold in between. A landing still flying to where it would land holds,
-        and the stop lands it there."""
+        """The standing stop asks for what ``tool`` is doing already, so letting it go on does what the stop asks
+        without a hold in between: an ``rtl`` during a return; a ``land`` during a descent to land (a landing's,
+        or a return's last); an ``abort`` as the mission's ``on_abort`` says (unknown, it holds). A failsafe never
+        turns back a landing's descent (as PX4's own do not: landing is the safer action). A landing still flying
+        to where it would land holds, and a ``land`` stop lands it there."""
         command = self.control.stop_requested()
         wanted = command if command != "abort" else self.on_abort
-        if wanted is None or ON_ABORT_TOOLS.get(wanted) != tool:
-            return False
-        return tool != LAND or (self.vehicle is not None and self.vehicle.view().get("landed_state") == "landing")
+        descending = tool in DESCENDS and self.vehicle.view().get("landed_state") == "landing"
+        if wanted == "land" or (tool == LAND and self.control.stopped_by == FAILSAFE):
+            return descending
+        return wanted is not None and ON_ABORT_TOOLS.get(wanted) == tool and tool != LAND
 
     def _flight(self, action: Callable[[], ToolResult], name: str) -> _Flight:
         return _Flight(action, name, self._wake)

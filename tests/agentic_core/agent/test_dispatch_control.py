@@ -88,10 +88,13 @@ class Rig:
         assert not thread.is_alive(), "the dispatch did not return"
 
 
+GOES_ON = {("flight.rtl", "rtl"), ("flight.land", "land"), ("flight.rtl", "land")}
+"""(action, what the stop asks) that go on during a descent: a stop asking for what the action does already."""
+
+
 def goes_on(tool: str, command: str, on_abort: str | None) -> bool:
-    """The one case a stop lets the action under way go on: it asks for what the action does already."""
-    wanted = on_abort if command == "abort" else command
-    return wanted is not None and STOP_TOOL.get(wanted) == tool
+    """Whether the stop lets the action under way go on (the aircraft descending, as :class:`Rig`'s by default)."""
+    return (tool, on_abort if command == "abort" else command) in GOES_ON
 
 
 CASES = [
@@ -145,14 +148,34 @@ def test_an_abort_lets_go_on_only_the_action_the_missions_on_abort_names(tool: s
         assert isinstance(outcome, Interrupted) and rig.aircraft.tools() == [tool, "flight.hold"]
 
 
-def test_a_land_stop_while_the_landing_still_flies_to_its_spot_holds_there_rather_than_fly_on() -> None:
-    """``land`` lands where the aircraft is: a landing still flying to the spot beside its target (not descending
-    yet) is held, and the run's stop lands it where it holds."""
+@pytest.mark.parametrize("tool", ["flight.land", "flight.rtl"])
+def test_a_land_stop_while_the_action_still_flies_to_where_it_lands_holds_there_rather_than_fly_on(tool: str) -> None:
+    """``land`` lands where the aircraft is: a landing still flying to the spot beside its target, or a return
+    still flying home (not descending yet), is held, and the run's stop lands it where it holds."""
     rig = Rig(landed_state="in_air")
-    with rig.flying("flight.land", SUB_PLAN) as box:
+    with rig.flying(tool, SUB_PLAN) as box:
         rig.control.land()
     [outcome] = box
-    assert isinstance(outcome, Interrupted) and rig.aircraft.tools() == ["flight.land", "flight.hold"]
+    assert isinstance(outcome, Interrupted) and rig.aircraft.tools() == [tool, "flight.hold"]
+
+
+@pytest.mark.parametrize("landed_state", ["landing", "in_air"])
+@pytest.mark.parametrize("action", ["rtl", "land", "hold"])
+def test_a_failsafe_never_turns_back_a_landings_descent(action: str, landed_state: str) -> None:
+    """A telemetry failsafe (a low battery, a lost link) during the approved landing: once descending, the landing
+    goes on whatever the failsafe's action (landing is the safer one, as PX4's failsafes judge it); still flying to
+    its spot, it holds as for any stop."""
+    rig = Rig(landed_state=landed_state)
+    with rig.flying("flight.land", SUB_PLAN) as box:
+        getattr(rig.control, action)(by="failsafe")
+        if landed_state == "landing":
+            wait_for(lambda: any("goes on" in str(s) for s in rig.events.summaries("log")), what="the landing go on")
+            rig.aircraft.arrive()
+    [outcome] = box
+    if landed_state == "landing":
+        assert isinstance(outcome, ToolResult) and rig.aircraft.tools() == ["flight.land"]
+    else:
+        assert isinstance(outcome, Interrupted) and rig.aircraft.tools() == ["flight.land", "flight.hold"]
 
 
 def test_a_landing_that_goes_on_leaves_the_world_at_full_speed_whatever_is_said_after() -> None:
