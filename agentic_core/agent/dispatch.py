@@ -8,12 +8,14 @@ from here, with
 * pacing: the simulation runs at full speed while a flight action flies and at real time while anything else is
   awaited;
 * the watch during a long flight action (``flight.fly_to``, ``orbit``, ``hover``): the control port (pause, abort,
-  rtl, land) and the triggers' rules, evaluated on the mission state the step started from (during ``takeoff`` and
-  ``start_mission``, the control port alone). When a rule holds for an object the reasoner has not judged, the
-  aircraft goes to hold over it (``hold_over`` names where; else it holds where it is) while the reasoner thinks,
-  so the object stays in view however slow the model; if the reasoner lets the trigger act the action ends
-  :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the object, else the action is sent
-  again and flies on.
+  rtl, land) and the triggers' rules, evaluated on the mission state the step started from (during ``takeoff``,
+  ``land``, ``rtl`` and ``start_mission``, and during every flight action of a trigger's own sub-plan, the control
+  port alone: a pause or a stop holds the aircraft at once, unless the stop asks for what the action does already,
+  an ``rtl`` during a return or a ``land`` during a descent). When a rule holds for an object the reasoner has not
+  judged, the aircraft goes to hold over it (``hold_over`` names where; else it holds where it is) while the
+  reasoner thinks, so the object stays in view however slow the model; if the reasoner lets the trigger act the
+  action ends :class:`~agentic_core.mission.steps.Interrupted` with the trigger latched on the object, else the
+  action is sent again and flies on.
 
 Every call and every interruption is published as a ``tool`` event.
 """
@@ -28,20 +30,29 @@ from typing import Any
 
 from tools import ToolExecutor, ToolResult
 
+from ..contracts.policy_graph import ON_ABORT_TOOLS, OnAbort
 from ..mission.model import Trigger
 from ..mission.steps import Interrupted, current_call
 from .control import ControlPort
 from .envelope import Envelope
 from .gate import Gate
 from .pacing import Pace
-from .ports import Publish
+from .ports import Publish, VehicleView
 
 WATCHED_TOOLS = frozenset({"flight.fly_to", "flight.orbit", "flight.hover"})
 """Long flight actions during which the control port and the triggers are watched."""
-CONTROLLED_TOOLS = frozenset({"flight.takeoff", "flight.start_mission"})
+CONTROLLED_TOOLS = frozenset({"flight.takeoff", "flight.land", "flight.rtl", "flight.start_mission"})
 """Long flight actions during which only the control port is watched: a stop or a pause ends them with a hold at
-once (a take-off climbs for tens of seconds, a MAVLink mission may fly for an hour). The triggers wait for the next
-barrier: sent again after a declined trigger, a take-off would be refused in the air and a mission start over."""
+once (a take-off climbs for tens of seconds, a landing or a return for a minute or more, a MAVLink mission may fly
+for an hour). The triggers wait for the next barrier: sent again after a declined trigger, a take-off would be
+refused in the air, a mission start over, and a trigger's rule must not turn back a return or a landing. A trigger's
+own sub-plan is watched this way too, whatever its flight actions."""
+LAND = "flight.land"
+DESCENDS = frozenset({LAND, "flight.rtl"})
+"""The actions that end in a descent to land, which a ``land`` stop lets go on once it has begun (before it, they
+fly elsewhere)."""
+FAILSAFE = "failsafe"
+"""Who a telemetry failsafe's stop is by (:mod:`~agentic_core.agent.failsafes`)."""
 
 VEHICLE_WAITS = ("flight.", "swarm.")
 """Tools whose wait is a wait on vehicles (its own, or the swarm's flying a task): the simulation runs at full speed."""
@@ -72,6 +83,8 @@ class Dispatcher:
         hold_over: Callable[[Any], dict[str, Any] | None] | None = None,
         envelope: Envelope | None = None,
         poll_s: float = 0.05,
+        on_abort: OnAbort | None = None,
+        vehicle: VehicleView | None = None,
     ) -> None:
         self.executor = executor
         self.run_id = run_id
@@ -84,6 +97,11 @@ class Dispatcher:
         self.hold_over = hold_over
         self.envelope = envelope
         self.poll_s = poll_s
+        self.on_abort = on_abort
+        """The mission's ``on_abort``: an abort lets a return (``rtl``) or a descent (``land``) under way go on as
+        that says (unknown: it holds, and the run's stop does the rest)."""
+        self.vehicle: VehicleView = vehicle if vehicle is not None else gate.vehicle
+        """The vehicle's telemetry, read to tell a descent from the flight to where it lands."""
         self.frame_driven = False
         """Set when perception calls :meth:`spot` after every frame: the watch then looks in lockstep with the
         camera, not at the dispatcher's polls."""
@@ -105,7 +123,7 @@ class Dispatcher:
         state = call.state if call is not None else None
         if tool in WATCHED_TOOLS and state is not None and not state.get("preempted_by"):
             return self._watched(tool, args, timeout_s, state, key)
-        if tool in CONTROLLED_TOOLS:
+        if tool in WATCHED_TOOLS or tool in CONTROLLED_TOOLS:
             return self._controlled(tool, args, timeout_s, key)
         return self.call(tool, args, timeout_s, key=key)
 
@@ -189,16 +207,28 @@ class Dispatcher:
     def _controlled(
         self, tool: str, args: dict[str, Any], timeout_s: float | None, key: str | None
     ) -> ToolResult | Interrupted:
-        """A :data:`CONTROLLED_TOOLS` action on a thread of its own, the control port watched while it flies."""
+        """A :data:`CONTROLLED_TOOLS` action (or any long one of a trigger's sub-plan) on a thread of its own, the
+        control port watched while it flies: a pause or a stop holds the aircraft and ends it interrupted, unless
+        the stop asks for what it does already (:meth:`_goes_on`)."""
         with self._watch_lock:
             self._flying = True
             self._take_off()
         try:
             worker = self._flight(lambda: self.call(tool, args, timeout_s, key=key, publish=False), f"agent-{tool}")
+            goes_on = False
             while worker.running(self.poll_s):
+                if goes_on:  # the first stop stands: a later command changes nothing, nor slows the world
+                    self.pace.urgent(False)
+                    continue
                 stop = self.stopping()
-                if stop is not None:
-                    return self._interrupted(tool, self._stop(worker), Interrupted(stop))
+                if stop is None:
+                    continue
+                if self._goes_on(tool):
+                    goes_on = True
+                    self.pace.urgent(False)
+                    self.publish("log", level="info", summary=f"{tool} goes on: {stop}, as it does already")
+                    continue
+                return self._interrupted(tool, self._stop(worker), Interrupted(stop))
         finally:
             with self._watch_lock:
                 self._flying = False
@@ -206,6 +236,19 @@ class Dispatcher:
         result = worker.result()
         self.published(tool, args, result, key)
         return result
+
+    def _goes_on(self, tool: str) -> bool:
+        """The standing stop asks for what ``tool`` is doing already, so letting it go on does what the stop asks
+        without a hold in between: an ``rtl`` during a return; a ``land`` during a descent to land (a landing's,
+        or a return's last); an ``abort`` as the mission's ``on_abort`` says (unknown, it holds). A failsafe never
+        turns back a landing's descent (as PX4's own do not: landing is the safer action). A landing still flying
+        to where it would land holds, and a ``land`` stop lands it there."""
+        command = self.control.stop_requested()
+        wanted = command if command != "abort" else self.on_abort
+        descending = tool in DESCENDS and self.vehicle.view().get("landed_state") == "landing"
+        if wanted == "land" or (tool == LAND and self.control.stopped_by == FAILSAFE):
+            return descending
+        return wanted is not None and ON_ABORT_TOOLS.get(wanted) == tool and tool != LAND
 
     def _flight(self, action: Callable[[], ToolResult], name: str) -> _Flight:
         return _Flight(action, name, self._wake)
@@ -345,4 +388,4 @@ def _name(event: Any) -> str:
     return str(found) if found is not None else "the event"
 
 
-__all__ = ["CONTROLLED_TOOLS", "HOLD", "WATCHED_TOOLS", "Dispatcher", "Prepare", "Watch"]
+__all__ = ["CONTROLLED_TOOLS", "HOLD", "LAND", "WATCHED_TOOLS", "Dispatcher", "Prepare", "Watch"]

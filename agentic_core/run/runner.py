@@ -192,6 +192,7 @@ class MissionRun:
         self.dispatch = Dispatcher(
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
+            on_abort=self.plan.on_abort,
             hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target,
                                                          position=self._standing_at),
         )  # fmt: skip

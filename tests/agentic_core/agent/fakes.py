@@ -255,19 +255,24 @@ class Aircraft:
 FLIGHT_TOOLS = ("flight.takeoff", "flight.hold", "flight.land", "flight.rtl", "flight.deploy_payload")
 
 
-def registry_for(aircraft: Aircraft, extra: Iterable[tuple[str, Callable[[dict[str, Any]], Any]]] = ()) -> ToolRegistry:
+def registry_for(
+    aircraft: Aircraft,
+    extra: Iterable[tuple[str, Callable[[dict[str, Any]], Any]]] = (),
+    long: Iterable[str] = (),
+) -> ToolRegistry:
     """A real registry with the aircraft's ``flight.*`` tools, ``alerts.notify``, ``perception.analyze_scene`` and
-    ``extra`` tools (any arguments, no retries)."""
+    ``extra`` tools (any arguments, no retries); the tools named in ``long`` fly until they arrive, as ``fly_to``."""
     registry = ToolRegistry()
-    tools: list[tuple[str, Callable[[dict[str, Any]], Any]]] = [
-        (name, aircraft.flies(name)) for name in ("flight.fly_to", "flight.orbit", "flight.hover")
-    ]
-    tools += [(name, aircraft.other(name)) for name in FLIGHT_TOOLS]
+    flying = ("flight.fly_to", "flight.orbit", "flight.hover", *long)
+    tools: list[tuple[str, Callable[[dict[str, Any]], Any]]] = [(name, aircraft.flies(name)) for name in flying]
+    tools += [(name, aircraft.other(name)) for name in (*FLIGHT_TOOLS, "flight.start_mission") if name not in flying]
     tools += [("alerts.notify", lambda args: {"sent": True}), ("perception.analyze_scene", lambda args: {"ok": True})]
     for name, handler in [*tools, *extra]:
         registry.register(ToolSpec.from_schema(name, handler, {"type": "object"}, timeout_s=2 * WAIT_S))
     return registry
 
 
-def executor_for(aircraft: Aircraft, extra: dict[str, Callable[[dict[str, Any]], Any]] | None = None) -> ToolExecutor:
-    return ToolExecutor(registry_for(aircraft, (extra or {}).items()))
+def executor_for(
+    aircraft: Aircraft, extra: dict[str, Callable[[dict[str, Any]], Any]] | None = None, long: Iterable[str] = ()
+) -> ToolExecutor:
+    return ToolExecutor(registry_for(aircraft, (extra or {}).items(), long))

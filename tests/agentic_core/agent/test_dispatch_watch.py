@@ -200,11 +200,12 @@ def test_between_a_stop_and_its_hold_the_world_crawls_and_afterwards_it_does_not
         assert rig.pace.speed() is None  # full speed again
 
 
-def test_the_steps_of_a_triggers_sub_plan_are_not_watched() -> None:
+def test_the_steps_of_a_triggers_sub_plan_are_not_watched_by_the_triggers() -> None:
+    """Only the control port is (``test_dispatch_control``): a trigger's rule never turns back its own sub-plan."""
     rig = Rig("critical")
     rig.found.append((FALLEN, {"id": "P-1"}))
-    rig.control.pause()
     with rig.flying(state={"preempted_by": "fallen"}) as box:
+        assert not eventually(lambda: "flight.hold" in rig.aircraft.tools(), timeout_s=0.2)
         rig.aircraft.arrive()
     [outcome] = box
     assert isinstance(outcome, ToolResult) and outcome.status == "ok"
