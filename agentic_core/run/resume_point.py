@@ -30,11 +30,13 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from ..contracts import InputError
+from ..graph.checkpoint.sqlite import SqliteSaver
 from .state_files import Snapshot, read_jsonl, read_snapshot
 
 LOCK_FILE = "run.lock"
 """The file a run's process holds an exclusive ``flock`` on while it flies (the kernel lets go when it dies)."""
 CHECKPOINTS_FILE = "checkpoints.db"
+SQLITE_HEADER = b"SQLite format 3\x00"
 
 
 class RunHold:
@@ -129,13 +131,16 @@ def resume_point(run_dir: Path, run_id: str, records: Sequence[Mapping[str, Any]
 
 
 def _checkpoints(path: Path, run_id: str) -> int:
-    """How many checkpoints of ``run_id``'s graph ``path`` holds, read without changing it."""
+    """How many checkpoints of ``run_id``'s graph ``path`` holds, the newest read through as a resume reads it."""
     if not path.is_file():
         raise InputError(f"{path}: not a file: the run cannot be resumed from it")
     if path.stat().st_size == 0:
         return 0
+    with path.open("rb") as f:
+        if f.read(len(SQLITE_HEADER)) != SQLITE_HEADER:  # a WAL beside it would otherwise hide a damaged file
+            return _not_ours(path, "it is not an SQLite file")
     try:
-        conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+        conn = sqlite3.connect(path, isolation_level=None)
         try:
             check = conn.execute("PRAGMA quick_check").fetchall()
             if check != [("ok",)]:
@@ -144,11 +149,19 @@ def _checkpoints(path: Path, run_id: str) -> int:
             if "agentic_checkpoints" not in tables:
                 return 0 if not tables else _not_ours(path, "it has no checkpoints table")
             row = conn.execute("SELECT COUNT(*) FROM agentic_checkpoints WHERE thread_id = ?", (run_id,)).fetchone()
-            return int(row[0])
+            found = int(row[0])
+            if found:
+                saver = SqliteSaver(conn)
+                saver.get(run_id)  # the newest checkpoint rebuilt from its chain, as the resumed graph will
         finally:
             conn.close()
+    except InputError:
+        raise
     except sqlite3.Error as exc:
         return _not_ours(path, str(exc))
+    except Exception as exc:  # the serializer's or the chain's own errors: the file is ours, its contents are not
+        return _not_ours(path, f"its newest checkpoint cannot be read: {type(exc).__name__}: {exc}")
+    return found
 
 
 def _not_ours(path: Path, why: str) -> int:

@@ -4,17 +4,20 @@ folder is named and refused before anything flies; a run killed before its first
 
 from __future__ import annotations
 
+import operator
 import os
+import shutil
 import signal
 import sqlite3
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, TypedDict
 
 import pytest
 
 from agentic_core.contracts import InputError
+from agentic_core.graph import END, START, StateGraph
 from agentic_core.graph.checkpoint.sqlite import SqliteSaver
 from agentic_core.run.resume_point import CHECKPOINTS_FILE, RunHold, open_resume, resume_point
 
@@ -67,17 +70,35 @@ def test_in_one_process_the_folder_is_held_until_released(tmp_path: Path) -> Non
     RunHold.take(tmp_path, "r1", "resumed").release()
 
 
-def checkpointed(folder: Path, run_id: str = "r1", rows: int = 1) -> Path:
-    """A checkpoint database as a run leaves it: ``rows`` checkpoints of ``run_id``'s graph."""
+class Tally(TypedDict):
+    log: Annotated[list[str], operator.add]
+
+
+def checkpointed(folder: Path, run_id: str = "r1", rows: int = 1, kill: bool = False) -> Path:
+    """A checkpoint database as a run leaves it: a graph of ``rows`` steps checkpointed under ``run_id``; with
+    ``kill``, this process is then killed, the database still open."""
     path = folder / CHECKPOINTS_FILE
-    saver = SqliteSaver(path)
-    for n in range(rows):
-        saver.conn.execute(
-            "INSERT INTO agentic_checkpoints (thread_id, ns, checkpoint_id, parent_id, step, source, created_at, body)"
-            " VALUES (?, '', ?, NULL, ?, 'loop', 0.0, ?)", (run_id, f"c{n}", n, os.urandom(400)),
-        )  # fmt: skip
-    saver.close()
+    with SqliteSaver.from_conn_string(str(path)) as saver:
+        if rows:
+            graph = StateGraph(Tally)
+            graph.add_node("step", lambda s: {"log": [os.urandom(16).hex()]})
+            graph.add_conditional_edges("step", lambda s: END if len(s["log"]) >= rows else "step")
+            graph.add_edge(START, "step")
+            config = {"configurable": {"thread_id": run_id}, "recursion_limit": rows + 10}
+            graph.compile(checkpointer=saver).invoke({"log": []}, config)
+        if kill:
+            os.kill(os.getpid(), signal.SIGKILL)
     return path
+
+
+def test_a_checkpoint_whose_contents_cannot_be_read_is_refused(tmp_path: Path) -> None:
+    path = checkpointed(tmp_path, rows=3)
+    with sqlite3.connect(path) as conn:
+        conn.execute("UPDATE agentic_checkpoints SET body = ? WHERE seq = (SELECT MAX(seq) FROM agentic_checkpoints)",
+                     (b"\x00not a checkpoint",))  # fmt: skip
+    conn.close()
+    with pytest.raises(InputError, match="newest checkpoint cannot be read"):
+        resume_point(tmp_path, "r1", BEGUN)
 
 
 def test_a_run_with_a_checkpoint_goes_on_from_it(tmp_path: Path) -> None:
@@ -86,6 +107,27 @@ def test_a_run_with_a_checkpoint_goes_on_from_it(tmp_path: Path) -> None:
     resumption = open_resume(tmp_path, "r1")
     assert resumption.from_start is False and resumption.snapshot is None
     resumption.hold.release()
+
+
+KILLED = """
+import os, sys
+from pathlib import Path
+from tests.agentic_core.run.test_resume_point import checkpointed
+checkpointed(Path(sys.argv[1]), rows=int(sys.argv[2]), kill=True)
+"""
+
+
+def killed_mid_run(folder: Path) -> Path:
+    """A checkpoint database left by ``kill -9``: its pages in the WAL beside it, never copied into the file."""
+    proc = subprocess.run([sys.executable, "-c", KILLED, str(folder), "40"], cwd=REPO, timeout=120.0,
+                          env={**os.environ, "PYTHONPATH": str(REPO)})  # fmt: skip
+    assert proc.returncode == -signal.SIGKILL
+    path = folder / CHECKPOINTS_FILE
+    assert Path(f"{path}-wal").stat().st_size > path.stat().st_size
+    sound = folder / "sound"
+    shutil.copytree(folder, sound)
+    assert resume_point(sound, "r1", BEGUN) is True  # before the damage: a sound database
+    return path
 
 
 def random_bytes(path: Path) -> None:
@@ -109,11 +151,15 @@ def a_folder(path: Path) -> None:
     path.mkdir()
 
 
-@pytest.mark.parametrize("damage", [random_bytes, cut_to_8k, someone_elses, a_folder])
+def random_bytes_beside_its_wal(path: Path) -> None:
+    """Bytes SQLite reads past when every page it needs is in the WAL (these did, where urandom's often do not)."""
+    path.write_bytes(bytes((i * 7919) % 251 for i in range(64 * 1024)))
+
+
+@pytest.mark.parametrize("damage", [random_bytes, cut_to_8k, someone_elses, a_folder, random_bytes_beside_its_wal])
 def test_a_damaged_checkpoint_database_is_named_and_refused_and_the_folder_let_go(tmp_path: Path, damage: Any) -> None:
-    path = checkpointed(tmp_path, rows=300)  # a database well over 8 KiB, as a run's is
-    for side in ("-wal", "-shm"):
-        Path(f"{path}{side}").unlink(missing_ok=True)
+    # killed, every page still in the WAL and the file itself destroyed; or a database well over 8 KiB, as a run's is
+    path = killed_mid_run(tmp_path) if damage is random_bytes_beside_its_wal else checkpointed(tmp_path, rows=300)
     damage(path)
     with pytest.raises(InputError) as refused:
         open_resume(tmp_path, "r1")
