@@ -141,7 +141,8 @@ class SafetyClient(MissionClient):
         """Upload an inclusion ``polygon`` ((lat, lon) vertices) or ``circle`` ((lat, lon, radius m)) as the
         vehicle's fence plan (neither: clear it), set the ceiling ``GF_MAX_VER_DIST`` to ``max_alt_m``, the floor
         ``GF_MIN_ALT`` to ``floor_m`` (None: unchanged) and cap ``RTL_RETURN_ALT`` under the ceiling; then read it
-        all back. Never raises for bad input or a refusal.
+        all back. Armed, the vehicle takes these only from a signed link: what it already holds is not sent again
+        (a resumed run's own fence). Never raises for bad input or a refusal.
 
         >>> import asyncio
         >>> from flight.mavlink import MavlinkVehicle
