@@ -48,10 +48,13 @@ def link_truth(world: WorldModel, scene: Scene) -> dict[str, str]:
 class TruthLinks(dict[str, str]):
     """The run's links from tracker ids to the scene's actors, each published once as it is found (``log``)."""
 
-    def __init__(self, scene: Scene | None, publish: Callable[..., Any]) -> None:
+    def __init__(
+        self, scene: Scene | None, publish: Callable[..., Any], earlier: Iterable[Mapping[str, Any]] = ()
+    ) -> None:
         super().__init__()
         self.scene = scene
         self.publish = publish
+        self.remember(earlier)
 
     def remember(self, records: Iterable[Mapping[str, Any]]) -> None:
         """Take back the links an earlier part of the run published (a resumed run's trace), without publishing

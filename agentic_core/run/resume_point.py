@@ -95,10 +95,10 @@ def _holder(text: bytes) -> str:
 class Resumption:
     """A run about to be resumed: its folder held, where its graph goes on from, and its snapshot."""
 
-    hold: RunHold
-    from_start: bool
+    hold: RunHold | None = None
+    from_start: bool = False
     """True when the run was killed before its first checkpoint: its mission starts again from the beginning."""
-    snapshot: Snapshot | None
+    snapshot: Snapshot | None = None
 
 
 def open_resume(run_dir: Path, run_id: str) -> Resumption:

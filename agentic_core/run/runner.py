@@ -60,7 +60,7 @@ from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import TrackPoint, write_report
 from .responses import ResponseLedger
-from .resume_point import RunHold, open_resume
+from .resume_point import Resumption, RunHold, open_resume
 from .run_memory import start_memory, with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
@@ -95,10 +95,8 @@ class MissionRun:
         self.run_id = run_id or f"{time.strftime('%Y%m%d-%H%M%S')}-{settings.mission.stem}-{settings.reasoner}"
         self.run_dir = settings.runs_dir / self.run_id
         self.alerts_dir = self.run_dir / "alerts"
-        resumption = open_resume(self.run_dir, self.run_id) if self.resuming else None  # before anything is sent
-        self.hold: RunHold | None = resumption.hold if resumption else None
-        snapshot = resumption.snapshot if resumption else None
-        self.from_start = resumption is not None and resumption.from_start  # killed before its first checkpoint
+        resumed = open_resume(self.run_dir, self.run_id) if self.resuming else Resumption()  # before anything flies
+        self.hold, snapshot, self.go_on = resumed.hold, resumed.snapshot, self.resuming and not resumed.from_start
         self.config = config = BuiltinConfig.from_env(
             outbox_dir=self.alerts_dir, incidents_db=self.run_dir / "incidents.db", attachment_dirs=[self.run_dir]
         )
@@ -170,8 +168,7 @@ class MissionRun:
         self.backend.on_sample(self.telemetry)
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
         self.snapshots = SnapshotWriter(self.run_dir)
-        self.links = TruthLinks(self.scene, self.bus.publish)
-        self.links.remember(earlier)
+        self.links = TruthLinks(self.scene, self.bus.publish, earlier)
         self.control = ControlPort(on_command=self._on_command)
         self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish,
                                             texts=VehicleTexts(lambda: self._client),
@@ -412,9 +409,7 @@ class MissionRun:
                     ask=self.settings.approval == "ask", approval_timeout_s=self.settings.approval_timeout_s,
                     max_wall_s=self.settings.max_wall_s, after_update=self.save_snapshot,
                 )  # fmt: skip
-                result = loop.run(
-                    None if self.resuming and not self.from_start else initial_state(self.plan, self.params)
-                )
+                result = loop.run(None if self.go_on else initial_state(self.plan, self.params))
                 final = result.state
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")

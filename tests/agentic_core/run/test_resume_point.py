@@ -106,7 +106,7 @@ def test_a_run_with_a_checkpoint_goes_on_from_it(tmp_path: Path) -> None:
     assert resume_point(tmp_path, "r1", BEGUN) is True
     resumption = open_resume(tmp_path, "r1")
     assert resumption.from_start is False and resumption.snapshot is None
-    resumption.hold.release()
+    RunHold.drop(resumption.hold)
 
 
 KILLED = """
