@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from flight.sim.scene_model import Scene
@@ -48,10 +48,21 @@ def link_truth(world: WorldModel, scene: Scene) -> dict[str, str]:
 class TruthLinks(dict[str, str]):
     """The run's links from tracker ids to the scene's actors, each published once as it is found (``log``)."""
 
-    def __init__(self, scene: Scene | None, publish: Callable[..., Any]) -> None:
+    def __init__(
+        self, scene: Scene | None, publish: Callable[..., Any], earlier: Iterable[Mapping[str, Any]] = ()
+    ) -> None:
         super().__init__()
         self.scene = scene
         self.publish = publish
+        self.remember(earlier)
+
+    def remember(self, records: Iterable[Mapping[str, Any]]) -> None:
+        """Take back the links an earlier part of the run published (a resumed run's trace), without publishing
+        them again, so its report still names the casualty by the track it had."""
+        for record in records:
+            track, truth = record.get("object"), record.get("truth")
+            if record.get("kind") == "log" and isinstance(track, str) and isinstance(truth, str):
+                self.setdefault(track, truth)
 
     def see(self, world: WorldModel) -> None:
         """Link the tracks of ``world`` (called with every decision's World Model, not every frame)."""

@@ -54,6 +54,7 @@ class ResponseLedger:
     critical: dict[str, float] = field(default_factory=dict)  # object -> when it was first judged critical
     acted_on: set[str] = field(default_factory=set)
     alerts: list[_Alert] = field(default_factory=list)
+    keys: set[str] = field(default_factory=set)  # idempotency keys of the alerts counted
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __call__(self, event: RunEvent) -> None:
@@ -67,7 +68,7 @@ class ResponseLedger:
                 focus = fields.get("focus") or assessment.get("subject_id")
                 if isinstance(focus, str) and assessment.get("severity") == "critical":
                     self.critical.setdefault(focus, sim_t)
-            elif event.kind == "tool" and fields.get("name") in ALERT_TOOLS and not fields.get("replayed"):
+            elif event.kind == "tool" and fields.get("name") in ALERT_TOOLS:
                 self._alert(fields, sim_t)
 
     def replay(self, records: list[dict[str, Any]]) -> None:
@@ -77,6 +78,11 @@ class ResponseLedger:
                 self(RunEvent.model_validate(record))
 
     def _alert(self, fields: dict[str, object], sim_t: float) -> None:
+        # A replayed alert was sent before a kill; it counts once, unless the trace already counted it (the kill may
+        # have come after the audit log kept it and before the trace did).
+        key = fields.get("key")
+        if key in self.keys or (fields.get("replayed") and not isinstance(key, str)):
+            return
         status, via, error = fields.get("status"), fields.get("delivered_via"), str(fields.get("error") or "")
         if status == "ok":
             delivered = via not in ("outbox", None)
@@ -85,6 +91,8 @@ class ResponseLedger:
             delivered, why = False, f"reached only the outbox ({error})"
         else:
             return  # refused or failed outright: no alert, not a response
+        if isinstance(key, str):
+            self.keys.add(key)
         self.alerts.append(_Alert(sim_t, delivered, why))
 
     def events(self) -> dict[str, float]:

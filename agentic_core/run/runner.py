@@ -61,11 +61,13 @@ from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
 from .report import TrackPoint, write_report
 from .responses import ResponseLedger
+from .resume_point import Resumption, RunHold, open_resume
 from .run_clock import resumed_at
 from .run_memory import start_memory, with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
-from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, read_snapshot, write_record
+from .stand_down import stand_down
+from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, write_record
 from .stops import STOP_OUTCOMES, carry_out, go_back, where_it_ended
 from .summary import summarise
 from .trace import TelemetryLog, TraceWriter
@@ -96,7 +98,8 @@ class MissionRun:
         self.run_id = run_id or f"{time.strftime('%Y%m%d-%H%M%S')}-{settings.mission.stem}-{settings.reasoner}"
         self.run_dir = settings.runs_dir / self.run_id
         self.alerts_dir = self.run_dir / "alerts"
-        snapshot = read_snapshot(self.run_dir) if self.resuming else None
+        resumed = open_resume(self.run_dir, self.run_id) if self.resuming else Resumption()  # before anything flies
+        self.hold, snapshot, self.go_on = resumed.hold, resumed.snapshot, self.resuming and not resumed.from_start
         self.config = config = BuiltinConfig.from_env(
             outbox_dir=self.alerts_dir, incidents_db=self.run_dir / "incidents.db", attachment_dirs=[self.run_dir]
         )
@@ -119,6 +122,7 @@ class MissionRun:
             self._assemble(snapshot)
         except Exception:
             self.backend.close()
+            RunHold.drop(self.hold)
             raise
 
     def _assemble(self, snapshot: Snapshot | None) -> None:
@@ -133,6 +137,7 @@ class MissionRun:
         )
         if self.loop is not None and snapshot is not None and snapshot.world is not None:
             self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen, snapshot.tracks)
+            self.loop.first_detected.update(snapshot.first_detected)
         self.last_sample: TelemetrySample | None = None
         self._clock0 = snapshot.sim_t if snapshot is not None and snapshot.sim_t is not None else 0.0
         self._client: VehicleClient | None = None
@@ -151,6 +156,7 @@ class MissionRun:
         self.memory, self.reasoner = with_memory(self, self.reasoner)  # (None, as it was) without --memory
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
         self.run_dir.mkdir(parents=True, exist_ok=True)
+        self.hold = self.hold or RunHold.take(self.run_dir, self.run_id, "flown")  # no resume while it flies
         keep_signing_key(self.run_dir, self.backend.signing_key)
         self.trace = TraceWriter(self.run_dir / "trace.jsonl")
         earlier = read_jsonl(self.run_dir / "trace.jsonl") if self.resuming else []
@@ -166,7 +172,7 @@ class MissionRun:
         self.backend.on_sample(self.telemetry)
         self._world_log = (self.run_dir / "world_models.jsonl").open("a", encoding="utf-8")
         self.snapshots = SnapshotWriter(self.run_dir)
-        self.links = TruthLinks(self.scene, self.bus.publish)
+        self.links = TruthLinks(self.scene, self.bus.publish, earlier)
         self.control = ControlPort(on_command=self._on_command)
         self.failsafes = TelemetryFailsafes(self.plan.limits, self.control, self.bus.publish,
                                             texts=VehicleTexts(lambda: self._client),
@@ -348,9 +354,9 @@ class MissionRun:
         """Write ``snapshot.json``: the simulated vehicle and the World Model now."""
         world = self.loop.world.model_dump(mode="json") if self.loop is not None else None
         seen, tracks = (self.loop.last_seen(), self.loop.tracker_state()) if self.loop is not None else ({}, None)
-        self.snapshots.write(
-            Snapshot(vehicle=self.backend.snapshot(), world=world, last_seen=seen, tracks=tracks, sim_t=self.clock())
-        )
+        first = dict(self.loop.first_detected) if self.loop is not None else {}
+        self.snapshots.write(Snapshot(vehicle=self.backend.snapshot(), world=world, last_seen=seen, tracks=tracks,
+                                      first_detected=first, sim_t=self.clock()))  # fmt: skip
 
     # ---- running ----
 
@@ -417,7 +423,7 @@ class MissionRun:
                     ask=self.settings.approval == "ask", approval_timeout_s=self.settings.approval_timeout_s,
                     max_wall_s=self.settings.max_wall_s, after_update=self.save_snapshot,
                 )  # fmt: skip
-                result = loop.run(None if self.resuming else initial_state(self.plan, self.params))
+                result = loop.run(None if self.go_on else initial_state(self.plan, self.params))
                 final = result.state
             halt = final.get("halt")
             outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
@@ -432,10 +438,12 @@ class MissionRun:
                 )
                 carry_out("rtl", self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
         except AgenticUAVError:
+            stand_down(self.view(), self.plan.on_abort, self.dispatch.call, self.bus.publish)  # never left hovering
             raise
         except Exception as exc:  # a bug must still leave a report
             self.bus.publish("log", level="error", error=f"{type(exc).__name__}: {exc}", summary=f"failed: {exc}")
             outcome = "failed"
+            stand_down(self.view(), self.plan.on_abort, self.dispatch.call, self.bus.publish)
         finally:
             outcome = self.responses.outcome(outcome)  # every critical event answered, or the run says otherwise
             self.faults.close()
@@ -476,6 +484,7 @@ class MissionRun:
         self._world_log.close()
         self.telemetry.close()
         self.trace.close()
+        RunHold.drop(self.hold)
 
 
 def run_mission(

@@ -58,6 +58,8 @@ class Snapshot(BaseModel):
     """Where each object was last seen (lat, lon, class, time): targets a resumed run can still fly to."""
     tracks: TrackerState | None = None
     """The tracker's tracks: a resumed run goes on tracking the same people under the same ids."""
+    first_detected: dict[str, float] = Field(default_factory=dict)
+    """When each of the scene's actors was first detected: a resumed run's report keeps the first sighting."""
     sim_t: float | None = None
 
 

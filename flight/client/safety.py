@@ -141,7 +141,8 @@ class SafetyClient(MissionClient):
         """Upload an inclusion ``polygon`` ((lat, lon) vertices) or ``circle`` ((lat, lon, radius m)) as the
         vehicle's fence plan (neither: clear it), set the ceiling ``GF_MAX_VER_DIST`` to ``max_alt_m``, the floor
         ``GF_MIN_ALT`` to ``floor_m`` (None: unchanged) and cap ``RTL_RETURN_ALT`` under the ceiling; then read it
-        all back. Never raises for bad input or a refusal.
+        all back. Armed, the vehicle takes these only from a signed link: what it already holds is not sent again
+        (a resumed run's own fence). Never raises for bad input or a refusal.
 
         >>> import asyncio
         >>> from flight.mavlink import MavlinkVehicle
@@ -181,13 +182,17 @@ class SafetyClient(MissionClient):
                 raise ValueError(f"floor_m must be at least 0 and under the ceiling less 1 m, not {floor_m}")
         except (TypeError, ValueError) as exc:
             return done("failed", f"bad fence: {exc}")
-        upload = (
-            await self.upload_mission(items, mission_type="fence")
-            if items
-            else await self.clear_mission(mission_type="fence")
-        )
-        if not upload.ok:
-            return done(upload.status, f"fence upload: {upload.reason}")
+        # Armed, a vehicle takes a new fence or safety limit only from a signed link; one it already holds (a
+        # resumed run's own) is kept rather than sent again, so an unsigned link may go on with it.
+        armed = self.telemetry.armed
+        if not (armed and await self._holds_fence(items)):
+            upload = (
+                await self.upload_mission(items, mission_type="fence")
+                if items
+                else await self.clear_mission(mission_type="fence")
+            )
+            if not upload.ok:
+                return done(upload.status, f"fence upload: {upload.reason}")
         current_rtl = await self.get_param("RTL_RETURN_ALT")
         if current_rtl is None:
             return done("timeout", "no answer to reading RTL_RETURN_ALT")
@@ -195,9 +200,16 @@ class SafetyClient(MissionClient):
         if floor_m is not None:
             wanted["GF_MIN_ALT"] = floor_m
         for name, value in wanted.items():
+            if armed and _near(await self.get_param(name), value):
+                continue
             if await self.set_param(name, value) is None:
                 return done("timeout", f"no answer to setting {name}")
         return await self._verify_fence(items, wanted, done)
+
+    async def _holds_fence(self, items: list[MissionItem]) -> bool:
+        """Whether the vehicle's fence plan is ``items`` already."""
+        held = await self.download_mission(mission_type="fence")
+        return held.ok and _same_items(items, held.items)
 
     async def _verify_fence(self, items: list[MissionItem], wanted: dict[str, float], done: _Done) -> FenceResult:
         """Read the fence plan and the limits back and compare them with what was sent."""
@@ -211,9 +223,7 @@ class SafetyClient(MissionClient):
                 return done("timeout", f"no answer to reading {name} back", held.count)
             got[name] = value
         mismatch = [
-            f"{name} is {got[name]:g}, not {value:g}"
-            for name, value in wanted.items()
-            if abs(got[name] - value) > PARAM_TOLERANCE * max(1.0, abs(value))
+            f"{name} is {got[name]:g}, not {value:g}" for name, value in wanted.items() if not _near(got[name], value)
         ]
         if mismatch:
             return done("denied", "the vehicle kept other limits: " + "; ".join(mismatch), held.count, got)
@@ -242,6 +252,10 @@ class _Done(Protocol):
     def __call__(
         self, status: FenceStatus, reason: str | None = None, items: int = 0, params: dict[str, float] | None = None
     ) -> FenceResult: ...
+
+
+def _near(got: float | None, value: float) -> bool:
+    return got is not None and abs(got - value) <= PARAM_TOLERANCE * max(1.0, abs(value))
 
 
 def _same_items(sent: list[MissionItem], held: list[MissionItem]) -> bool:

@@ -61,3 +61,15 @@ def test_numbers_are_rounded_to_what_they_mean() -> None:
     assert rounded(data) == {"aircraft": {"lat_deg": 21.414651, "lon_deg": 39.893433, "alt_m": 15.9},
                              "subject": {"id": "P-1", "lat": 21.414655, "lon": 39.893435}, "n": 3}  # fmt: skip
     assert readable("at 21.41465442152097, 39.89343123897637 (1.5 s)", {}) == "at 21.414654, 39.893431 (1.5 s)"
+
+
+def test_a_resumed_run_takes_back_the_links_its_trace_published_without_saying_them_again() -> None:
+    said: list[dict[str, Any]] = []
+    links = TruthLinks(None, lambda kind, **fields: said.append(fields))
+    links.remember([
+        {"kind": "log", "object": "P-1104", "truth": "P-12", "summary": "tracked as P-1104 (scene P-12)"},
+        {"kind": "log", "object": "P-9", "summary": "no truth"},
+        {"kind": "decision", "object": "P-7", "truth": "P-3"},  # only the links' own records count
+    ])  # fmt: skip
+    assert dict(links) == {"P-1104": "P-12"} and said == []
+    assert readable("rules on P-1104: critical", links) == "rules on P-1104 (scene P-12): critical"

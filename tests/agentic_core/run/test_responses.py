@@ -92,3 +92,55 @@ def test_a_resumed_run_counts_what_happened_before_the_kill() -> None:
     resumed.replay(records)
     assert resumed.outcome("completed") == before.outcome("completed") == "completed"
     assert resumed.notes() == before.notes()
+
+
+def critical_before_the_kill() -> list[dict[str, Any]]:
+    return [
+        {"kind": "trigger", "seq": 1, "t": 0.0, "sim_t": 10.0, "event": "P-12", "act": True},
+        {
+            "kind": "decision",
+            "seq": 2,
+            "t": 0.0,
+            "sim_t": 11.0,
+            "focus": "P-12",
+            "assessment": {"severity": "critical"},
+        },
+    ]
+
+
+@pytest.mark.parametrize(("via", "outcome"), [("outbox", "degraded"), ("smtp", "completed")])
+def test_an_alert_sent_just_before_the_kill_answers_when_the_resumed_run_replays_it(via: str, outcome: str) -> None:
+    """The kill came after the audit log kept the alert and before the trace did: the resumed run's replay of it
+    is the only record that it was sent, and it answers the event."""
+    resumed = ResponseLedger()
+    resumed.replay(critical_before_the_kill())
+    alert(resumed, 12.0, delivered_via=via, replayed=True, key="run:alert_medics:1.1")
+    assert resumed.outcome("completed") == outcome
+    assert "no alert was sent" not in resumed.notes()[0]
+
+
+def test_an_alert_the_trace_kept_is_not_counted_again_when_it_is_replayed() -> None:
+    records = [
+        *critical_before_the_kill(),
+        {
+            "kind": "tool",
+            "seq": 3,
+            "t": 0.0,
+            "sim_t": 12.0,
+            "name": "alerts.notify",
+            "status": "ok",
+            "delivered_via": "smtp",
+            "key": "run:alert_medics:1.1",
+        },
+    ]
+    resumed = ResponseLedger()
+    resumed.replay(records)
+    alert(resumed, 20.0, delivered_via="smtp", replayed=True, key="run:alert_medics:1.1")
+    alert(resumed, 21.0, delivered_via="smtp", replayed=True)  # a replay naming no key proves nothing
+    assert len(resumed.alerts) == 1 and resumed.alerts[0].sim_t == 12.0
+    assert resumed.outcome("completed") == "completed"
+    refused = ResponseLedger()
+    refused.replay(critical_before_the_kill())
+    alert(refused, 12.0, status="denied", error="scope alerts:send missing", key="run:alert_medics:1.1")
+    alert(refused, 13.0, status="denied", error="scope alerts:send missing", replayed=True, key="run:alert_medics:1.1")
+    assert refused.outcome("completed") == "failed"  # a refusal, replayed, is still no alert
