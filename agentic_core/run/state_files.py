@@ -64,7 +64,33 @@ class Snapshot(BaseModel):
 
 
 def write_record(run_dir: Path, record: RunRecord) -> None:
+    """``run.json``, every file the settings name anchored (:func:`anchored`)."""
+    record = record.model_copy(update={"settings": anchored(record.settings)})
     atomic_write(run_dir / RUN_FILE, record.model_dump_json(indent=2))
+
+
+def anchored(settings: RunSettings) -> RunSettings:
+    """``settings`` with the files they name (mission, scene, gains, signing key, memory, tool files, an ``onnx:``
+    detector) made absolute, so ``--resume`` finds them from any folder (a module name stays as written).
+
+    >>> anchored(RunSettings(mission=Path("m.yaml"))).mission.is_absolute()
+    True
+    """
+
+    def file(path: Path | None) -> Path | None:
+        return None if path is None else path.expanduser().absolute()
+
+    tools = [str(Path(t).absolute()) if Path(t).exists() else t for t in settings.tools]
+    detector = settings.detector
+    if detector.startswith("onnx:"):
+        detector = f"onnx:{Path(detector[5:]).expanduser().absolute()}"
+    return settings.model_copy(
+        update={
+            "mission": file(settings.mission), "scene": file(settings.scene), "gains": file(settings.gains),
+            "signing_key": file(settings.signing_key), "memory": file(settings.memory), "tools": tools,
+            "detector": detector,
+        }
+    )  # fmt: skip
 
 
 def read_record(runs_dir: Path, run_id: str) -> RunRecord:
@@ -151,6 +177,7 @@ __all__ = [
     "RunRecord",
     "Snapshot",
     "SnapshotWriter",
+    "anchored",
     "atomic_write",
     "read_jsonl",
     "read_record",
