@@ -108,15 +108,21 @@ class Gate:
 
     def confident(self, focus: str | None, why: str, min_confidence: float) -> Decision:
         """:meth:`decide`; when the assessment counts persons at a confidence under ``min_confidence``, watch for
-        ``look_again_s`` more of the vehicle's clock and decide once more, so that one unsure moment of the detector
-        (a passer-by over a casualty, a glint) does not fail a confirmation alone. The last decision."""
+        up to ``look_again_s`` more of the vehicle's clock — until a frame shows ``focus`` that sure — and decide
+        once more, so that one unsure moment of the detector (a passer-by over a casualty, a glint) does not fail a
+        confirmation alone. The last decision."""
         decision = self.decide(focus, why)
         low = unsure(decision, min_confidence)
         if low is None:
             return decision
         self.publish("log", level="info", focus=focus, summary=f"confidence {low:.2f} is under the "
                      f"{min_confidence:.2f} asked for: looking again for {self.look_again_s:g} s")  # fmt: skip
-        self._watch(lambda: False)
+
+        def sure() -> bool:
+            found = self.world.world.get(self.world.resolve(focus) or focus) if focus is not None else None
+            return found is not None and found.conf >= min_confidence
+
+        self._watch(sure)
         return self.decide(focus, f"{why}, looked again")
 
     def _reidentified(self, focus: str) -> str:

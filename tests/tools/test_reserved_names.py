@@ -29,7 +29,8 @@ def _plugin(tmp_path: Path, name: str, fn: str = "fake") -> tuple[Path, int]:
         f'@tool(name="{name}")\ndef {fn}(lat: float = 0.0) -> str:\n    """Pretends.\n\n    Args:\n'
         '        lat: where\n    """\n    return "pretend"\n'
     )
-    path = tmp_path / "shadow.py"
+    path = tmp_path / f"shadow_{name.replace('.', '_')}.py"  # one file a name: a rewritten file of the same size
+    # in the same second would be imported from its stale bytecode
     path.write_text(text, encoding="utf-8")
     line = next(i for i, row in enumerate(text.splitlines(), 1) if row == f'@tool(name="{name}")')
     return path, line

@@ -231,11 +231,38 @@ def test_a_reasoner_that_raises_leaves_the_pace_as_it_was() -> None:
 # ---- a confirmation that must be sure (analyze_scene's min_confidence) looks again before it fails
 
 
-def unsure_gate(confidences: list[float], persons: int = 1, step_s: float = 0.01) -> tuple[Gate, Unsure, Events]:
+def casualty_at(conf: float = 0.4) -> WorldModel:
+    """The casualty as the frames show it: at ``conf``."""
+    return world_of({**person("P-1"), "conf": conf})
+
+
+def unsure_gate(
+    confidences: list[float], persons: int = 1, step_s: float = 0.01, world: FakeWorld | None = None
+) -> tuple[Gate, Unsure, Events]:
     vehicle, pace = FakeVehicle(step_s=step_s), Pace(None)
     reasoner, events = Unsure(confidences, vehicle, persons), Events()
-    gate = Gate(reasoner, FakeWorld(world_of(person("P-1"))), vehicle, events.publish, pace, look_again_s=0.2)
+    gate = Gate(reasoner, world or FakeWorld(casualty_at()), vehicle, events.publish, pace, look_again_s=0.2)
     return gate, reasoner, events
+
+
+def test_looking_again_ends_at_the_first_frame_that_is_sure_enough() -> None:
+    """The drone hovers over the casualty until a frame shows it as sure as asked, up to ``look_again_s``, and is
+    judged then: a confirmation is not failed, nor held the whole look, for a frame or two of doubt."""
+    world = FakeWorld(casualty_at())
+    gate, reasoner, _ = unsure_gate([0.42, 0.81], world=world)
+    reads = 0
+
+    def sure_after_a_few_frames() -> None:
+        nonlocal reads
+        reads += 1
+        if reads == 5:
+            world.set(casualty_at(0.8))
+
+    world.on_read = sure_after_a_few_frames
+    decided = gate.confident("P-1", "analyze_scene", 0.5)
+    first, second = reasoner.at
+    assert decided.assessment is not None and decided.assessment.confidence == 0.81
+    assert first is not None and second is not None and second - first < 0.2  # judged before the look ran out
 
 
 def test_an_unsure_confirmation_is_looked_at_again_and_judged_once_more() -> None:

@@ -19,7 +19,7 @@ from agentic_core.run.cli import _signals_stop
 from agentic_core.run.runner import MissionRun, RunResult, RunSettings
 from tests.waiting import wait_for
 
-from .conftest import EMERGENCY, NEAR, PARAMS, of_kind, telemetry, tools_ok, trace
+from .conftest import EMERGENCY, NEAR, PARAMS, fly_steered, of_kind, telemetry, tools_ok, trace
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -64,10 +64,7 @@ def test_an_rtl_during_the_approved_landing_holds_it_and_brings_the_aircraft_hom
         asked.append(run.last_sample.alt_m if run.last_sample is not None else math.nan)
         run.control.rtl(by="tester")
 
-    steer = threading.Thread(target=operator, daemon=True)
-    steer.start()
-    result = run.execute()
-    steer.join(10.0)
+    result = fly_steered(run, operator)
     assert asked, "the landing never began"
     assert result.summary.outcome == "returned"
     came_home_from_the_landing(result, asked[0])
@@ -131,10 +128,7 @@ def test_a_pause_during_the_return_holds_the_aircraft_and_resume_flies_the_retur
         finally:
             run.control.resume(by="tester")
 
-    steer = threading.Thread(target=operator, daemon=True)
-    steer.start()
-    result = run.execute()
-    steer.join(10.0)
+    result = fly_steered(run, operator)
     assert held, "the operator thread never resumed"
     assert result.summary.outcome == "completed"
     start, end = held[0]
