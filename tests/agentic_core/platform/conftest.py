@@ -15,6 +15,7 @@ from typing import Any
 from agentic_core.run.runner import MissionRun, RunResult
 from flight.geodesy import local_offset
 from flight.sim.scene_file import load_scene
+from tests.waiting import wait_for
 
 from ..reasoning.llm.standin import Reply, StandIn
 from ..run.scripted_model import ScriptedModel
@@ -96,6 +97,27 @@ def distance_to_casualty(sample: dict[str, Any], scene_file: Path = NEAR) -> flo
     casualty = scene.actor("P-12").position
     north, east = local_offset(scene.home.lat_deg, scene.home.lon_deg, sample["lat_deg"], sample["lon_deg"])
     return math.hypot(north - casualty.north, east - casualty.east)
+
+
+def pause_and_hold(
+    run: MissionRun, ready: Callable[[], bool], what: str, settle_s: float, held: list[tuple[float, float]]
+) -> Callable[[], None]:
+    """An operator for :func:`fly_steered`: once ``ready()``, pause the run; after ``settle_s`` of the vehicle's
+    clock (the hold brakes and settles), note three more seconds of holding in ``held``; then resume."""
+
+    def operator() -> None:
+        wait_for(ready, timeout_s=240.0, what=what)
+        paused = run.clock()
+        run.control.pause(by="tester")
+        try:
+            wait_for(lambda: run.clock() >= paused + settle_s, timeout_s=120.0, what="the hold to settle")
+            start = run.clock()
+            wait_for(lambda: run.clock() >= start + 3.0, timeout_s=60.0, what="three more seconds of holding")
+            held.append((start, run.clock()))
+        finally:
+            run.control.resume(by="tester")
+
+    return operator
 
 
 def fly_steered(run: MissionRun, operator: Callable[[], None]) -> RunResult:

@@ -12,7 +12,7 @@ import pytest
 from agentic_core.run.runner import MissionRun, RunSettings
 from tests.waiting import wait_for
 
-from .conftest import REPO, fly_steered, of_kind, telemetry, trace
+from .conftest import REPO, fly_steered, of_kind, pause_and_hold, telemetry, trace
 
 PATROL = REPO / "missions" / "hajj_patrol.yaml"
 NORMAL = REPO / "tests" / "agentic_core" / "run" / "scenes" / "small_normal.yaml"
@@ -34,19 +34,7 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
     run = patrol(tmp_path)
     held: list[tuple[float, float]] = []
 
-    def operator() -> None:
-        wait_for(lambda: flying_a_leg(run), timeout_s=120.0, what="the first leg")
-        paused = run.clock()
-        run.control.pause(by="tester")
-        try:  # the hold brakes, and settles within seconds: judge the hover after that
-            wait_for(lambda: run.clock() >= paused + 10.0, timeout_s=60.0, what="ten seconds of holding")
-            start = run.clock()
-            wait_for(lambda: run.clock() >= start + 3.0, timeout_s=30.0, what="three more seconds of holding")
-            held.append((start, run.clock()))
-        finally:
-            run.control.resume(by="tester")
-
-    result = fly_steered(run, operator)
+    result = fly_steered(run, pause_and_hold(run, lambda: flying_a_leg(run), "the first leg", 10.0, held))
     assert held, "the operator thread never resumed"
     assert result.summary.outcome == "completed"
     start, end = held[0]

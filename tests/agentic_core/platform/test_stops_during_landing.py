@@ -19,7 +19,7 @@ from agentic_core.run.cli import _signals_stop
 from agentic_core.run.runner import MissionRun, RunResult, RunSettings
 from tests.waiting import wait_for
 
-from .conftest import EMERGENCY, NEAR, PARAMS, fly_steered, of_kind, telemetry, tools_ok, trace
+from .conftest import EMERGENCY, NEAR, PARAMS, fly_steered, of_kind, pause_and_hold, telemetry, tools_ok, trace
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(300)]
 
@@ -116,19 +116,7 @@ def test_a_pause_during_the_return_holds_the_aircraft_and_resume_flies_the_retur
         sample = run.last_sample
         return sample is not None and sample.mode == "rtl" and 20.0 < sample.north_m < 45.0 and sample.alt_m > 5.0
 
-    def operator() -> None:
-        wait_for(returning, timeout_s=240.0, what="the return flying home")
-        paused = run.clock()
-        run.control.pause(by="tester")
-        try:  # the hold brakes, and settles within seconds: judge the hover after that
-            wait_for(lambda: run.clock() >= paused + 6.0, timeout_s=120.0, what="six seconds of holding")
-            start = run.clock()
-            wait_for(lambda: run.clock() >= start + 3.0, timeout_s=60.0, what="three more seconds of holding")
-            held.append((start, run.clock()))
-        finally:
-            run.control.resume(by="tester")
-
-    result = fly_steered(run, operator)
+    result = fly_steered(run, pause_and_hold(run, returning, "the return flying home", 6.0, held))
     assert held, "the operator thread never resumed"
     assert result.summary.outcome == "completed"
     start, end = held[0]
