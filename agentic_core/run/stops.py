@@ -87,15 +87,20 @@ def go_back(records: Sequence[Mapping[str, Any]], view: Mapping[str, Any], call:
         call("flight.land", {"lat": at["lat"], "lon": at["lon"]})
 
 
+def in_the_air(sample: TelemetrySample) -> bool:
+    """Whether ``sample`` has the aircraft flying: not on the ground, nor at ground level landing or taking off."""
+    low = sample.alt_m < 0.5 and (not sample.armed or sample.landed_state in ("landing", "takeoff"))
+    return sample.landed_state != "on_ground" and not low
+
+
 def where_it_ended(sample: TelemetrySample | None) -> str:
     """Where the aircraft is, as its last telemetry sample says, in words (for the trace and the report)."""
     if sample is None:
         return "where it was: no telemetry was heard"
     away = f"{math.hypot(sample.north_m, sample.east_m):.1f} m from home"
-    low = sample.alt_m < 0.5 and (not sample.armed or sample.landed_state in ("landing", "takeoff"))
-    if sample.landed_state == "on_ground" or low:  # landing or taking off at ground level: not in the air yet
+    if not in_the_air(sample):
         return f"on the ground, {'armed' if sample.armed else 'disarmed'}, {away}"
     return f"in the air at {sample.alt_m:.1f} m, {away} (mode {sample.mode})"
 
 
-__all__ = ["GONE_M", "STOP_OUTCOMES", "carry_out", "go_back", "stop_tool", "where_it_ended"]
+__all__ = ["GONE_M", "STOP_OUTCOMES", "carry_out", "go_back", "in_the_air", "stop_tool", "where_it_ended"]

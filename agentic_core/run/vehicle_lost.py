@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..contracts import TelemetrySample
+from .stops import in_the_air
 
 if TYPE_CHECKING:
     from .runner import MissionRun
@@ -49,12 +50,6 @@ class Verdict:
 
     outcome: str
     note: str | None = None
-
-
-def in_the_air(sample: TelemetrySample) -> bool:
-    """Whether ``sample`` has the aircraft flying (not on the ground, nor at ground level landing or taking off)."""
-    low = sample.alt_m < 0.5 and (not sample.armed or sample.landed_state in ("landing", "takeoff"))
-    return sample.landed_state != "on_ground" and not low
 
 
 def last_call_failed(records: Sequence[Mapping[str, Any]], tool: str) -> str | None:
