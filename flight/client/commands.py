@@ -36,6 +36,8 @@ from flight.px4 import mavlink_text
 
 DENIAL_TEXT_WAIT_S = 0.3
 """After a refusal, how long to wait for the STATUSTEXT that says why if it has not come before the answer."""
+PARAM_TRIES = 3
+"""Sends of one parameter read or set before giving up: PARAM_VALUE is the only answer, and UDP may lose it."""
 
 
 @dataclass(slots=True)
@@ -149,12 +151,8 @@ class CommandClient(ClientBase):
     async def get_param(self, name: str, timeout_s: float = 5.0) -> float | None:
         """A parameter's value (integers decoded from PX4's bytewise encoding), or None if none came."""
         ts, tc = self._target()
-        for _ in range(2):
-            request = self._mav.param_request_read_encode(ts, tc, name.encode(), -1)
-            msg = await self._wait(self._param_match(name), timeout_s / 2, send=functools.partial(self._send, request))
-            if msg is not None:
-                return self._param_decode(msg)
-        return None
+        request = self._mav.param_request_read_encode(ts, tc, name.encode(), -1)
+        return await self._param_exchange(name, request, timeout_s)
 
     async def set_param(self, name: str, value: float, timeout_s: float = 5.0) -> float | None:
         """Set a parameter; returns the value the vehicle echoes (it may refuse and echo the old one), or None
@@ -165,8 +163,19 @@ class CommandClient(ClientBase):
         wire = struct.unpack("<f", struct.pack("<i", round(value)))[0] if ptype == MAV_PARAM_TYPE_INT32 else value
         ts, tc = self._target()
         request = self._mav.param_set_encode(ts, tc, name.encode(), float(wire), ptype)
-        msg = await self._wait(self._param_match(name), timeout_s, send=functools.partial(self._send, request))
-        return None if msg is None else self._param_decode(msg)
+        return await self._param_exchange(name, request, timeout_s)
+
+    async def _param_exchange(self, name: str, request: Any, timeout_s: float) -> float | None:
+        """Send ``request`` until ``name``'s PARAM_VALUE comes, :data:`PARAM_TRIES` times within ``timeout_s``:
+        the parameter protocol has no other recovery for a lost datagram, and a set sent twice is the same set.
+        A late answer to one try still answers the next (the match is by name)."""
+        for _ in range(PARAM_TRIES):
+            msg = await self._wait(
+                self._param_match(name), timeout_s / PARAM_TRIES, send=functools.partial(self._send, request)
+            )
+            if msg is not None:
+                return self._param_decode(msg)
+        return None
 
     @staticmethod
     def _param_match(name: str) -> Callable[[Any], Any]:

@@ -208,6 +208,31 @@ def test_lost_mission_messages_are_sent_again(vehicle):
         relay.close()
 
 
+@pytest.mark.parametrize("lost", ["the set", "its answer"])
+def test_a_lost_parameter_set_is_sent_again(vehicle, lost):
+    """PARAM_SET has no acknowledgement but the PARAM_VALUE echo: a fence whose limit or whose echo is lost on the
+    way is still set (before, one lost datagram ended a run with 'no answer to setting GF_MAX_VER_DIST')."""
+    param_value, param_set = 22, 23
+    relay = LossyRelay(vehicle.address, {})
+    home = vehicle.sim.environment.home
+
+    async def go():
+        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+            assert await client.get_param("GF_MAX_VER_DIST") is not None  # its type is known: the next is one set
+            relay.drop = {param_set: 1} if lost == "the set" else {param_value: 1}
+            assert await client.set_param("GF_MAX_VER_DIST", 33.0, timeout_s=3.0) == 33.0
+            assert relay.dropped == [param_set if lost == "the set" else param_value]
+            relay.drop = {param_set: 2}
+            fence = await client.upload_fence(circle=(home.lat_deg, home.lon_deg, 150.0), max_alt_m=40.0)
+            assert fence.status == "ok", fence.reason
+            assert fence.params["GF_MAX_VER_DIST"] == 40.0
+
+    try:
+        run(go())
+    finally:
+        relay.close()
+
+
 def test_a_silent_vehicle_makes_transfers_time_out(vehicle):
     async def go():
         async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.1) as client:
