@@ -216,6 +216,21 @@ class Target:
         self.thrown = 0
         self.valid_seen = 0
         """Datagrams thrown, and how many of them held valid messages."""
+        self.strangers = 0
+        """Datagrams from another address (another test's client still sending to a port this vehicle now has)."""
+        handle = vehicle._datagram
+
+        def datagram(data: bytes, sender: tuple[str, int]) -> None:
+            before = Counters.of(vehicle)
+            handle(data, sender)
+            if sender != self.raw_address:
+                after = Counters.of(vehicle)
+                self.strangers += 1
+                self.expected.rx_datagrams += 1
+                self.expected.rx_messages += after.rx_messages - before.rx_messages
+                self.expected.rx_dropped += after.rx_dropped - before.rx_dropped
+
+        vehicle._datagram = datagram  # type: ignore[method-assign]
 
     @property
     def raw_address(self) -> tuple[str, int]:
