@@ -289,7 +289,11 @@ class Dispatcher:
         """Why the run is paused or being stopped by the operator (the control port), None to go on."""
         command = self.control.stop_requested()
         if command is not None:
-            return f"the operator asked to {command}"
+            by = self.control.stopped_by
+            who = (
+                "the operator" if by in (None, "operator", "console") else by if by.startswith("the ") else f"the {by}"
+            )
+            return f"{who} asked to {command}"
         if self.control.paused:
             return "paused by the operator"
         return None

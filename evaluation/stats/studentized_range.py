@@ -6,7 +6,8 @@ double integral — P(Q <= q) = ∫ g_ν(s) H(q s) ds with H(w) = k ∫ φ(z) [�
 scaled chi distribution — uses fixed Gauss–Legendre rules (160 × 160 nodes, the outer one in log χ²), and
 agrees with scipy to about 1e-11 for k <= 20 and 1e-9 up to k = 100 (tests check both). Like scipy, df >= 100 000
 uses the df = ∞ form. Outside the validated range (df < 2 or k > 100) scipy is called directly. Many values at
-once (every pair of 100 groups) go through :func:`sf_many` and :func:`ppf_many`.
+once (every pair of 100 groups) go through :func:`sf_many`, whose inner integral is read from a piecewise
+Chebyshev table per k (agreeing with the integral to about 1e-14, a hundred times cheaper), and :func:`ppf_many`.
 """
 
 from __future__ import annotations
@@ -32,6 +33,10 @@ _MAX_FAST_K = 100
 _CHUNK = 128
 #: Chebyshev nodes over log df for :func:`ppf_many`; below this many distinct df each is solved exactly.
 _PPF_NODES = 32
+#: The piecewise Chebyshev table of the inner integral used by :func:`sf_many`: w from 0 to 16, 16 pieces of degree 32.
+_TABLE_W = 16.0
+_TABLE_PIECES = 16
+_TABLE_DEGREE = 32
 
 
 def _range_cdf_infinite_df(w: FloatArray, k: int) -> FloatArray:
@@ -39,6 +44,44 @@ def _range_cdf_infinite_df(w: FloatArray, k: int) -> FloatArray:
     inner = _PHI_Z[None, :] - special.ndtr(_Z[None, :] - w[:, None])
     result: FloatArray = k * (np.clip(inner, 0.0, 1.0) ** (k - 1) @ _Z_WEIGHTS)
     return result
+
+
+class _RangeCdfTable:
+    """:func:`_range_cdf_infinite_df` for one k as piecewise Chebyshev series in w (agreeing to about 1e-14): the
+    160 × 160 double integral of every pair of 100 groups then costs one polynomial per point, not 160 normal
+    CDFs. Past :data:`_TABLE_W` the integral no longer changes (the z rule ends at ±8.5), so its value there is
+    the value beyond."""
+
+    def __init__(self, k: int) -> None:
+        self.k = k
+        width = _TABLE_W / _TABLE_PIECES
+        x = np.polynomial.chebyshev.chebpts1(_TABLE_DEGREE + 1)
+        self.coefficients = np.array(
+            [
+                np.polynomial.chebyshev.chebfit(
+                    x, _range_cdf_infinite_df(i * width + (x + 1.0) * width / 2.0, k), _TABLE_DEGREE
+                )
+                for i in range(_TABLE_PIECES)
+            ]
+        )
+        self.beyond = float(_range_cdf_infinite_df(np.array([_TABLE_W]), k)[0])
+
+    def __call__(self, w: FloatArray) -> FloatArray:
+        width = _TABLE_W / _TABLE_PIECES
+        piece = np.clip((w / width).astype(np.int64), 0, _TABLE_PIECES - 1)
+        x = 2.0 * (w - piece * width) / width - 1.0
+        c = self.coefficients
+        b1 = np.zeros_like(w)
+        b2 = np.zeros_like(w)
+        for j in range(_TABLE_DEGREE, 0, -1):  # Clenshaw, each point with its own piece's coefficients
+            b1, b2 = 2.0 * x * b1 - b2 + c[piece, j], b1
+        value: FloatArray = x * b1 - b2 + c[piece, 0]
+        return np.where(w >= _TABLE_W, self.beyond, value)
+
+
+@lru_cache(maxsize=16)
+def _range_cdf_table(k: int) -> _RangeCdfTable:
+    return _RangeCdfTable(k)
 
 
 @lru_cache(maxsize=256)
@@ -112,7 +155,7 @@ def sf_many(q: FloatArray, k: int, df: FloatArray) -> FloatArray:
     for start in range(0, len(todo), _CHUNK):
         rows = todo[start : start + _CHUNK]
         s, weights = _outer_rules(df[rows])
-        inner = _range_cdf_infinite_df((q[rows, None] * s).ravel(), k).reshape(s.shape)
+        inner = _range_cdf_table(k)(q[rows, None] * s)
         out[rows] = 1.0 - np.clip((inner * weights).sum(axis=1), 0.0, 1.0)
     return out
 

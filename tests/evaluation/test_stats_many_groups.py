@@ -47,3 +47,15 @@ def test_the_vectorised_forms_agree_with_one_value_at_a_time(k: int) -> None:
         [studentized_range.ppf(0.95, k, d) for d in df[:8]] + list(studentized_range.ppf_many(0.95, k, df[8:])),
         rel=1e-7,
     )
+
+
+@pytest.mark.parametrize("k", [2, 3, 20, 100])
+def test_the_inner_integrals_table_is_the_integral(k: int) -> None:
+    """:func:`sf_many` reads the inner integral from a piecewise table: at random points, at every piece's ends and
+    far past the table, it is the integral itself to 1e-13."""
+    table = studentized_range._range_cdf_table(k)
+    ends = np.arange(studentized_range._TABLE_PIECES + 1) * studentized_range._TABLE_W / studentized_range._TABLE_PIECES
+    w = np.concatenate(
+        [np.random.default_rng(k).uniform(0.0, 20.0, 5000), ends, np.maximum(ends - 1e-12, 0.0), [1e-9, 0.0, 40.0, 1e6]]
+    )
+    assert np.abs(table(w) - studentized_range._range_cdf_infinite_df(w, k)).max() < 1e-13

@@ -15,6 +15,7 @@ from typing import Any
 import pytest
 
 from agentic_core.agent import AgentLoop, ControlPort, Dispatcher, Gate, LoopResult, Pace
+from agentic_core.agent.loop import TIME_LIMIT
 from agentic_core.graph import InMemorySaver
 from agentic_core.mission import Environment, compile_mission, initial_state
 from agentic_core.mission.steps import Interrupted, step_call
@@ -128,6 +129,20 @@ def test_a_pause_or_a_stop_during_a_long_action_holds_unless_the_stop_asks_for_t
     assert rig.aircraft.tools() == [tool, "flight.hold"]  # held where it was, and nothing else sent
     (stopped,) = [e for e in rig.events.of("tool") if e["status"] == "interrupted"]
     assert stopped["name"] == tool and stopped["hold"] == "ok"
+
+
+@pytest.mark.parametrize(
+    ("by", "expected"),
+    [("console", "the operator asked to rtl"), (TIME_LIMIT, "the wall-clock limit asked to rtl"),
+     ("failsafe", "the failsafe asked to rtl")],
+)  # fmt: skip
+def test_an_interrupted_action_says_who_asked_for_the_stop(by: str, expected: str) -> None:
+    """The trace and the terminal say who stopped a step: the wall-clock limit is not the operator."""
+    rig = Rig()
+    with rig.flying("flight.fly_to", MISSION) as box:
+        rig.control.rtl(by=by)
+    [outcome] = box
+    assert isinstance(outcome, Interrupted) and outcome.reason == expected
 
 
 @pytest.mark.parametrize("on_abort", [None, "rtl", "land", "hold"])

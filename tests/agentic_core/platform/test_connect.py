@@ -39,7 +39,7 @@ def test_the_emergency_mission_flies_on_a_vehicle_in_another_process(tmp_path: P
         assert listening_port(vehicle) == port
         result = run_mission(
             RunSettings(
-                mission=EMERGENCY, scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS, camera_hz=15.0,
+                mission=EMERGENCY, scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS, camera_hz=5.0,
                 connect=f"udp://127.0.0.1:{port}", signing_key=key,
             ),
             progress=None,

@@ -20,7 +20,7 @@ from .conftest import EMERGENCY, NEAR, PARAMS, distance_to_casualty, of_kind, sl
 def settings(tmp_path: Path, url: str) -> RunSettings:
     return RunSettings(
         mission=EMERGENCY, scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS, reasoner="llm",
-        llm=f"openai-compatible:m@{url}/v1", camera_hz=15.0,
+        llm=f"openai-compatible:m@{url}/v1", camera_hz=5.0,
     )  # fmt: skip
 
 

@@ -32,7 +32,7 @@ from .conftest import (
 def settings(tmp_path: Path, url: str, reasoner: str, speed: float | None, seed: int = 0) -> RunSettings:
     return RunSettings(
         mission=EMERGENCY, scene=NEAR, runs_dir=tmp_path / "runs", params=PARAMS, reasoner=reasoner,
-        llm=f"openai-compatible:m@{url}/v1", speed=speed, camera_hz=15.0, seed=seed,
+        llm=f"openai-compatible:m@{url}/v1", speed=speed, camera_hz=5.0, seed=seed,
     )  # fmt: skip
 
 
