@@ -156,25 +156,42 @@ class CommandClient(ClientBase):
 
     async def set_param(self, name: str, value: float, timeout_s: float = 5.0) -> float | None:
         """Set a parameter; returns the value the vehicle echoes (it may refuse and echo the old one), or None
-        without an answer. The type is the vehicle's (read first when not yet known)."""
+        without an answer. The type is the vehicle's (read first when not yet known). An echo of another value
+        (a late answer to an earlier read, or a refusal) is kept while the echo of this one may still come, until
+        the try's time is up."""
         if name not in self._store.param_types and await self.get_param(name, timeout_s) is None:
             return None
         ptype = self._store.param_types[name]
-        wire = struct.unpack("<f", struct.pack("<i", round(value)))[0] if ptype == MAV_PARAM_TYPE_INT32 else value
+        integer = ptype == MAV_PARAM_TYPE_INT32
+        wire = struct.unpack("<f", struct.pack("<i", round(value)))[0] if integer else value
+        wanted = float(round(value)) if integer else float(struct.unpack("<f", struct.pack("<f", value))[0])
         ts, tc = self._target()
         request = self._mav.param_set_encode(ts, tc, name.encode(), float(wire), ptype)
-        return await self._param_exchange(name, request, timeout_s)
+        return await self._param_exchange(name, request, timeout_s, wanted)
 
-    async def _param_exchange(self, name: str, request: Any, timeout_s: float) -> float | None:
+    async def _param_exchange(
+        self, name: str, request: Any, timeout_s: float, wanted: float | None = None
+    ) -> float | None:
         """Send ``request`` until ``name``'s PARAM_VALUE comes, :data:`PARAM_TRIES` times within ``timeout_s``:
         the parameter protocol has no other recovery for a lost datagram, and a set sent twice is the same set.
-        A late answer to one try still answers the next (the match is by name)."""
+        A late answer to one try still answers the next (the match is by name). With ``wanted``, only that value
+        ends a try at once; another one heard ends the tries when the try's time is up, and is returned."""
+        match = self._param_match(name)
+        others: list[float] = []
+
+        def answer(msg: Any) -> Any:
+            found = match(msg)
+            if found is None or wanted is None or self._param_decode(found) == wanted:
+                return found
+            others.append(self._param_decode(found))
+            return None
+
         for _ in range(PARAM_TRIES):
-            msg = await self._wait(
-                self._param_match(name), timeout_s / PARAM_TRIES, send=functools.partial(self._send, request)
-            )
+            msg = await self._wait(answer, timeout_s / PARAM_TRIES, send=functools.partial(self._send, request))
             if msg is not None:
                 return self._param_decode(msg)
+            if others:
+                return others[-1]
         return None
 
     @staticmethod

@@ -233,6 +233,24 @@ def test_a_lost_parameter_set_is_sent_again(vehicle, lost):
         relay.close()
 
 
+def test_a_set_is_answered_by_its_own_echo_not_an_earlier_reads(vehicle):
+    """A read answered just before a set reaches the set's waiter too (the match is by name): the set waits for
+    its own echo rather than return the old value; an armed vehicle that keeps its safety limit on an unsigned
+    link echoes the old value, and that is what the set returns, once its try's time is up."""
+
+    async def go():
+        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+            old = await client.get_param("GF_MAX_VER_DIST")
+            read, echoed = await asyncio.gather(
+                client.get_param("GF_MAX_VER_DIST"), client.set_param("GF_MAX_VER_DIST", old + 7.0)
+            )
+            assert (read, echoed) == (old, old + 7.0)
+            assert (await client.arm()).status == "ok"
+            assert await client.set_param("GF_MAX_VER_DIST", old + 20.0, timeout_s=1.5) == old + 7.0  # kept
+
+    run(go())
+
+
 def test_a_silent_vehicle_makes_transfers_time_out(vehicle):
     async def go():
         async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.1) as client:
