@@ -26,15 +26,18 @@ Facts relied on (MAVLink developer guide, "Mission Protocol"; ``common.xml`` thr
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
     MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_MISSION_START,
     MAV_MISSION_ACCEPTED,
+    MAV_MISSION_ERROR,
     MAV_MISSION_INVALID_SEQUENCE,
     MAV_MISSION_OPERATION_CANCELLED,
     MAV_RESULT_ACCEPTED,
@@ -56,7 +59,16 @@ VALIDITY_WAIT_S = 2.0
 """After an accepted upload, how long to wait for the MISSION_CURRENT that says whether the plan may fly."""
 CURRENT_WAIT_S = 1.5
 """How long :meth:`MissionClient.start_mission` waits for a first MISSION_CURRENT (streamed at 1 Hz)."""
+TRANSFER_TIMEOUT_S = 5.5
+"""How long of the vehicle's clock a transfer it holds open lasts at most (PX4's mission protocol timeout, 5 s)."""
 MAX_ITEMS = 0xFFFF
+
+
+@dataclass(frozen=True)
+class _Upload:
+    result: MissionResult
+    busy: bool = False
+    """Refused before any item was asked for, as a vehicle busy with another transfer refuses."""
 
 
 class MissionClient(OperationsClient):
@@ -67,7 +79,24 @@ class MissionClient(OperationsClient):
     async def upload_mission(
         self, items: Sequence[MissionItem], *, mission_type: MissionType = "mission"
     ) -> MissionResult:
-        """Upload ``items`` as the vehicle's ``mission_type`` plan (replacing it whole)."""
+        """Upload ``items`` as the vehicle's ``mission_type`` plan (replacing it whole). Refused as busy at once
+        (MAV_MISSION_ERROR to the MISSION_COUNT: a transfer still open on the vehicle, as after a download whose
+        closing ACK was lost), it waits out the vehicle's protocol timeout and tries once more: that long of the
+        wall clock (PX4's, and ours when it runs) and of the vehicle's (PX4 SITL in lockstep), whichever is later."""
+        first = await self._upload(items, mission_type)
+        if not first.busy:
+            return first.result
+        start = self._state.time_boot_s
+        await asyncio.sleep(TRANSFER_TIMEOUT_S)
+
+        def over(_msg: Any) -> Any:
+            now = self._state.time_boot_s
+            return True if start is None or (now is not None and now - start >= TRANSFER_TIMEOUT_S) else None
+
+        await self._wait_on_vehicle_clock(over, TRANSFER_TIMEOUT_S, start)
+        return (await self._upload(items, mission_type)).result
+
+    async def _upload(self, items: Sequence[MissionItem], mission_type: MissionType) -> _Upload:
         started, mark, kind = time.monotonic(), self.text_mark, MISSION_TYPE_IDS[mission_type]
         items = list(items)
 
@@ -79,7 +108,7 @@ class MissionClient(OperationsClient):
             )
 
         if len(items) > MAX_ITEMS:
-            return result("failed", f"{len(items)} items: a plan holds at most {MAX_ITEMS}")
+            return _Upload(result("failed", f"{len(items)} items: a plan holds at most {MAX_ITEMS}"))
         ts, tc = self._target()
 
         def wanted(msg: Any) -> bool:
@@ -88,7 +117,7 @@ class MissionClient(OperationsClient):
                 return bool(msg.target_system == self.source_system and kind_of == kind)
             return bool(msg.get_type() == "MISSION_CURRENT")
 
-        resends = 0
+        resends, asked = 0, False
         async with self._listen(wanted) as inbox:
             outgoing = self._mav.mission_count_encode(ts, tc, len(items), kind)
             while True:
@@ -96,27 +125,30 @@ class MissionClient(OperationsClient):
                 resends += tries
                 if msg is None:
                     self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
-                    return result("timeout", self._silence("upload"), resends=resends)
+                    return _Upload(result("timeout", self._silence("upload"), resends=resends))
                 if msg.get_type() == "MISSION_ACK":
                     break
-                seq = int(msg.seq)
+                seq, asked = int(msg.seq), True
                 if not 0 <= seq < len(items):
                     self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_INVALID_SEQUENCE, kind))
-                    return result("failed", f"the vehicle asked for item {seq} of {len(items)}", resends=resends)
+                    return _Upload(
+                        result("failed", f"the vehicle asked for item {seq} of {len(items)}", resends=resends)
+                    )
                 frame, command, p1, p2, p3, p4, x, y, z = items[seq].int_fields()
                 auto = int(items[seq].autocontinue)
                 outgoing = self._mav.mission_item_int_encode(
                     ts, tc, seq, frame, command, 0, auto, p1, p2, p3, p4, x, y, z, kind
                 )
             if int(msg.type) != MAV_MISSION_ACCEPTED:
-                return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type), resends)
+                refused = result("denied", await self._refusal(mark, int(msg.type)), int(msg.type), resends)
+                return _Upload(refused, busy=int(msg.type) == MAV_MISSION_ERROR and not asked)
             if kind == MISSION_TYPE_IDS["mission"] and items:
                 current = await self._next_current(inbox, len(items))
                 if current is not None and int(current.mission_state) == MISSION_STATE_NO_MISSION:
                     why = "; ".join(await self._texts_after(mark)) or "its mission check failed"
                     reason = f"the vehicle stored the mission but will not fly it: {why}"
-                    return result("denied", reason, MAV_MISSION_ACCEPTED, resends)
-        return result("ok", ack=MAV_MISSION_ACCEPTED, resends=resends)
+                    return _Upload(result("denied", reason, MAV_MISSION_ACCEPTED, resends))
+        return _Upload(result("ok", ack=MAV_MISSION_ACCEPTED, resends=resends))
 
     async def download_mission(self, *, mission_type: MissionType = "mission") -> MissionResult:
         """The vehicle's ``mission_type`` plan, in ``items``."""

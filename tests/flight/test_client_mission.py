@@ -13,6 +13,7 @@ from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import MissionItem, MissionType, VehicleClient
+from tests.waiting import wait_for_async
 
 from .conftest import FAST_FORWARD
 from .test_client import run
@@ -249,6 +250,31 @@ def test_a_set_is_answered_by_its_own_echo_not_an_earlier_reads(vehicle):
             assert await client.set_param("GF_MAX_VER_DIST", old + 20.0, timeout_s=1.5) == old + 7.0  # kept
 
     run(go())
+
+
+def test_an_upload_after_a_download_whose_closing_ack_was_lost_waits_it_out(vehicle):
+    """The client's MISSION_ACK that ends a download lost, the vehicle holds the transfer open until its protocol
+    timeout and refuses the next upload as busy ("WPM: IGN MISSION_COUNT: Busy"): the upload waits that out on
+    the vehicle's clock and goes through (before, it was denied, and a run setting its fence failed)."""
+    ack = 47
+    relay = LossyRelay(vehicle.address, {})
+    items = [MissionItem.waypoint(*at(10 * k, 0), 10.0) for k in range(1, 4)]
+
+    async def go():
+        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+            assert (await client.upload_mission(items)).ok
+            relay.drop = {ack: 1}
+            assert (await client.download_mission()).count == len(items)
+            await wait_for_async(lambda: relay.dropped == [ack], 5.0, what="the download's closing ACK lost")
+            up: Any = await client.upload_mission(items[:2])
+            assert up.ok, up.reason
+            down: Any = await client.download_mission()
+            assert down.ok and down.count == 2
+
+    try:
+        run(go())
+    finally:
+        relay.close()
 
 
 def test_a_silent_vehicle_makes_transfers_time_out(vehicle):
