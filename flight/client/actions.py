@@ -39,6 +39,7 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
 )
 
 from agentic_core.contracts.geodesy import local_offset, offset_position
+from flight.client.commands import Ack
 from flight.client.operations import OperationsClient
 from flight.client.results import FlightResult
 from flight.client.telemetry import Telemetry, TelemetryState
@@ -210,12 +211,18 @@ class FlightActions(OperationsClient):
     def _landed(self, s: TelemetryState) -> bool:
         return not s.armed or s.landed_state == "on_ground"
 
+    def _done_before_resend(self, ack: Ack) -> bool:
+        """A land or a return whose first copy was heard and done before the copy sent again (the ACK lost, the
+        vehicle faster than the wall clock) is refused as 'not flying': on the ground, that refusal is not one."""
+        with self._lock:
+            return ack.resent and self._landed(self._state)
+
     async def land(self, *, timeout_s: float | None = None) -> FlightResult:
         """Land where the vehicle is and wait until it is on the ground (PX4 disarms on touchdown)."""
         op = self._begin("land")
         nan = math.nan
         ack = await self._command(MAV_CMD_NAV_LAND, (0.0, 0.0, 0.0, nan, nan, nan, nan))
-        if not ack.accepted:
+        if not ack.accepted and not self._done_before_resend(ack):
             return self._refused(op, ack)
         with self._lock:
             alt = self._state.alt_m or 0.0
@@ -227,7 +234,7 @@ class FlightActions(OperationsClient):
         """Return to launch and land there; ``reached`` is landed within ``home_acceptance_m`` of home."""
         op = self._begin("rtl")
         ack = await self._command(MAV_CMD_NAV_RETURN_TO_LAUNCH, ())
-        if not ack.accepted:
+        if not ack.accepted and not self._done_before_resend(ack):
             return self._refused(op, ack)
         home = self.home
         with self._lock:

@@ -46,6 +46,9 @@ class Ack:
 
     result: int | None
     reason: str | None
+    resent: bool = False
+    """The answer came to a copy sent again (the first's ACK, or the first, lost): a refusal may answer a vehicle
+    that already did what the first copy asked."""
 
     @property
     def accepted(self) -> bool:
@@ -116,9 +119,11 @@ class CommandClient(ClientBase):
                 p = (float(full[0]), float(full[1]), float(full[2]), float(full[3]))
                 self._send_command_int(command, frame, p, x, y, z)
 
+        resent = False
         for attempt in range(attempts):
             ack = await self._wait(is_ack, timeout_s, send=functools.partial(send, min(attempt, 255)))
             if ack is not None:
+                resent = attempt > 0
                 break
         name = COMMAND_NAMES.get(command, str(command))
         if ack is None:
@@ -134,7 +139,7 @@ class CommandClient(ClientBase):
             reason = f"the vehicle does not support {name} (MAV_RESULT_UNSUPPORTED)"
         else:
             reason = "; ".join(texts) if texts else f"{name}: MAV_RESULT_{label}"
-        return Ack(result, reason)
+        return Ack(result, reason, resent)
 
     async def _texts_after(self, mark: int, *, wait: bool = True) -> list[str]:
         """The STATUSTEXTs since ``mark``; if none yet and ``wait``, give one :data:`DENIAL_TEXT_WAIT_S` to come."""

@@ -81,11 +81,16 @@ class MissionClient(OperationsClient):
     ) -> MissionResult:
         """Upload ``items`` as the vehicle's ``mission_type`` plan (replacing it whole). Refused as busy at once
         (MAV_MISSION_ERROR to the MISSION_COUNT: a transfer still open on the vehicle, as after a download whose
-        closing ACK was lost), it waits out the vehicle's protocol timeout and tries once more: that long of the
-        wall clock (PX4's, and ours when it runs) and of the vehicle's (PX4 SITL in lockstep), whichever is later."""
+        closing ACK was lost), it waits out the vehicle's protocol timeout and tries once more."""
         first = await self._upload(items, mission_type)
         if not first.busy:
             return first.result
+        await self._wait_out_transfer()
+        return (await self._upload(items, mission_type)).result
+
+    async def _wait_out_transfer(self) -> None:
+        """Wait until a transfer the vehicle holds open has timed out: :data:`TRANSFER_TIMEOUT_S` of the wall
+        clock (PX4's, and ours when it runs), then as long of the vehicle's (PX4 SITL in lockstep)."""
         start = self._state.time_boot_s
         await asyncio.sleep(TRANSFER_TIMEOUT_S)
 
@@ -94,7 +99,6 @@ class MissionClient(OperationsClient):
             return True if start is None or (now is not None and now - start >= TRANSFER_TIMEOUT_S) else None
 
         await self._wait_on_vehicle_clock(over, TRANSFER_TIMEOUT_S, start)
-        return (await self._upload(items, mission_type)).result
 
     async def _upload(self, items: Sequence[MissionItem], mission_type: MissionType) -> _Upload:
         started, mark, kind = time.monotonic(), self.text_mark, MISSION_TYPE_IDS[mission_type]
@@ -201,7 +205,17 @@ class MissionClient(OperationsClient):
         return result("ok")
 
     async def clear_mission(self, *, mission_type: MissionType | None = "mission") -> MissionResult:
-        """Clear the vehicle's ``mission_type`` plan (None: all three)."""
+        """Clear the vehicle's ``mission_type`` plan (None: all three). Ignored as busy (a transfer still open on
+        the vehicle, which says so in a STATUSTEXT), it waits out the vehicle's protocol timeout and tries once
+        more, as an upload does."""
+        mark = self.text_mark
+        first = await self._clear(mission_type)
+        if first.status != "timeout" or not any("Busy" in text for text in self.texts_since(mark)):
+            return first
+        await self._wait_out_transfer()
+        return await self._clear(mission_type)
+
+    async def _clear(self, mission_type: MissionType | None) -> MissionResult:
         started, mark = time.monotonic(), self.text_mark
         kind = 255 if mission_type is None else MISSION_TYPE_IDS[mission_type]
         ts, tc = self._target()

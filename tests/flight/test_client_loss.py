@@ -1,0 +1,71 @@
+"""One lost datagram does not fail what a careful ground station completes: a land or a return whose COMMAND_ACK
+was lost (the vehicle, faster than the wall clock, had done it before the copy sent again was refused), and a
+clear the vehicle ignored as busy while it held a download open whose closing MISSION_ACK was lost."""
+
+from typing import Any
+
+import pytest
+
+from agentic_core.contracts.geodesy import offset_position
+from flight.mavlink import MavlinkVehicle
+from flight.sim import Simulator
+from flight.vehicle import MissionItem, VehicleClient
+from tests.waiting import wait_for_async
+
+from .conftest import FAST_FORWARD
+from .test_client import run
+from .test_client_mission import LossyRelay
+
+COMMAND_ACK, MISSION_ACK = 77, 47
+
+
+@pytest.fixture
+def vehicle():
+    v = MavlinkVehicle(Simulator(seed=11), gcs=None, api=None)
+    v.start(speed=FAST_FORWARD)
+    yield v
+    v.close()
+
+
+@pytest.fixture
+def relay(vehicle):
+    r = LossyRelay(vehicle.address, {})
+    yield r
+    r.close()
+
+
+@pytest.mark.parametrize("action", ["land", "rtl"])
+def test_a_land_or_return_whose_ack_was_lost_is_done_not_denied(vehicle, relay, action):
+    home = vehicle.sim.environment.home
+
+    async def go() -> Any:
+        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+            assert await client.set_param("RTL_RETURN_ALT", 5.0) == 5.0  # a short return, over before the resend
+            assert (await client.arm()).ok and (await client.takeoff(6.0)).ok
+            assert (await client.goto(*offset_position(home.lat_deg, home.lon_deg, 5.0, 0.0), 6.0)).ok
+            relay.drop = {COMMAND_ACK: 1}
+            done = await getattr(client, action)()
+            assert relay.dropped == [COMMAND_ACK]
+            return done
+
+    done = run(go(), timeout_s=90.0)
+    assert done.status == "ok" and done.reached, done  # before: denied, 'Land denied: not armed'
+    assert not vehicle.sim.armed and vehicle.sim.truth().on_ground
+
+
+def test_a_clear_ignored_as_busy_after_a_lost_closing_ack_waits_it_out(vehicle, relay):
+    home = vehicle.sim.environment.home
+    items = [MissionItem.waypoint(*offset_position(home.lat_deg, home.lon_deg, 10.0 * k, 0.0), 10.0) for k in (1, 2)]
+
+    async def go() -> Any:
+        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+            assert (await client.upload_mission(items)).ok
+            relay.drop = {MISSION_ACK: 1}
+            assert (await client.download_mission()).count == len(items)
+            await wait_for_async(lambda: relay.dropped == [MISSION_ACK], 5.0, what="the closing ACK lost")
+            cleared = await client.clear_mission()  # ignored with 'WPM: IGN CLEAR CMD: Busy' until the timeout
+            return cleared, await client.download_mission()
+
+    cleared, after = run(go(), timeout_s=60.0)
+    assert cleared.status == "ok", cleared.reason  # before: timeout, 'no answer from the vehicle to the clear'
+    assert after.ok and after.count == 0
