@@ -36,11 +36,13 @@ from typing import Any
 from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not restated here
     MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_MISSION_START,
+    MAV_CMD_REQUEST_MESSAGE,
     MAV_MISSION_ACCEPTED,
     MAV_MISSION_ERROR,
     MAV_MISSION_INVALID_SEQUENCE,
     MAV_MISSION_OPERATION_CANCELLED,
     MAV_RESULT_ACCEPTED,
+    MAVLINK_MSG_ID_MISSION_CURRENT,
     MISSION_STATE_ACTIVE,
     MISSION_STATE_COMPLETE,
     MISSION_STATE_NO_MISSION,
@@ -310,8 +312,13 @@ class MissionClient(OperationsClient):
         vehicle's first MISSION_CURRENT after the ACK reports it active (or already complete); a vehicle that
         does not report mission states, once it reports Mission mode. :meth:`wait_mission` follows it to the end."""
         op = self._begin("start_mission")
-        # whether the mission is finished comes with MISSION_CURRENT (1 Hz): a fresh client waits for one
-        await self._wait(lambda _m: True if self._state.mission_state != "unknown" else None, CURRENT_WAIT_S)
+        # whether the mission is finished comes with MISSION_CURRENT (1 Hz): a fresh client asks for one and waits,
+        # twice (a lost report would start a finished mission at its end: nothing flown)
+        for _ in range(2):
+            if self._state.mission_state != "unknown":
+                break
+            await self._command(MAV_CMD_REQUEST_MESSAGE, (float(MAVLINK_MSG_ID_MISSION_CURRENT),), attempts=1)
+            await self._wait(lambda _m: True if self._state.mission_state != "unknown" else None, CURRENT_WAIT_S)
         first = from_item
         if first is None and self.telemetry.mission_state == "complete":
             first = 0

@@ -16,7 +16,7 @@ from .conftest import FAST_FORWARD
 from .test_client import run
 from .test_client_mission import LossyRelay
 
-COMMAND_ACK, MISSION_ACK = 77, 47
+COMMAND_ACK, MISSION_ACK, MISSION_CURRENT = 77, 47, 42
 
 
 @pytest.fixture
@@ -69,3 +69,33 @@ def test_a_clear_ignored_as_busy_after_a_lost_closing_ack_waits_it_out(vehicle, 
     cleared, after = run(go(), timeout_s=60.0)
     assert cleared.status == "ok", cleared.reason  # before: timeout, 'no answer from the vehicle to the clear'
     assert after.ok and after.count == 0
+
+
+def test_a_fresh_client_that_misses_two_mission_reports_still_restarts_a_finished_mission():
+    """A client new to a vehicle whose mission has flown to its end learns that from MISSION_CURRENT (1 Hz) and sets
+    item 0 before MISSION_START; with the first two reports lost it asks for one (REQUEST_MESSAGE) instead of
+    starting the finished plan at its end, which armed the vehicle on the ground and flew nothing."""
+    speed = [FAST_FORWARD]
+    v = MavlinkVehicle(Simulator(seed=11), gcs=None, api=None)
+    v.start(speed=lambda: speed[0])
+    home = v.sim.environment.home
+    items = [MissionItem.takeoff(6.0), MissionItem.waypoint(*offset_position(home.lat_deg, home.lon_deg, 8, 0), 6.0)]
+    lossy = LossyRelay(v.address, {})
+
+    async def go() -> None:
+        async with await VehicleClient.connect(v.address, timeout_s=5.0) as first:  # flown once, to its end
+            assert (await first.upload_mission(items)).ok and (await first.start_mission()).ok
+            assert (await first.wait_mission(timeout_s=60.0)).ok
+            assert (await first.land()).ok
+        speed[0] = 1.0  # real time, as a vehicle is: the 1 Hz reports are a second apart
+        lossy.drop = {MISSION_CURRENT: 2}
+        async with await VehicleClient.connect(lossy.address, timeout_s=5.0, ack_timeout_s=0.5) as fresh:
+            assert (await fresh.start_mission()).ok
+            await wait_for_async(lambda: -v.sim.state().down_m > 3.0, 15.0, what="the mission flown again")
+
+    try:
+        run(go(), timeout_s=90.0)
+        assert lossy.dropped == [MISSION_CURRENT, MISSION_CURRENT]
+    finally:
+        lossy.close()
+        v.close()
