@@ -138,7 +138,8 @@ class CommandClient(ClientBase):
         if result == MAV_RESULT_UNSUPPORTED:
             reason = f"the vehicle does not support {name} (MAV_RESULT_UNSUPPORTED)"
         else:
-            reason = "; ".join(texts) if texts else f"{name}: MAV_RESULT_{label}"
+            said = list(dict.fromkeys(texts))  # a refusal sent again is said again
+            reason = "; ".join(said) if said else f"{name}: MAV_RESULT_{label}"
         return Ack(result, reason, resent)
 
     async def _texts_after(self, mark: int, *, wait: bool = True) -> list[str]:
