@@ -22,6 +22,10 @@ Facts relied on (MAVLink developer guide, "Mission Protocol"; ``common.xml`` thr
   reads the next MISSION_CURRENT, and a plan the vehicle will not fly is ``denied`` with that reason.
 * MAV_CMD_MISSION_START 300 switches to Mission and arms (PX4); MAV_CMD_DO_SET_MISSION_CURRENT 224 sets the item
   flown next.
+* PX4 keeps a transfer open until 5 s pass without a message from its partner (MAVLINK_MISSION_PROTOCOL_TIMEOUT_
+  DEFAULT) and meanwhile refuses another: an upload with MAV_MISSION_ERROR ("WPM: IGN MISSION_COUNT: Busy"), a
+  clear with no answer but a STATUSTEXT. A download whose closing MISSION_ACK is lost leaves one open; the client
+  waits it out and tries once more.
 """
 
 from __future__ import annotations
