@@ -75,6 +75,8 @@ STATUSTEXT_LEN = 50
 UINT16_MAX = 0xFFFF
 UINT8_MAX = 0xFF
 MAX_OPEN_CHUNKED_TEXTS = 16
+LOST_CHUNK = "[…]"
+"""Where a chunk of a long STATUSTEXT was lost (MAVLink 2 sends a text of more than 50 bytes in numbered chunks)."""
 
 
 class Heard(BaseModel):
@@ -190,7 +192,7 @@ class TelemetryStore:
         self.state = TelemetryState()
         self.param_types: dict[str, int] = {}
         """The MAV_PARAM_TYPE of each parameter the vehicle has reported."""
-        self._chunks: dict[tuple[int, int, int], list[str]] = {}
+        self._chunks: dict[tuple[int, int, int], dict[int, str]] = {}
 
     def fold(self, msg: Any, own_component: bool) -> bool:
         """Fold ``msg`` into the state; True if the telemetry changed. ``own_component``: sent by the autopilot
@@ -252,13 +254,14 @@ class TelemetryStore:
         chunk_id = getattr(msg, "id", 0)
         if chunk_id:
             key = (msg.get_srcSystem(), msg.get_srcComponent(), chunk_id)
-            parts = self._chunks.setdefault(key, [])
-            parts.append(text)
+            parts = self._chunks.setdefault(key, {})
+            parts[int(getattr(msg, "chunk_seq", len(parts)))] = text
             if len(text.encode()) >= STATUSTEXT_LEN:
                 if len(self._chunks) > MAX_OPEN_CHUNKED_TEXTS:  # never-finished texts must not pile up
                     del self._chunks[next(iter(self._chunks))]
                 return
-            text = "".join(self._chunks.pop(key))
+            parts = self._chunks.pop(key)
+            text = "".join(parts.get(seq, LOST_CHUNK) for seq in range(max(parts) + 1))
         self.state.text_count += 1
         self.state.texts.append((self.state.text_count, text))
 

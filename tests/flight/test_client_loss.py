@@ -99,3 +99,25 @@ def test_a_fresh_client_that_misses_two_mission_reports_still_restarts_a_finishe
     finally:
         lossy.close()
         v.close()
+
+
+@pytest.mark.parametrize(
+    ("lost", "expected"),
+    [(None, "A" * 50 + "B" * 50 + "tail"), (0, "[…]" + "B" * 50 + "tail"), (1, "A" * 50 + "[…]tail")],
+)
+def test_a_long_statustext_with_a_chunk_lost_shows_the_gap(lost, expected):
+    """A text of more than 50 bytes comes in numbered chunks; one lost, the reason built from it says a part is
+    missing (it read as if whole: 'upported with a position')."""
+    from pymavlink.dialects.v20 import common as mavlink2
+
+    from flight.client.telemetry import TelemetryStore
+
+    mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+    chunks = ["A" * 50, "B" * 50, "tail"]
+    store = TelemetryStore()
+    for seq in range(len(chunks)):
+        if seq != lost:
+            msg = mav.statustext_encode(4, chunks[seq].encode(), 7, seq)
+            msg.pack(mav)  # stamps the sender, as a received message carries it
+            store.fold(msg, own_component=True)
+    assert store.texts_since(0) == [expected]
