@@ -242,6 +242,7 @@ def test_a_set_is_answered_by_its_own_echo_not_an_earlier_reads(vehicle):
     async def go():
         async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
             old = await client.get_param("GF_MAX_VER_DIST")
+            assert old is not None
             read, echoed = await asyncio.gather(
                 client.get_param("GF_MAX_VER_DIST"), client.set_param("GF_MAX_VER_DIST", old + 7.0)
             )
