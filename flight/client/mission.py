@@ -66,7 +66,7 @@ VALIDITY_WAIT_S = 2.0
 CURRENT_WAIT_S = 1.5
 """How long :meth:`MissionClient.start_mission` waits for a first MISSION_CURRENT (streamed at 1 Hz)."""
 TRANSFER_TIMEOUT_S = 5.5
-"""How long of the vehicle's clock a transfer it holds open lasts at most (PX4's mission protocol timeout, 5 s)."""
+"""How long a transfer the vehicle holds open lasts at most (PX4's mission protocol timeout, 5 s, and a margin)."""
 MAX_ITEMS = 0xFFFF
 
 
