@@ -265,10 +265,16 @@ class MissionClient(OperationsClient):
             deadline = time.monotonic() + self.ack_timeout_s
 
     async def _next_current(self, inbox: Inbox, count: int) -> Any | None:
-        """The first MISSION_CURRENT in ``inbox`` reporting ``count`` items, within :data:`VALIDITY_WAIT_S`."""
-        deadline = time.monotonic() + VALIDITY_WAIT_S
+        """The first MISSION_CURRENT in ``inbox`` reporting ``count`` items, within :data:`VALIDITY_WAIT_S`. One is
+        asked for at once and again halfway (REQUEST_MESSAGE, its ACK not awaited): the 1 Hz reports alone, a few
+        lost, would let a plan the vehicle will not fly pass as ``ok``."""
+        start = time.monotonic()
+        deadline, asks = start + VALIDITY_WAIT_S, [start, start + VALIDITY_WAIT_S / 2.0]
         while (left := deadline - time.monotonic()) > 0:
-            msg = await inbox.get(left)
+            if asks and time.monotonic() >= asks[0]:
+                asks.pop(0)
+                self._send_command_long(MAV_CMD_REQUEST_MESSAGE, (float(MAVLINK_MSG_ID_MISSION_CURRENT),) + (0.0,) * 6)
+            msg = await inbox.get(min(left, max(asks[0] - time.monotonic(), 0.0)) if asks else left)
             if msg is not None and msg.get_type() == "MISSION_CURRENT" and int(msg.total) == count:
                 return msg
         return None

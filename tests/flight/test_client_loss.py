@@ -121,3 +121,28 @@ def test_a_long_statustext_with_a_chunk_lost_shows_the_gap(lost, expected):
             msg.pack(mav)  # stamps the sender, as a received message carries it
             store.fold(msg, own_component=True)
     assert store.texts_since(0) == [expected]
+
+
+def test_a_plan_the_vehicle_will_not_fly_is_denied_with_three_mission_reports_lost():
+    """After an accepted upload the next MISSION_CURRENT says whether the plan may fly (PX4 stores a plan past the
+    geofence, then reports NO_MISSION). With the 1 Hz reports alone, three lost at real time passed it as ``ok``;
+    the client asks for a report, at once and again halfway."""
+    v = MavlinkVehicle(Simulator(seed=11), gcs=None, api=None)
+    v.start(speed=1.0)
+    home = v.sim.environment.home
+    far = [MissionItem.takeoff(10.0), MissionItem.waypoint(*offset_position(home.lat_deg, home.lon_deg, 150, 0), 10)]
+    lossy = LossyRelay(v.address, {})
+
+    async def go() -> Any:
+        async with await VehicleClient.connect(lossy.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+            assert await client.set_param("GF_MAX_HOR_DIST", 100.0) == 100.0
+            lossy.drop = {MISSION_CURRENT: 3}
+            return await client.upload_mission(far)
+
+    try:
+        up = run(go(), timeout_s=60.0)
+    finally:
+        lossy.close()
+        v.close()
+    assert lossy.dropped == [MISSION_CURRENT] * 3
+    assert up.status == "denied" and "Geofence violation for waypoint 2" in up.reason, up
