@@ -53,8 +53,7 @@ class _RangeCdfTable:
     the value beyond."""
 
     def __init__(self, k: int) -> None:
-        self.k = k
-        width = _TABLE_W / _TABLE_PIECES
+        self.width = width = _TABLE_W / _TABLE_PIECES
         x = np.polynomial.chebyshev.chebpts1(_TABLE_DEGREE + 1)
         self.coefficients = np.array(
             [
@@ -67,7 +66,7 @@ class _RangeCdfTable:
         self.beyond = float(_range_cdf_infinite_df(np.array([_TABLE_W]), k)[0])
 
     def __call__(self, w: FloatArray) -> FloatArray:
-        width = _TABLE_W / _TABLE_PIECES
+        width = self.width
         piece = np.clip((w / width).astype(np.int64), 0, _TABLE_PIECES - 1)
         x = 2.0 * (w - piece * width) / width - 1.0
         c = self.coefficients

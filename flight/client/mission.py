@@ -273,11 +273,15 @@ class MissionClient(OperationsClient):
         while (left := deadline - time.monotonic()) > 0:
             if asks and time.monotonic() >= asks[0]:
                 asks.pop(0)
-                self._send_command_long(MAV_CMD_REQUEST_MESSAGE, (float(MAVLINK_MSG_ID_MISSION_CURRENT),) + (0.0,) * 6)
+                self._ask_mission_current()
             msg = await inbox.get(min(left, max(asks[0] - time.monotonic(), 0.0)) if asks else left)
             if msg is not None and msg.get_type() == "MISSION_CURRENT" and int(msg.total) == count:
                 return msg
         return None
+
+    def _ask_mission_current(self) -> None:
+        """Ask for a MISSION_CURRENT now (REQUEST_MESSAGE; its ACK is not awaited: the report is the answer)."""
+        self._send_command_long(MAV_CMD_REQUEST_MESSAGE, (float(MAVLINK_MSG_ID_MISSION_CURRENT),) + (0.0,) * 6)
 
     async def _refusal(self, mark: int, result: int) -> str:
         name = mission_result_name(result)
@@ -327,8 +331,11 @@ class MissionClient(OperationsClient):
         for _ in range(2):
             if self._state.mission_state != "unknown":
                 break
-            await self._command(MAV_CMD_REQUEST_MESSAGE, (float(MAVLINK_MSG_ID_MISSION_CURRENT),), attempts=1)
-            await self._wait(lambda _m: True if self._state.mission_state != "unknown" else None, CURRENT_WAIT_S)
+            await self._wait(
+                lambda _m: True if self._state.mission_state != "unknown" else None,
+                CURRENT_WAIT_S,
+                send=self._ask_mission_current,
+            )
         first = from_item
         if first is None and self.telemetry.mission_state == "complete":
             first = 0
