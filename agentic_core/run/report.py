@@ -17,8 +17,6 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from flight.sim.scene_model import Scene
 
-from .plots.flight import plot_flight, read_samples
-from .plots.trajectory import plot_trajectory
 from .readable import label, readable
 
 TIMELINE_KINDS = ("run", "step", "trigger", "decision", "plan", "approval", "alert", "reflection", "refusal", "abort")
@@ -107,7 +105,13 @@ def write_report(
     track: Sequence[TrackPoint],
     scene: Scene | None,
 ) -> Path:
-    """Write ``report.md`` and ``trajectory.png`` into ``run_dir``; return the report's path."""
+    """Write ``report.md``, ``trajectory.png`` and ``flight.png`` into ``run_dir``; return the report's path.
+
+    Matplotlib is imported here, at the end of a run, not when the run starts: a process that never reports (killed,
+    or only validating) does not pay for it."""
+    from .plots.flight import plot_flight, read_samples
+    from .plots.trajectory import plot_trajectory
+
     landed = landing_spot(track)
     links = summary.truth_ids
     plot_trajectory(track, scene, run_dir / "trajectory.png", landed)
@@ -166,4 +170,4 @@ def write_report(
     return path
 
 
-__all__ = ["RunSummary", "TrackPoint", "failsafe_lines", "landing_spot", "plot_trajectory", "timeline", "write_report"]
+__all__ = ["RunSummary", "TrackPoint", "failsafe_lines", "landing_spot", "timeline", "write_report"]

@@ -8,7 +8,6 @@ from .script import table
 
 def test_quick_run_prints_the_cases_ratios_and_targets():
     out = table("sim_speed.py", "--quick", timeout_s=180)
-    out = out
     assert "simulator speed benchmark" in out
     rates = re.findall(r"^\((a|b|c)\).*?\s(\d+)x\s", out, flags=re.MULTILINE)
     assert [case for case, _ in rates] == ["a", "b", "c"], out

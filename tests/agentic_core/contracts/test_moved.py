@@ -94,14 +94,14 @@ def test_the_contracts_import_nothing_of_the_project() -> None:
 HEAVY = ("jsbsim", "scipy", "pymavlink")
 
 
-def _loaded_after(code: str) -> list[str]:
+def _loaded_after(code: str, heavy: tuple[str, ...] = HEAVY) -> list[str]:
     root = Path(agentic_core.contracts.__file__).parents[2]
     probe = f"{code}\nimport json, sys\nprint(json.dumps(sorted(sys.modules)))"
     out = subprocess.run(
         [sys.executable, "-c", probe], cwd=root, capture_output=True, text=True, timeout=120, check=True
     ).stdout
     modules: list[str] = json.loads(out.strip().splitlines()[-1])
-    return [m for m in modules if m.split(".")[0] in HEAVY]
+    return [m for m in modules if m.split(".")[0] in heavy]
 
 
 def test_importing_every_contract_loads_nothing_heavy() -> None:
@@ -123,3 +123,11 @@ def test_loading_a_scene_file_loads_nothing_heavy() -> None:
     scene = sorted((root / "scenes").glob("*.yaml"))[0]
     code = f"from flight.sim.scene_file import load_scene\nprint(load_scene({str(scene)!r}).id)"
     assert _loaded_after(code) == []
+
+
+def test_a_run_imports_matplotlib_only_to_write_its_report() -> None:
+    """A third of a run's start-up was matplotlib, needed only for the report's plots at the end: a run killed, or a
+    process that only assembles one, no longer pays for it."""
+    code = "import agentic_core.run.runner, agentic_core.run.report, agentic_core.run.assembly"
+    assert _loaded_after(code, heavy=("matplotlib",)) == []
+    assert _loaded_after(code + "\nfrom agentic_core.run.plots import flight", heavy=("matplotlib",)) != []
