@@ -176,10 +176,13 @@ WAYPOINTS = REPO / "missions" / "examples" / "waypoints_home.yaml"
 
 
 def sim(port: int) -> subprocess.Popen[str]:
-    """``agentic-uav sim`` in a process of its own, its link unsigned (no ``--signing-key``)."""
+    """``agentic-uav sim`` in a process of its own, its link unsigned (no ``--signing-key``). At four times real
+    time PX4's 10 s data-link timeout is 2.5 s of the wall clock, less than a resumed run may take to start on a
+    loaded machine (it once came home on its own before the resumed run was heard): 60 s (15 s of wall clock) leave
+    room for the restart this test is about."""
     return subprocess.Popen(
         [sys.executable, "-m", "flight.cli", "--bind", f"127.0.0.1:{port}", "--gcs", "none", "--api", "none",
-         "--scene", str(NEAR), "--speed", "4"],
+         "--scene", str(NEAR), "--speed", "4", "--param", "COM_DL_LOSS_T=60"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
     )  # fmt: skip
 
