@@ -9,6 +9,9 @@ retries; a :class:`ToolError` is the tool's answer, not a sign of ill health. A 
 ``idempotency_key`` that its audit log records as ended ok is not run again: that result is replayed. An output
 over ``max_output_bytes`` of JSON (1 MiB unless configured), or one that is not JSON data, is an error result
 naming the tool and the size, found without serialising the output.
+
+The stages before the tool runs (lookup to circuit breaker) are :mod:`tools.admission`'s; every call ends in
+:func:`tools.call_end.finish`, which audits it and makes its result.
 """
 
 from __future__ import annotations
@@ -18,24 +21,19 @@ import copy
 import os
 import time
 from collections.abc import Awaitable, Callable, Mapping
-from datetime import UTC, datetime
 from typing import Any, Literal
 
-from .arguments import argument_errors
+from .admission import admit, guard
 from .attempts import AttemptRunner, CallState
-from .audit import AuditLog, AuditRecord, MemoryAuditLog, completes, redact, secret_values
-from .auth import ANONYMOUS, Caller, InvalidToken, TokenAuthority, unverified_caller
+from .audit import AuditLog, MemoryAuditLog, completes
+from .auth import ANONYMOUS, Caller, TokenAuthority
+from .call_end import describe, finish, internal_error
 from .errors import DeadlinePassed, ToolError
-from .idempotency import KEPT_OUTPUT_LIMIT_BYTES, Flight, GateKey, KeyGate, kept_output, key_problem
+from .idempotency import KEPT_OUTPUT_LIMIT_BYTES, Flight, GateKey, KeyGate
 from .output_size import configured_limit, measure
-from .registry import ToolRegistry, is_available
-from .result import ToolResult, ToolStatus, construct
-from .security import DEFAULT_THRESHOLD, InjectionReport, scan_value
-
-
-def _describe(exc: BaseException) -> str:
-    text = str(exc)
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+from .registry import ToolRegistry
+from .result import ToolResult, ToolStatus
+from .security import DEFAULT_THRESHOLD, scan_value
 
 
 class ToolExecutor:
@@ -120,11 +118,11 @@ class ToolExecutor:
         a second call with the key waits while the first runs (at most until its own deadline)."""
         call = self._start(name, args, caller, token, timeout_s, call_id, idempotency_key)
         try:
-            refused = self._admit(call)
+            refused = admit(call, self.registry, self.authority, self.audit, closed=self._closed)
             if refused is None and self._keyed(call):
                 refused = self._hold_key(call)
             if refused is None:
-                refused = self._guard(call)
+                refused = guard(call, self.audit)
             if refused is not None:
                 return refused
             try:
@@ -135,7 +133,7 @@ class ToolExecutor:
                 return self._failed(call, exc)
             return self._succeeded(call, value)
         except Exception as exc:  # a bug of ours: still a result
-            return self._internal_error(call, exc)
+            return internal_error(self.audit, call, exc)
         finally:
             self._settle(call)
 
@@ -153,11 +151,11 @@ class ToolExecutor:
         """:meth:`call` for callers on an event loop: async tools run on that loop, sync tools on worker threads."""
         call = self._start(name, args, caller, token, timeout_s, call_id, idempotency_key)
         try:
-            refused = self._admit(call)
+            refused = admit(call, self.registry, self.authority, self.audit, closed=self._closed)
             if refused is None and self._keyed(call):
                 refused = await self._ahold_key(call)
             if refused is None:
-                refused = self._guard(call)
+                refused = guard(call, self.audit)
             if refused is not None:
                 return refused
             try:
@@ -173,10 +171,10 @@ class ToolExecutor:
                 return self._failed(call, exc)
             return self._succeeded(call, value)
         except asyncio.CancelledError:
-            self._finish(call, "error", error="cancelled by the caller")
+            finish(self.audit, call, "error", error="cancelled by the caller")
             raise
         except Exception as exc:
-            return self._internal_error(call, exc)
+            return internal_error(self.audit, call, exc)
         finally:
             self._settle(call)
 
@@ -202,7 +200,7 @@ class ToolExecutor:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # stages before the tool runs -----------------------------------------------------------------------------------
+    # the call started (its stages before the tool runs: tools.admission) -----------------------------------------
     def _start(
         self,
         name: str,
@@ -219,79 +217,6 @@ class ToolExecutor:
         call.token = token
         call.key = idempotency_key
         return call
-
-    def _admit(self, call: CallState) -> ToolResult | None:
-        """Lookup to authorization: a finished result when the call stops there, else None."""
-        if self._closed:
-            call.stage("lookup", "failed", "closed")
-            return self._finish(call, "error", error="the tool executor is closed")
-        registry = self.registry
-        entry = registry.entry(call.name) or registry.entry(registry.resolve(call.name))
-        if entry is None:
-            call.stage("lookup", "failed")
-            closest = registry.closest(call.name)
-            hint = f"; did you mean {', '.join(repr(c) for c in closest)}?" if closest else ""
-            return self._finish(call, "error", error=f"unknown tool {call.name!r}{hint}")
-        spec = entry.spec
-        call.entry, call.name = entry, spec.name
-        if spec.available is not None and not is_available(spec):
-            call.stage("lookup", "failed", "unavailable")
-            return self._finish(call, "error", error=f"tool {spec.name!r} is not available now")
-        call.stage("lookup", "passed")
-
-        if not isinstance(call.args, Mapping):
-            call.stage("validate_args", "failed")
-            return self._finish(call, "error", error=f"invalid arguments: expected an object, got {call.args!r}")
-        call.args = dict(call.args)
-        detail = argument_errors(entry, call.args)
-        if detail is not None:
-            call.stage("validate_args", "failed", detail)
-            return self._finish(call, "error", error=f"invalid arguments: {detail}")
-        if call.key is not None:
-            problem = key_problem(call.key)
-            if problem is not None:
-                call.key = None  # not a key: not recorded as one
-                call.stage("validate_args", "failed", problem)
-                return self._finish(call, "error", error=f"invalid call: {problem}")
-        call.stage("validate_args", "passed")
-
-        denial = self._authenticate(call)
-        if denial is None:
-            missing = call.caller.missing(spec.scopes)
-            denial = f"{call.caller.id!r} lacks scope {', '.join(missing)}" if missing else None
-        if denial is not None:
-            call.stage("authorize", "failed", denial)
-            return self._finish(call, "denied", error=denial)
-        call.stage("authorize", "passed")
-        return None
-
-    def _guard(self, call: CallState) -> ToolResult | None:
-        """Rate limit to breaker: a finished result when the call stops before the tool runs, else None."""
-        entry = call.entry
-        assert entry is not None
-        spec = entry.spec
-        if entry.limiter is not None:
-            admitted, wait = entry.limiter.acquire(call.caller.id)
-            if not admitted:
-                call.stage("rate_limit", "failed", f"retry in {wait:.3g} s")
-                return self._finish(call, "rate_limited", error=f"rate limit reached for {spec.name}", retry=wait)
-            call.stage("rate_limit", "passed")
-
-        if entry.cache is not None:
-            hit, cached = entry.cache.get(call.args)
-            if hit:
-                call.stage("cache", "hit")
-                value, report = cached
-                return self._finish(call, "ok", output=copy.deepcopy(value), cached=True, injection=report)
-            call.stage("cache", "miss")
-
-        allowed, wait, call.is_probe = entry.breaker.admit()
-        if not allowed:
-            call.stage("circuit_breaker", "failed", f"open; a probe in {wait:.3g} s")
-            return self._finish(call, "circuit_open", error=f"{spec.name} is failing; circuit open", retry=wait)
-        call.awaits_verdict = True
-        call.stage("circuit_breaker", "passed")
-        return None
 
     # the idempotency key ---------------------------------------------------------------------------------------------
     def _keyed(self, call: CallState) -> bool:
@@ -316,7 +241,8 @@ class ToolExecutor:
         assert call.key is not None
         if held is None:
             call.stage("idempotency", "failed", "a call with this key is still running")
-            return self._finish(
+            return finish(
+                self.audit,
                 call,
                 "timeout",
                 error=f"a call with idempotency key {call.key!r} was still running at this call's deadline; "
@@ -326,11 +252,12 @@ class ToolExecutor:
         try:
             found = self.audit.find(call.key, call.name)
         except Exception as exc:  # unknown is not "never ran": refuse rather than risk acting twice
-            call.stage("idempotency", "failed", _describe(exc))
-            return self._finish(
+            call.stage("idempotency", "failed", describe(exc))
+            return finish(
+                self.audit,
                 call,
                 "error",
-                error=f"cannot look up idempotency key {call.key!r} in the audit log ({_describe(exc)}); "
+                error=f"cannot look up idempotency key {call.key!r} in the audit log ({describe(exc)}); "
                 "the tool was not run, so it cannot act twice",
             )
         if found is None:
@@ -347,22 +274,10 @@ class ToolExecutor:
         report = scan_value(output, threshold=self.injection_threshold)
         flagged = report if report.flagged else None
         if flagged is not None and self.on_injection == "withhold":
-            return self._finish(call, "error", error="output withheld: it looks like instructions", injection=flagged)
-        return self._finish(call, "ok", output=output, injection=flagged, replay_of=found.call_id)
-
-    def _authenticate(self, call: CallState) -> str | None:
-        """Why a call's token is refused, or None (no token, or a valid one: then it names the caller)."""
-        if call.token is None:
-            return None
-        if self.authority is None:
-            call.caller = unverified_caller(call.token)
-            return "a token was given, but this executor has no token authority to verify it"
-        try:
-            call.caller = self.authority.verify(call.token)
-        except InvalidToken as exc:
-            call.caller = unverified_caller(call.token)  # recorded as whom it claims to be, never as the default
-            return str(exc)
-        return None
+            return finish(
+                self.audit, call, "error", error="output withheld: it looks like instructions", injection=flagged
+            )
+        return finish(self.audit, call, "ok", output=output, injection=flagged, replay_of=found.call_id)
 
     # after the tool ran -------------------------------------------------------------------------------------------
     def _verdict(self, call: CallState, healthy: bool | None) -> None:
@@ -391,7 +306,7 @@ class ToolExecutor:
         timed_out = isinstance(exc, TimeoutError)
         call.stage("invoke", "failed", f"{call.attempts} attempt{'s' if call.attempts != 1 else ''}")
         status: ToolStatus = "timeout" if timed_out else "error"
-        return self._finish(call, status, error=str(exc) if timed_out and str(exc) else _describe(exc))
+        return finish(self.audit, call, status, error=str(exc) if timed_out and str(exc) else describe(exc))
 
     def _succeeded(self, call: CallState, value: Any) -> ToolResult:
         entry = call.entry
@@ -411,9 +326,9 @@ class ToolExecutor:
                     )
         except Exception as exc:
             self._verdict(call, False)
-            message = str(exc) if isinstance(exc, ToolError) else f"the tool's output is not valid: {_describe(exc)}"
+            message = str(exc) if isinstance(exc, ToolError) else f"the tool's output is not valid: {describe(exc)}"
             call.stage("validate_output", "failed", message)
-            return self._finish(call, "error", error=message)
+            return finish(self.audit, call, "error", error=message)
         self._verdict(call, True)
         call.stage("validate_output", "passed")
         report = scan_value(value, threshold=self.injection_threshold)
@@ -421,89 +336,11 @@ class ToolExecutor:
         if flagged is not None:
             call.stage("injection_guard", "flagged", f"score {report.score}")
             if self.on_injection == "withhold":
-                return self._finish(
-                    call, "error", error="output withheld: it looks like instructions", injection=report
+                return finish(
+                    self.audit, call, "error", error="output withheld: it looks like instructions", injection=report
                 )
         else:
             call.stage("injection_guard", "passed")
         if entry.cache is not None:
             entry.cache.put(call.args, (copy.deepcopy(value), flagged))
-        return self._finish(call, "ok", output=value, injection=flagged)
-
-    def _finish(
-        self,
-        call: CallState,
-        status: ToolStatus,
-        *,
-        output: Any = None,
-        error: str | None = None,
-        retry: float | None = None,
-        cached: bool = False,
-        injection: InjectionReport | None = None,
-        replay_of: str | None = None,
-    ) -> ToolResult:
-        latency = time.perf_counter() - call.started
-        sensitive = call.entry.spec.sensitive_args if call.entry is not None else frozenset()
-        side_effects = call.entry is not None and call.entry.spec.side_effects
-        kept, output_kept = None, False
-        if side_effects and status == "ok" and replay_of is None:
-            kept, output_kept, _ = kept_output(output, sensitive)
-        if call.args and error is not None:
-            for secret in secret_values(call.args, sensitive):  # an error quoting a password must not spread it
-                error = error.replace(secret, "[redacted]")
-                for stage in call.stages:
-                    stage.detail = stage.detail and stage.detail.replace(secret, "[redacted]")
-        record = construct(
-            AuditRecord,
-            dict(
-                time=datetime.now(UTC).isoformat(timespec="microseconds"),
-                call_id=call.call_id,
-                caller=call.caller.id,
-                tool=call.name,
-                args=redact(call.args, sensitive),
-                status=status,
-                latency_s=latency,
-                attempts=call.attempts,
-                cached=cached,
-                error=error,
-                stages=[f"{s.name}:{s.outcome}" for s in call.stages],
-                idempotency_key=call.key if call.key is None or key_problem(call.key) is None else None,
-                side_effects=side_effects,
-                output=kept,
-                output_kept=output_kept,
-                replay_of=replay_of,
-            ),
-        )
-        try:
-            self.audit.write(record)
-            call.stage("audit", "passed")
-        except Exception as exc:
-            call.stage("audit", "failed", _describe(exc))
-        return construct(
-            ToolResult,
-            dict(
-                status=status,
-                output=output,
-                error=error,
-                latency_s=latency,
-                attempts=call.attempts,
-                call_id=call.call_id,
-                tool=call.name,
-                caller=call.caller.id,
-                cached=cached,
-                replayed=replay_of is not None,
-                retry_after_s=retry,
-                stages=call.stages,
-                untrusted=injection is not None or (call.entry is not None and call.entry.spec.untrusted_output),
-                injection=injection,
-            ),
-        )
-
-    def _internal_error(self, call: CallState, exc: Exception) -> ToolResult:
-        error = f"internal error in the tool executor: {_describe(exc)}"
-        try:
-            return self._finish(call, "error", error=error)
-        except Exception:
-            return ToolResult(
-                status="error", error=error, latency_s=0.0, attempts=call.attempts, call_id=call.call_id, tool=call.name
-            )
+        return finish(self.audit, call, "ok", output=value, injection=flagged)

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from .policy_graph import Step
+from .mission_steps import Step
 
 
 @dataclass

@@ -2,8 +2,9 @@
 
 Each argument model is generic in ``V``, what a value may be besides a number. The classes here fix it to
 ``Never`` (a number and nothing else: what ``flight.*`` tools take); the mission DSL's classes in
-:mod:`agentic_core.contracts.policy_graph` fix it to ``Template``, so a mission may write ``"${params.alt}"``.
-Field names, bounds, defaults and cross-field rules therefore cannot drift apart.
+:mod:`agentic_core.contracts.action_args` (and :mod:`~agentic_core.contracts.mission_values`, the positions) fix it
+to ``Template``, so a mission may write ``"${params.alt}"``. Field names, bounds, defaults and cross-field rules
+therefore cannot drift apart.
 
 >>> from agentic_core.contracts.flight_args import FlyToArgs
 >>> FlyToArgs(north_m=30, east_m=-5).north_m

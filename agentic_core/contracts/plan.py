@@ -17,7 +17,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .policy_graph import Step
+from .mission_steps import Step
 
 
 class Proposal(BaseModel):

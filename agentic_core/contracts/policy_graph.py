@@ -5,6 +5,11 @@ A mission is what users write in YAML and what the LLM planner emits as JSON: ``
 JSON Schema tells an editor exactly which arguments an action takes. Wherever a value is expected, a
 ``${...}`` expression may stand instead; it is checked at load time and evaluated when the step runs.
 
+The mission itself, its parameters and triggers are defined here; its parts each in their own module, every name
+importable from here too: the steps in :mod:`~agentic_core.contracts.mission_steps`, their arguments in
+:mod:`~agentic_core.contracts.action_args`, the limits in :mod:`~agentic_core.contracts.mission_limits`, templates,
+positions and the strict base in :mod:`~agentic_core.contracts.mission_values`.
+
 >>> from agentic_core.contracts.policy_graph import PolicyGraph
 >>> plan = PolicyGraph.model_validate({
 ...     "plan_id": "P-1", "goal": "look around",
@@ -17,78 +22,66 @@ JSON Schema tells an editor exactly which arguments an action takes. Wherever a 
 from __future__ import annotations
 
 import math
-import typing
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
+from pydantic import Field, StringConstraints, model_validator
 
-from . import flight_args
+from .action_args import (
+    AnalyzeSceneArgs,
+    DeployPayloadArgs,
+    FlyToArgs,
+    HoverArgs,
+    LandArgs,
+    NoArgs,
+    NotifyArgs,
+    OrbitArgs,
+    SurveyArgs,
+    TakeoffArgs,
+)
+from .mission_limits import FailsafeAction, FailsafeKind, Limits
+from .mission_steps import (
+    ACTION_TOOLS,
+    ACTIONS,
+    NESTED_STEP_LISTS,
+    STEP_MODELS,
+    AnalyzeSceneStep,
+    BranchStep,
+    CallToolStep,
+    DeployPayloadStep,
+    FlyToStep,
+    HoverStep,
+    LandStep,
+    NotifyStep,
+    OnFail,
+    OrbitStep,
+    RepeatStep,
+    RtlStep,
+    Step,
+    StepBase,
+    StepId,
+    SurveyStep,
+    TakeoffStep,
+    WaitUntilStep,
+    step_args,
+    walk_steps,
+)
+from .mission_values import (
+    TEMPLATE_PATTERN,
+    Circle,
+    Contract,
+    Latitude,
+    LatLon,
+    Longitude,
+    NonNegative,
+    Number,
+    Positive,
+    Template,
+)
 from .swarm_plan import SwarmPlan, uav_problems
 
-TEMPLATE_PATTERN = r"^\$\{.+\}$"
-Template = Annotated[str, StringConstraints(pattern=TEMPLATE_PATTERN)]
-"""A value computed when the step runs: ``"${params.altitude_m + 10}"``."""
-
-Number = flight_args.Number | Template
-Positive = flight_args.Positive | Template
-NonNegative = flight_args.NonNegative | Template
-Latitude = flight_args.Latitude | Template
-Longitude = flight_args.Longitude | Template
-StepId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
-OnFail = Literal["trigger_reflection", "retry", "skip", "abort", "rtl"]
 MAX_STEPS = 1000
 """The most steps a mission may have, nested and trigger steps included: real missions have tens, and checking
 one grows with their number."""
-NESTED_STEP_LISTS = ("steps", "then", "else")
-"""The keys of a step (a repeat's, a branch's) that hold steps, as written."""
-
-
-class Contract(BaseModel):
-    """Base of every mission model: unknown fields are errors, not silently ignored."""
-
-    model_config = ConfigDict(extra="forbid", strict=True)  # "30" is not a number here: as in the JSON Schema
-
-
-# The flight actions' arguments are flight_args' models with ${...} templates allowed; no docstrings where the
-# plain model has none (a docstring is part of the JSON Schema).
-class LatLon(flight_args.LatLonOf[Template], Contract):
-    pass
-
-
-class Circle(Contract):
-    center: LatLon
-    radius_m: float = Field(gt=0)
-
-
-FailsafeAction = Literal["rtl", "land", "hold"]
-FailsafeKind = Literal["battery", "link", "wind", "gps", "flight_time"]
-"""The failsafes evaluated on telemetry (:mod:`agentic_core.agent.failsafes`)."""
-GPS_LANDS: dict[FailsafeKind, FailsafeAction] = {"gps": "land"}
-
-
-class Limits(Contract):
-    """Safety limits every step is checked against at load time and by the flight envelope when it flies."""
-
-    geofence: Annotated[list[LatLon], Field(min_length=3)] | Circle | None = Field(
-        default=None, description="a polygon of at least three points, or a circle"
-    )
-    max_altitude_m: float | None = Field(default=None, gt=0, description="above the home position")
-    min_battery_pct: float | None = Field(default=None, ge=0, le=100)
-    max_wind_mps: float | None = Field(default=None, gt=0)
-    max_flight_time_s: float | None = Field(
-        default=None, gt=0, description="the mission's time limit: seconds of the vehicle's clock since take-off"
-    )
-    link_loss_s: float = Field(
-        default=10.0, gt=0, description="no telemetry for this long in the air is a lost link (PX4's COM_DL_LOSS_T)"
-    )
-    failsafe_action: FailsafeAction = Field(
-        default="rtl", description="what a failsafe on telemetry does: return to launch, land or hold where it is"
-    )
-    failsafe_actions: dict[FailsafeKind, FailsafeAction] = Field(
-        default_factory=lambda: dict(GPS_LANDS),
-        description="a failsafe's own action, over failsafe_action (GPS loss lands unless told otherwise: a "
-        "return needs a position)",
-    )
 
 
 class Param(Contract):
@@ -130,211 +123,6 @@ class Param(Contract):
             if self.maximum is not None and value > self.maximum:
                 return f"must be at most {self.maximum:g}, got {shown}"
         return None
-
-
-# --- arguments of each action ---
-class TakeoffArgs(flight_args.TakeoffArgsOf[Template], Contract):
-    pass
-
-
-class FlyToArgs(flight_args.FlyToArgsOf[Template], Contract):
-    """Exactly one way of saying where: ``lat``/``lon``, local ``north_m``/``east_m``, or a world-model object."""
-
-
-class SurveyArgs(Contract):
-    polygon: Annotated[list[LatLon], Field(min_length=3)] | Template = Field(description="the area, 3+ points")
-    altitude_m: Positive
-    spacing_m: Annotated[float, Field(ge=1, allow_inf_nan=False)] | Template = Field(
-        default=20.0, description="distance between the lawnmower lines, at least 1 m"
-    )
-    speed_mps: Positive | None = None
-
-
-class OrbitArgs(flight_args.OrbitArgsOf[Template, LatLon], Contract):
-    pass
-
-
-class HoverArgs(flight_args.HoverArgsOf[Template], Contract):
-    pass
-
-
-class LandArgs(flight_args.LandArgsOf[Template], Contract):
-    """Land here (no arguments), at a position, or beside a world-model object (``offset_m`` away from it)."""
-
-
-class NoArgs(flight_args.NoArgs, Contract):
-    pass
-
-
-class DeployPayloadArgs(flight_args.DeployPayloadArgs, Contract):
-    pass
-
-
-class AnalyzeSceneArgs(Contract):
-    focus: str | None = Field(default=None, description="an object id, or a description of what to look at")
-    min_confidence: Annotated[float, Field(ge=0, le=1)] | Template = 0.5
-
-
-class NotifyArgs(Contract):
-    channel: Literal["email", "webhook", "log"] = "email"
-    to: list[str] | str | None = None
-    subject: str
-    body: str
-    attach: list[str] = Field(default_factory=list, description="e.g. snapshot, position, world_model")
-
-
-# --- steps ---
-class StepBase(Contract):
-    id: StepId
-    description: str = ""
-    depends_on: list[StepId] = Field(default_factory=list)
-    preconditions: list[str] = Field(default_factory=list, description="expressions that must all be true")
-    on_fail: OnFail = "abort"
-    max_retries: int = Field(default=0, ge=0, le=20, description="retries before on_fail applies")
-    timeout_s: float | None = Field(default=None, gt=0)
-    approval: bool = Field(default=False, description="an operator must approve before the step runs")
-    uav: str | None = Field(
-        default=None,
-        description="a swarm mission's UAVs that have this step: a role of swarm.roles, or 'any' (the swarm awards "
-        "it at run time); default: every UAV, or the one drone",
-    )
-
-
-class TakeoffStep(StepBase):
-    action: Literal["takeoff"]
-    args: TakeoffArgs = Field(default_factory=TakeoffArgs)
-
-
-class FlyToStep(StepBase):
-    action: Literal["fly_to"]
-    args: FlyToArgs
-
-
-class SurveyStep(StepBase):
-    action: Literal["survey"]
-    args: SurveyArgs
-
-
-class OrbitStep(StepBase):
-    action: Literal["orbit"]
-    args: OrbitArgs
-
-
-class HoverStep(StepBase):
-    action: Literal["hover"]
-    args: HoverArgs
-
-
-class LandStep(StepBase):
-    action: Literal["land"]
-    args: LandArgs = Field(default_factory=LandArgs)
-
-
-class RtlStep(StepBase):
-    action: Literal["rtl"]
-    args: NoArgs = Field(default_factory=NoArgs)
-
-
-class DeployPayloadStep(StepBase):
-    action: Literal["deploy_payload"]
-    args: DeployPayloadArgs = Field(default_factory=DeployPayloadArgs)
-
-
-class CallToolStep(StepBase):
-    """Any registered tool; its arguments are checked against the tool's own schema."""
-
-    action: Literal["call_tool"]
-    tool: str = Field(
-        pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)+$", description="e.g. weather.get_forecast"
-    )
-    args: dict[str, Any] = Field(default_factory=dict)
-
-
-class AnalyzeSceneStep(StepBase):
-    action: Literal["analyze_scene"]
-    args: AnalyzeSceneArgs = Field(default_factory=AnalyzeSceneArgs)
-
-
-class NotifyStep(StepBase):
-    action: Literal["notify"]
-    args: NotifyArgs
-
-
-class WaitUntilStep(StepBase):
-    action: Literal["wait_until"]
-    condition: str
-    poll_s: float = Field(default=1.0, gt=0)
-
-
-class RepeatStep(StepBase):
-    """Run ``steps`` in order, again and again, until ``until`` is true (a patrol)."""
-
-    action: Literal["repeat"]
-    steps: list[Step] = Field(min_length=1)
-    until: str
-    max_iterations: int = Field(default=100, ge=1)
-
-
-class BranchStep(StepBase):
-    """Run ``then`` if the condition holds, else ``else``."""
-
-    action: Literal["branch"]
-    if_: str = Field(alias="if")
-    then: list[Step] = Field(min_length=1)
-    else_: list[Step] = Field(default_factory=list, alias="else")
-
-
-Step = Annotated[
-    TakeoffStep
-    | FlyToStep
-    | SurveyStep
-    | OrbitStep
-    | HoverStep
-    | LandStep
-    | RtlStep
-    | DeployPayloadStep
-    | CallToolStep
-    | AnalyzeSceneStep
-    | NotifyStep
-    | WaitUntilStep
-    | RepeatStep
-    | BranchStep,
-    Field(discriminator="action"),
-]
-STEP_MODELS: dict[str, type[StepBase]] = {
-    typing.get_args(model.model_fields["action"].annotation)[0]: model
-    for model in typing.get_args(typing.get_args(Step)[0])
-}
-"""The step model of each action."""
-ACTIONS: tuple[str, ...] = (
-    "takeoff",
-    "fly_to",
-    "survey",
-    "orbit",
-    "hover",
-    "land",
-    "rtl",
-    "deploy_payload",
-    "call_tool",
-    "analyze_scene",
-    "notify",
-    "wait_until",
-    "repeat",
-    "branch",
-)
-ACTION_TOOLS: dict[str, str] = {
-    "takeoff": "flight.takeoff",
-    "fly_to": "flight.fly_to",
-    "survey": "flight.fly_to",  # a survey flies its lawnmower legs one fly_to at a time
-    "orbit": "flight.orbit",
-    "hover": "flight.hover",
-    "land": "flight.land",
-    "rtl": "flight.rtl",
-    "deploy_payload": "flight.deploy_payload",
-    "analyze_scene": "perception.analyze_scene",
-    "notify": "alerts.notify",
-}
-"""The registered tool each action calls; ``call_tool`` names its own, the control actions call none."""
 
 
 class Trigger(Contract):
@@ -413,26 +201,8 @@ class PolicyGraph(Contract):
         return self
 
 
-def walk_steps(steps: list[Any]) -> list[StepBase]:
-    """Every step of ``steps``, those nested in repeats and branches included, in document order."""
-    found: list[StepBase] = []
-    for step in steps:
-        found.append(step)
-        for nested in ("steps", "then", "else_"):
-            found += walk_steps(getattr(step, nested, None) or [])
-    return found
-
-
 ON_ABORT_TOOLS: dict[str, str] = {"rtl": "flight.rtl", "land": "flight.land", "hold": "flight.hold"}
 """The flight tool that carries out each ``on_abort``."""
-
-
-def step_args(step: StepBase) -> dict[str, Any]:
-    """A step's arguments as plain data (templates still in place); control steps have none."""
-    args = getattr(step, "args", None)
-    if isinstance(args, BaseModel):
-        return args.model_dump(by_alias=True, exclude_none=True)
-    return dict(args or {})
 
 
 def mission_json_schema() -> dict[str, Any]:
@@ -443,7 +213,7 @@ def mission_json_schema() -> dict[str, Any]:
     return schema
 
 
-for _model in (RepeatStep, BranchStep, Trigger, PolicyGraph):
+for _model in (Trigger, PolicyGraph):
     _model.model_rebuild()
 
 

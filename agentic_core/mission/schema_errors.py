@@ -16,7 +16,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from agentic_core.contracts import policy_graph
+from agentic_core.contracts import action_args, mission_limits, mission_steps, mission_values, policy_graph
 
 from .model import ACTIONS, STEP_MODELS, PolicyGraph
 from .source import Path, Problem, SourceMap
@@ -313,7 +313,8 @@ def _meant_fields(data: Any, grouped: dict[Path, list[Any]]) -> set[tuple[Path, 
 
 _MODELS: dict[str, type[BaseModel]] = {
     name: model
-    for name, model in vars(policy_graph).items()
+    for module in (mission_values, mission_limits, action_args, mission_steps, policy_graph)
+    for name, model in vars(module).items()
     if isinstance(model, type) and issubclass(model, BaseModel) and model is not BaseModel
 }
 _SHAPE_ERRORS = frozenset({"list_type", "dict_type", "model_type", "model_attributes_type"})

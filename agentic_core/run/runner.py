@@ -9,6 +9,9 @@ compiled onto the graph runtime with a SQLite checkpointer. Everything lands in 
 ``checkpoints.db``, ``flight.tlog``, ``alerts/`` and ``report.md`` with its plots. A killed run continues with
 :meth:`MissionRun.resume` (``agentic-uav run --resume RUN_ID``): the graph from its checkpoint, the simulator from
 its snapshot, and no side effect twice (each call's idempotency key is in the audit log).
+
+This module assembles the run (:class:`MissionRun`) and answers what its parts read of it; :mod:`~agentic_core.run.fly`
+flies it, from the vehicle reached to the report.
 """
 
 from __future__ import annotations
@@ -28,16 +31,14 @@ from tools.audit import JsonlAuditLog
 from tools.builtin.config import BuiltinConfig
 from tools.function import spec_from_function
 
-from ..agent import AgentLoop, ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
+from ..agent import ControlPort, Dispatcher, EventBus, Gate, Pace, policy_approval
 from ..agent.control import Operator
-from ..agent.envelope import FLOOR_M, Envelope
+from ..agent.envelope import Envelope
 from ..agent.failsafes import TelemetryFailsafes, VehicleTexts
 from ..agent.gate import unsure
 from ..agent.ports import WorldSource
-from ..contracts import AgenticUAVError, InputError, RunEvent, RunFailure, TelemetrySample
-from ..contracts.policy_graph import Circle
-from ..graph.checkpoint.sqlite import SqliteSaver
-from ..mission import Environment, compile_mission, initial_state
+from ..contracts import RunEvent, TelemetrySample
+from ..mission import Environment
 from ..mission.model import Trigger
 from ..mission.params import parse_param
 from ..mission.triggers import object_id, trigger_events
@@ -50,6 +51,7 @@ from .backends import Backend, LinkBackend, SimBackend
 from .detector_choice import camera_spec
 from .faults import SCHEDULE, FaultSchedule
 from .fleet_seat import FleetSeat
+from .fly import fly
 from .link_key import keep_signing_key, run_signing_key
 from .model_check import require_model
 from .model_side import ModelSide
@@ -59,23 +61,18 @@ from .perception_loop import PerceptionLoop
 from .plan_review import review
 from .privilege import destination_review, mission_caller
 from .readable import TruthLinks, readable
-from .report import TrackPoint, write_report
+from .report import TrackPoint
 from .responses import ResponseLedger
 from .resume_point import Resumption, RunHold, open_resume
 from .run_clock import resumed_at
-from .run_memory import start_memory, with_memory
+from .run_memory import with_memory
 from .run_tools import run_tools
 from .settings import AGENT, RunError, RunResult, RunSettings, default_scene
-from .stand_down import stand_down
-from .state_files import RunRecord, Snapshot, SnapshotWriter, read_jsonl, read_record, write_record
-from .stops import STOP_OUTCOMES, carry_out, go_back, where_it_ended
-from .summary import summarise
+from .state_files import Snapshot, SnapshotWriter, read_jsonl, read_record
+from .stops import where_it_ended
 from .trace import TelemetryLog, TraceWriter
-from .vehicle_lost import check_end, silence_bound
+from .vehicle_lost import silence_bound
 from .world_map import WORLD_MAP_FILE, WorldMapLog
-
-DEFAULT_CEILING_M = 120.0
-"""The ceiling handed to the vehicle with a fence when the mission names none (a common legal limit)."""
 
 
 class MissionRun:
@@ -360,30 +357,6 @@ class MissionRun:
 
     # ---- running ----
 
-    def reach_vehicle(self) -> None:
-        """Connect to the vehicle before anything flies; :class:`RunFailure` when it does not answer."""
-        status = self.executor.call("flight.status", {})
-        if status.status == "denied":  # the mission's scopes leave out flight:read (load refuses such missions)
-            raise InputError(f"the agent may not read the vehicle ({status.error}): the scopes need flight:read")
-        if status.status != "ok":
-            raise RunFailure(f"cannot reach the vehicle at {self.backend.address}: {status.error}")
-
-    def fence_vehicle(self) -> None:
-        """Hand the vehicle the mission's limits before take-off (fence items, ceiling, floor, return altitude under
-        the ceiling), so it enforces them itself, PX4's way; :class:`RunFailure` when it does not take them."""
-        limits = self.plan.limits
-        if limits.geofence is None and limits.max_altitude_m is None:
-            return
-        args: dict[str, Any] = {"max_alt_m": limits.max_altitude_m or DEFAULT_CEILING_M, "floor_m": FLOOR_M}
-        fence = limits.geofence
-        if isinstance(fence, Circle):
-            args.update(center={"lat": fence.center.lat, "lon": fence.center.lon}, radius_m=fence.radius_m)
-        elif fence is not None:
-            args["polygon"] = [{"lat": p.lat, "lon": p.lon} for p in fence]
-        result = self.dispatch.call("flight.set_fence", args)
-        if result.status != "ok":
-            raise RunFailure(f"the vehicle did not take the mission's limits: {result.error}")
-
     def prepare(self) -> None:
         """Get ready before take-off: the annotator loaded (the model's connection was opened, and the model found
         answering, when the run was assembled: :func:`~agentic_core.run.model_check.require_model`)."""
@@ -391,76 +364,9 @@ class MissionRun:
             self.loop.warm()
 
     def execute(self) -> RunResult:
-        """Fly the mission (or go on with it); always releases the vehicle and writes the report."""
-        wall0 = time.monotonic()
-        if not self.resuming:
-            write_record(self.run_dir, RunRecord(run_id=self.run_id, settings=self.settings))
-        self.bus.publish("run", event="resume" if self.resuming else "start", mission=str(self.settings.mission),
-                         reasoner=self.reasoner.name, backend=self.backend.kind,
-                         summary=f"{'resume' if self.resuming else 'start'} {self.plan.plan_id} "
-                         f"with {self.reasoner.name} on {self.backend.kind}")  # fmt: skip
-        if self.model_note:
-            self.bus.publish("log", level="warning", summary=self.model_note)
-        start_memory(self.memory, self.plan.knowledge, self.bus, self._home)  # or say knowledge goes unread
-        final: dict[str, Any] = {}
-        outcome = "failed"
-        try:
-            self.backend.start()
-            self.failsafes.start()
-            self.faults.start()
-            self.reach_vehicle()
-            self.fence_vehicle()
-            self.prepare()
-            if self.resuming:
-                go_back(self.trace.records, self.view(), self.dispatch.call, self.bus.publish)
-            with setup_frozen(), SqliteSaver.from_conn_string(str(self.run_dir / "checkpoints.db")) as saver:
-                graph = compile_mission(
-                    self.plan, self.env, checkpointer=saver, reflector=self.model.reflector(), tools=self.registry
-                )
-                config = {"configurable": {"thread_id": self.run_id}, "recursion_limit": 10_000}
-                loop = AgentLoop(
-                    graph, config, control=self.control, publish=self.bus.publish, pace=self.pace,
-                    ask=self.settings.approval == "ask", approval_timeout_s=self.settings.approval_timeout_s,
-                    max_wall_s=self.settings.max_wall_s, after_update=self.save_snapshot,
-                )  # fmt: skip
-                result = loop.run(None if self.go_on else initial_state(self.plan, self.params))
-                final = result.state
-            halt = final.get("halt")
-            outcome = {"abort": "aborted", "rtl": "returned"}.get(halt or "", "completed")
-            if result.stopped is not None:
-                carry_out(result.stopped, self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
-                signalled = self.control.stopped_by == "signal"
-                outcome = "interrupted" if signalled else STOP_OUTCOMES[result.stopped]
-            elif result.over_time:
-                outcome = "interrupted"
-                self.bus.publish(
-                    "log", level="error", summary=f"over {self.settings.max_wall_s:.0f} s of wall time: RTL"
-                )
-                carry_out("rtl", self.plan.on_abort, self.view(), self.dispatch.call, self.bus.publish)
-        except AgenticUAVError:
-            stand_down(self.view(), self.plan.on_abort, self.dispatch.call, self.bus.publish)  # never left hovering
-            raise
-        except Exception as exc:  # a bug must still leave a report
-            self.bus.publish("log", level="error", error=f"{type(exc).__name__}: {exc}", summary=f"failed: {exc}")
-            outcome = "failed"
-            stand_down(self.view(), self.plan.on_abort, self.dispatch.call, self.bus.publish)
-        finally:
-            outcome = self.responses.outcome(outcome)  # every critical event answered, or the run says otherwise
-            self.faults.close()
-            self.failsafes.close()
-            self.backend.flush()
-            ended = self.where_it_ended()
-            outcome = (verdict := check_end(self, outcome)).outcome  # lost, or not home, as its telemetry says
-            if self.memory:
-                self.memory.finish(self.bus)
-            self.bus.publish("run", event="end", outcome=outcome, ended=ended, summary=f"end: {outcome}; {ended}")
-            self.close()
-        summary = summarise(self, outcome, time.monotonic() - wall0)
-        summary.notes += [*self.responses.notes(), f"The aircraft ended {ended}.", *filter(None, [verdict.note])]
-        summary.notes += [self.model_note] if self.model_note else []
-        track = self.track()
-        report = write_report(self.run_dir, summary, self.trace.records, track, self.scene)
-        return RunResult(self.run_id, self.run_dir, report, summary, final, track)
+        """Fly the mission (or go on with it); always releases the vehicle and writes the report
+        (:func:`~agentic_core.run.fly.fly`)."""
+        return fly(self)
 
     def where_it_ended(self) -> str:
         """Where the aircraft is now, as its telemetry says, in words (for the trace and the report)."""

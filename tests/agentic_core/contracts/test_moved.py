@@ -16,8 +16,8 @@ import agentic_core.contracts
 
 MOVED = [
     ("agentic_core.mission.model", "agentic_core.contracts.policy_graph", "PolicyGraph"),
-    ("agentic_core.mission.model", "agentic_core.contracts.policy_graph", "TakeoffArgs"),
-    ("agentic_core.mission.model", "agentic_core.contracts.policy_graph", "Limits"),
+    ("agentic_core.mission.model", "agentic_core.contracts.action_args", "TakeoffArgs"),
+    ("agentic_core.mission.model", "agentic_core.contracts.mission_limits", "Limits"),
     ("agentic_core.perception.world_model", "agentic_core.contracts.world_model", "WorldModel"),
     ("agentic_core.perception.world_model", "agentic_core.contracts.world_model", "WorldObject"),
     ("agentic_core.reasoning.assessment", "agentic_core.contracts.assessment", "Assessment"),
