@@ -69,7 +69,7 @@ def fly(run: MissionRun) -> RunResult:
                     f"with {run.reasoner.name} on {run.backend.kind}")  # fmt: skip
     if run.model_note:
         run.bus.publish("log", level="warning", summary=run.model_note)
-    start_memory(run.memory, run.plan.knowledge, run.bus, run._home)  # or say knowledge goes unread
+    start_memory(run.memory, run.plan.knowledge, run.bus, run.home)  # or say knowledge goes unread
     final: dict[str, Any] = {}
     outcome = "failed"
     try:

@@ -146,7 +146,7 @@ class MissionRun:
             self.fleet.tools(self.registry, self)
         self.registry.register(spec_from_function(self._analyze_scene, name=ANALYZE_SCENE,
                                                   scopes=list(ANALYZE_SCENE_SCOPES), timeout_s=120.0))  # fmt: skip
-        self.plan = load_run_mission(settings.mission, self.registry, self._home())
+        self.plan = load_run_mission(settings.mission, self.registry, self.home())
         self.agent = mission_caller(self.plan, self.registry)  # the scopes this mission needs, no more
         chosen = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
         self.reasoner, self.model_note = require_model(chosen)
@@ -196,7 +196,7 @@ class MissionRun:
             self.executor, run_id=self.run_id, gate=self.gate, control=self.control, pace=self.pace,
             publish=self.bus.publish, watch=self._watch, prepare={"alerts.notify": self._attachments},
             on_abort=self.plan.on_abort,
-            hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self._home, targets=self._target,
+            hold_over=self._hold_over, envelope=Envelope(self.plan.limits, home=self.home, targets=self._target,
                                                          position=self._standing_at),
         )  # fmt: skip
         if self.loop is not None:  # the watch looks at every frame, in lockstep with the camera
@@ -250,7 +250,7 @@ class MissionRun:
     def _world_source(self) -> WorldSource:
         return self.loop if self.loop is not None else NoWorld()
 
-    def _home(self) -> tuple[float, float] | None:
+    def home(self) -> tuple[float, float] | None:
         """The vehicle's home as it reports it (the scene's until it has)."""
         home = self._client.home if self._client is not None else None
         if home is not None:
