@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 from pydantic import Field
 
 from . import flight_args
-from .mission_values import Contract, LatLon, Positive, Template
+from .mission_values import MAX_POINTS, Contract, LatLon, Positive, Template
 
 
 class TakeoffArgs(flight_args.TakeoffArgsOf[Template], Contract):
@@ -21,7 +21,9 @@ class FlyToArgs(flight_args.FlyToArgsOf[Template], Contract):
 
 
 class SurveyArgs(Contract):
-    polygon: Annotated[list[LatLon], Field(min_length=3)] | Template = Field(description="the area, 3+ points")
+    polygon: Annotated[list[LatLon], Field(min_length=3, max_length=MAX_POINTS)] | Template = Field(
+        description="the area, 3 to 10,000 points"
+    )
     altitude_m: Positive
     spacing_m: Annotated[float, Field(ge=1, allow_inf_nan=False)] | Template = Field(
         default=20.0, description="distance between the lawnmower lines, at least 1 m"

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from .mission_values import Circle, Contract, LatLon
+from .mission_values import MAX_POINTS, Circle, Contract, LatLon
 
 FailsafeAction = Literal["rtl", "land", "hold"]
 FailsafeKind = Literal["battery", "link", "wind", "gps", "flight_time"]
@@ -18,8 +18,8 @@ GPS_LANDS: dict[FailsafeKind, FailsafeAction] = {"gps": "land"}
 class Limits(Contract):
     """Safety limits every step is checked against at load time and by the flight envelope when it flies."""
 
-    geofence: Annotated[list[LatLon], Field(min_length=3)] | Circle | None = Field(
-        default=None, description="a polygon of at least three points, or a circle"
+    geofence: Annotated[list[LatLon], Field(min_length=3, max_length=MAX_POINTS)] | Circle | None = Field(
+        default=None, description="a polygon of 3 to 10,000 points, or a circle"
     )
     max_altitude_m: float | None = Field(default=None, gt=0, description="above the home position")
     min_battery_pct: float | None = Field(default=None, ge=0, le=100)

@@ -19,6 +19,10 @@ TEMPLATE_PATTERN = r"^\$\{.+\}$"
 Template = Annotated[str, StringConstraints(pattern=TEMPLATE_PATTERN)]
 """A value computed when the step runs: ``"${params.altitude_m + 10}"``."""
 
+MAX_POINTS = 10_000
+"""The most points a mission's polygon (a geofence, a survey or swarm area) may have: finer than any area a
+vehicle's fence holds, and a list far longer would cost seconds and gigabytes to check (850,000 points: 80 s)."""
+
 Number = flight_args.Number | Template
 Positive = flight_args.Positive | Template
 NonNegative = flight_args.NonNegative | Template
@@ -44,6 +48,7 @@ class Circle(Contract):
 
 
 __all__ = [
+    "MAX_POINTS",
     "TEMPLATE_PATTERN",
     "Circle",
     "Contract",

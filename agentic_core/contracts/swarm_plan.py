@@ -18,6 +18,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
 
+from .mission_values import MAX_POINTS
+
 RoleName = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=64)]
 ANY = "any"
 """The ``uav:`` of a step or trigger any UAV may carry out (the swarm decides which at run time)."""
@@ -87,7 +89,9 @@ class SwarmPlan(_Contract):
     """The ``swarm:`` block of a mission flown by several UAVs (``agentic-uav swarm run``)."""
 
     vehicles: int = Field(default=4, ge=1, le=64, description="UAVs when --vehicles is not given")
-    area: list[Corner] = Field(min_length=3, description="the area the UAVs split into sectors, one per UAV")
+    area: list[Corner] = Field(
+        min_length=3, max_length=MAX_POINTS, description="the area the UAVs split into sectors, one per UAV"
+    )
     roles: dict[RoleName, Role] = Field(default_factory=dict, description="roles, given to the first UAVs in order")
     layers_m: list[Annotated[float, Field(gt=0)]] = Field(
         default_factory=lambda: [30.0, 40.0, 50.0, 60.0],

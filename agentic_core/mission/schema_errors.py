@@ -250,6 +250,12 @@ def schema_problems(data: Any, smap: SourceMap, error: ValidationError) -> list[
                 if (parent, missing) in meant:
                     continue  # an unknown field beside it is this one misspelt, and says so
                 problems.append(smap.problem(parent, f"{_describe(data, parent)}: missing required field {missing!r}"))
+            elif kind in ("too_short", "too_long") and "actual_length" in err.get("ctx", {}):
+                ctx = err["ctx"]
+                bound = f"at least {ctx['min_length']:,}" if kind == "too_short" else f"at most {ctx['max_length']:,}"
+                count = ctx["min_length"] if kind == "too_short" else ctx["max_length"]
+                items = "item" if count == 1 else "items"
+                problems.append(smap.problem(path, f"{where}: {bound} {items}, not {ctx['actual_length']:,}"))
             else:
                 message = str(err["msg"]).removeprefix("Value error, ")
                 note = number_note(err["input"]) if kind in ("float_type", "int_type", "float_parsing") else ""

@@ -19,7 +19,14 @@ import yaml
 from agentic_core.contracts.problems import LocatedProblem, ProblemsError
 from agentic_core.contracts.yaml_positions import node_position, position_at
 
-from .step_bound import EVENT_COUNT_FROM, count_over, first_step_over, over_message
+from .step_bound import (
+    EVENT_COUNT_FROM,
+    LIST_OVER_MESSAGE,
+    count_over,
+    first_long_list,
+    first_past_bounds,
+    over_message,
+)
 
 Path = tuple[str | int, ...]
 
@@ -286,15 +293,16 @@ def _cyclic_gc_paused() -> Iterator[None]:
 
 def _parse(text: str, smap: SourceMap) -> Any:
     """Compose ``text`` and build its data; the tree is dropped on return (``smap`` composes it again if a
-    position is needed). A mission past the bound on steps is refused first: a large text before it is built."""
+        position is needed). A mission past the bound on steps is refused first, and a large text with a list past its
+    bound before it is built."""
     if len(text) >= EVENT_COUNT_FROM:
         counter = _Loader(text)
         try:
-            over = first_step_over(counter)
+            over = first_past_bounds(counter)
         finally:
             counter.dispose()
         if over is not None:
-            raise MissionError([Problem(smap.file, *over, over_message())])
+            raise MissionError([Problem(smap.file, *over)])
     loader = _Loader(text)
     try:
         node = loader.get_single_node()
@@ -306,6 +314,9 @@ def _parse(text: str, smap: SourceMap) -> Any:
     over_data = count_over(data)
     if over_data is not None:
         raise MissionError([smap.problem(over_data[0], over_message(over_data[1]))])
+    long = first_long_list(data)
+    if long is not None:
+        raise MissionError([smap.problem(long, LIST_OVER_MESSAGE)])
     return data
 
 

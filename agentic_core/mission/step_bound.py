@@ -1,14 +1,16 @@
-"""The bound on a mission's steps: at most :data:`MAX_STEPS`, nested and trigger steps included, refused with
-the file, line and column of the first step past it.
+"""The bounds on a mission's size: at most :data:`MAX_STEPS` steps, nested and trigger steps included, and no list
+longer than :data:`MAX_LIST_ITEMS` (a polygon's points), each refused with the file, line and column of the first
+step or item past it.
 
-A real mission has tens of steps; a file of hundreds of thousands (30 MB of ``hover``) would take gigabytes to
-check. A large text is counted from the parser's events before it is built, stopping at the first step past the
-bound, so such a file is refused in the time it takes to read that far; any text is counted again once built
-(aliases can repeat a step in a few bytes).
+A real mission has tens of steps and polygons of tens of points; a file of hundreds of thousands (30 MB of
+``hover``, or of one fence's points) would take gigabytes to check. A large text is counted from the parser's
+events before it is built, stopping at the first step or item past a bound, so such a file is refused in the time
+it takes to read that far; any text is counted again once built (aliases can repeat a step in a few bytes), and
+the polygons' contracts hold their own bound.
 
 >>> import yaml
 >>> text = "steps:\\n" + "".join(f"  - {{id: s{i}, action: rtl}}\\n" for i in range(MAX_STEPS + 1))
->>> first_step_over(yaml.SafeLoader(text))
+>>> first_past_bounds(yaml.SafeLoader(text))[:2]
 (1002, 5)
 >>> next(step_paths({"steps": [{"id": "a"}, {"id": "b", "then": [{"id": "c"}]}]}))
 ('steps', 0)
@@ -21,9 +23,18 @@ from typing import Any
 
 import yaml
 
+from agentic_core.contracts.mission_values import MAX_POINTS
 from agentic_core.contracts.policy_graph import MAX_STEPS, NESTED_STEP_LISTS
 
 Path = tuple[str | int, ...]
+
+MAX_LIST_ITEMS = MAX_POINTS
+"""The longest list a large mission text may hold: a polygon's points bound it (the steps' own bound is lower)."""
+
+LIST_OVER_MESSAGE = (
+    f"a list in a mission has at most {MAX_LIST_ITEMS:,} items (a polygon at most {MAX_POINTS:,} points); this is "
+    f"item {MAX_LIST_ITEMS + 1:,}"
+)
 
 EVENT_COUNT_FROM = 1 << 20
 """Texts of at least this many characters are counted from events before they are built: a mission of 1,000
@@ -80,16 +91,43 @@ def count_over(data: Any) -> tuple[Path, int] | None:
     return (first, count) if first is not None else None
 
 
+def first_long_list(data: Any) -> Path | None:
+    """The path of the first item, in the order written, past :data:`MAX_LIST_ITEMS` in any list of parsed mission
+    data, or None. Each list or mapping is walked once, however often aliases repeat it."""
+    seen: set[int] = set()
+    stack: list[tuple[Path, Iterator[tuple[Any, Any]], Any]] = []
+
+    def open_(path: Path, value: Any) -> None:
+        if isinstance(value, dict | list) and id(value) not in seen:
+            seen.add(id(value))
+            items = iter(value.items()) if isinstance(value, dict) else enumerate(value[:MAX_LIST_ITEMS])
+            stack.append((path, items, value))
+
+    open_((), data)
+    while stack:
+        path, items, value = stack[-1]
+        item = next(items, None)
+        if item is None:
+            stack.pop()
+            if isinstance(value, list) and len(value) > MAX_LIST_ITEMS:
+                return (*path, MAX_LIST_ITEMS)
+            continue
+        key, child = item
+        open_((*path, key), child)
+    return None
+
+
 class _Open:
     """An open collection while reading events: a mapping or a sequence, what it is in a mission (``root``,
     ``step``, ``trigger``, ``steps`` (a list of steps), ``triggers`` or ``other``) and, for a mapping, the key of
     the value being read (None while a key is expected)."""
 
-    __slots__ = ("key", "mapping", "role")
+    __slots__ = ("items", "key", "mapping", "role")
 
     def __init__(self, mapping: bool, role: str) -> None:
         self.mapping, self.role = mapping, role
         self.key: Any = None
+        self.items = 0
 
 
 _LISTS = {("root", "steps"): "steps", ("root", "triggers"): "triggers", ("trigger", "steps"): "steps"}
@@ -97,9 +135,9 @@ _LISTS.update({("step", key): "steps" for key in ("steps", "then", "else")})
 _ITEMS = {"steps": "step", "triggers": "trigger"}
 
 
-def first_step_over(loader: yaml.SafeLoader) -> tuple[int, int] | None:
-    """The 1-based line and column of the first step past the bound, read from ``loader``'s events (consumed:
-    the loader is done with after), or None when the document is within it."""
+def first_past_bounds(loader: yaml.SafeLoader) -> tuple[int, int, str] | None:
+    """The 1-based line and column of the first step or list item past a bound, and what is wrong there, read from
+    ``loader``'s events (consumed: the loader is done with after), or None when the document is within them."""
     stack: list[_Open] = []
     count = 0
     reading_key = False
@@ -123,11 +161,13 @@ def first_step_over(loader: yaml.SafeLoader) -> tuple[int, int] | None:
             reading_key = True
         else:
             role = _ITEMS.get(parent.role, "other")
+            parent.items += 1
             if parent.role == "steps":
                 count += 1
                 if count > MAX_STEPS:
-                    mark = event.start_mark
-                    return (mark.line + 1, mark.column + 1) if mark is not None else (1, 1)
+                    return (*_where(event), over_message())
+            if parent.items > MAX_LIST_ITEMS:
+                return (*_where(event), LIST_OVER_MESSAGE)
         if isinstance(event, yaml.CollectionStartEvent):
             mapping = isinstance(event, yaml.MappingStartEvent)
             stack.append(_Open(mapping, role if mapping == (role in ("root", "step", "trigger")) else "other"))
@@ -135,4 +175,18 @@ def first_step_over(loader: yaml.SafeLoader) -> tuple[int, int] | None:
     return None
 
 
-__all__ = ["EVENT_COUNT_FROM", "count_over", "first_step_over", "over_message", "step_paths"]
+def _where(event: yaml.Event) -> tuple[int, int]:
+    mark = event.start_mark
+    return (mark.line + 1, mark.column + 1) if mark is not None else (1, 1)
+
+
+__all__ = [
+    "EVENT_COUNT_FROM",
+    "LIST_OVER_MESSAGE",
+    "MAX_LIST_ITEMS",
+    "count_over",
+    "first_long_list",
+    "first_past_bounds",
+    "over_message",
+    "step_paths",
+]

@@ -1,6 +1,7 @@
-"""Mission loading is bounded and says what it read: at most MAX_STEPS steps (refused at the first one past it,
-before a large text is built), numbers as YAML 1.2 writes them (YAML 1.1's 1:30, 0x1F, 012 and 1_000 are not
-silently numbers), and schema errors that name what the author wrote, not pydantic's union members."""
+"""Mission loading is bounded and says what it read: at most MAX_STEPS steps and lists of at most
+MAX_LIST_ITEMS (each refused at the first step or item past it, before a large text is built), numbers as YAML
+1.2 writes them (YAML 1.1's 1:30, 0x1F, 012 and 1_000 are not silently numbers), and schema errors that name what
+the author wrote, not pydantic's union members."""
 
 import random
 import tracemalloc
@@ -9,10 +10,18 @@ from typing import Any
 import pytest
 import yaml
 
+from agentic_core.contracts.mission_values import MAX_POINTS
 from agentic_core.contracts.policy_graph import MAX_STEPS, PolicyGraph
 from agentic_core.mission import MissionError, load_mission
 from agentic_core.mission.source import SourceMap, _Loader, load_document
-from agentic_core.mission.step_bound import EVENT_COUNT_FROM, count_over, first_step_over, step_paths
+from agentic_core.mission.step_bound import (
+    EVENT_COUNT_FROM,
+    LIST_OVER_MESSAGE,
+    MAX_LIST_ITEMS,
+    count_over,
+    first_past_bounds,
+    step_paths,
+)
 
 HEAD = "plan_id: t\ngoal: x\nsteps:\n  - {id: s0, action: takeoff}\n"
 STEPS = HEAD[HEAD.index("steps:") :]
@@ -133,14 +142,79 @@ def test_the_event_count_and_the_data_count_find_the_same_step(seed: int) -> Non
     text = yaml.safe_dump(mission, sort_keys=False, default_flow_style=rng.choice([None, False]), width=100)
     loader = _Loader(text)
     try:
-        by_events = first_step_over(loader)
+        by_events = first_past_bounds(loader)
     finally:
         loader.dispose()
     over = count_over(yaml.safe_load(text))
     assert (by_events is None) == (over is None), (by_events, over)
     if over is not None:
-        assert by_events == SourceMap("m.yaml", text=text).at(over[0])
+        assert by_events is not None and by_events[:2] == SourceMap("m.yaml", text=text).at(over[0])
         assert over[1] == sum(1 for _ in step_paths(mission)) > MAX_STEPS
+
+
+# ---- the bound on a list ----
+
+
+def points(count: int, indent: str) -> str:
+    """``count`` polygon points, one a line, the first at column ``len(indent) + 3`` (past the ``- ``)."""
+    return "".join(f"{indent}- {{lat: {21.41 + i * 1e-7:.7f}, lon: 39.89}}\n" for i in range(count))
+
+
+def fenced(count: int) -> str:
+    """A mission whose geofence has ``count`` points, the first on line 5."""
+    return f"plan_id: t\ngoal: x\nlimits:\n  geofence:\n{points(count, '    ')}" + STEPS
+
+
+def test_a_fence_at_the_bound_loads_and_one_point_more_is_refused_at_that_point() -> None:
+    assert MAX_LIST_ITEMS == MAX_POINTS
+    fence = load_mission(fenced(MAX_POINTS)).limits.geofence
+    assert isinstance(fence, list) and len(fence) == MAX_POINTS
+    assert problems(fenced(MAX_POINTS + 1)) == [f"m.yaml:{5 + MAX_POINTS}:7: {LIST_OVER_MESSAGE}"]
+
+
+def test_a_30_mb_fence_is_refused_at_the_point_past_the_bound_before_it_is_built() -> None:
+    """Hostile: 850,000 points, 30 MB, under the 32 MB input bound: checking them took 80 s and 2.1 GB. Reading now
+    stops at the point past the bound."""
+    text = fenced(850_000)
+    assert len(text) > 30 * 10**6
+    tracemalloc.start()
+    try:
+        with pytest.raises(MissionError) as info:
+            load_document(text, "big.yaml")
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    [problem] = info.value.problems
+    assert (problem.line, problem.col, problem.message) == (5 + MAX_POINTS, 7, LIST_OVER_MESSAGE)
+    # the YAML reader copies the text once (it appends a NUL): a copy of what was read, no more
+    assert peak < len(text) + 20 * 2**20, f"refusing took {peak / 2**20:.0f} MB"
+
+
+@pytest.mark.parametrize("large", [False, True], ids=["built", "read-from-events"])
+def test_any_list_past_the_bound_is_refused_where_it_is_in_a_small_text_or_a_large_one(large: bool) -> None:
+    """The same refusal, at the same place, whether the text is read from its events (a megabyte or more: padded
+    here by a comment at its end) or built first; a list an alias repeats is counted once, and the list past the
+    bound is found where it is written, inside or after another."""
+    many = ", ".join(["'true'"] * (MAX_LIST_ITEMS + 1))
+    text = f"{HEAD}  - {{id: h, action: hover, preconditions: [{many}], args: {{duration_s: 1}}}}\n"
+    if large:
+        text += "# " + "x" * EVENT_COUNT_FROM + "\n"
+    [problem] = problems(text)
+    col = text.splitlines()[4].index("'true'") + 1 + len("'true', ") * MAX_LIST_ITEMS
+    assert problem == f"m.yaml:5:{col}: {LIST_OVER_MESSAGE}"
+
+
+def test_survey_and_swarm_areas_are_bounded_built_in_code_too() -> None:
+    """A plan built in code, not read from a file, holds the polygons' bound in its contract."""
+    corner = {"lat": 21.41, "lon": 39.89}
+    survey = {"id": "s", "action": "survey", "args": {"polygon": [corner] * (MAX_POINTS + 1), "altitude_m": 20}}
+    with pytest.raises(ValueError, match="at most 10000 items"):
+        PolicyGraph.model_validate({"plan_id": "t", "goal": "x", "steps": [survey]})
+    swarm = {"area": [corner] * (MAX_POINTS + 1)}
+    with pytest.raises(ValueError, match="at most 10000 items"):
+        PolicyGraph.model_validate(
+            {"plan_id": "t", "goal": "x", "swarm": swarm, "steps": [{"id": "r", "action": "rtl"}]}
+        )
 
 
 # ---- numbers as YAML 1.2 writes them ----
