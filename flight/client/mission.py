@@ -26,6 +26,13 @@ Facts relied on (MAVLink developer guide, "Mission Protocol"; ``common.xml`` thr
   DEFAULT) and meanwhile refuses another: an upload with MAV_MISSION_ERROR ("WPM: IGN MISSION_COUNT: Busy"), a
   clear with no answer but a STATUSTEXT. A download whose closing MISSION_ACK is lost leaves one open; the client
   waits it out and tries once more.
+* Duplicated and late datagrams (redundant links): a mission message carries no transfer id here, so a copy of an
+  earlier answer must not pass for this one. The vehicle accepts an upload only once its last item has come, asks
+  only for items below the count, and in a download sends MISSION_ACK only to refuse; anything else is a stale
+  copy and is ignored (MAVSDK ignores such requests too). PX4 answers a copy of our MISSION_COUNT that arrives
+  mid-upload with MAV_MISSION_ERROR ("WPM: REJ. CMD: Busy") and goes on, and ends a download with
+  MAV_MISSION_ERROR on a request out of order ("Req. WP was unexpected"), as a late copy of a request is: the
+  client cancels such an upload and makes it again, and downloads again, once.
 """
 
 from __future__ import annotations
@@ -43,7 +50,6 @@ from pymavlink.dialects.v20.common import (  # MAVLink's own constants, not rest
     MAV_CMD_REQUEST_MESSAGE,
     MAV_MISSION_ACCEPTED,
     MAV_MISSION_ERROR,
-    MAV_MISSION_INVALID_SEQUENCE,
     MAV_MISSION_OPERATION_CANCELLED,
     MAV_RESULT_ACCEPTED,
     MAVLINK_MSG_ID_MISSION_CURRENT,
@@ -75,6 +81,9 @@ class _Upload:
     result: MissionResult
     busy: bool = False
     """Refused before any item was asked for, as a vehicle busy with another transfer refuses."""
+    interrupted: bool = False
+    """Refused with MAV_MISSION_ERROR between the first request and the last item, as PX4 answers a copy of our
+    MISSION_COUNT delivered late ("WPM: REJ. CMD: Busy") while it goes on with the transfer."""
 
 
 class MissionClient(OperationsClient):
@@ -87,8 +96,11 @@ class MissionClient(OperationsClient):
     ) -> MissionResult:
         """Upload ``items`` as the vehicle's ``mission_type`` plan (replacing it whole). Refused as busy at once
         (MAV_MISSION_ERROR to the MISSION_COUNT: a transfer still open on the vehicle, as after a download whose
-        closing ACK was lost), it waits out the vehicle's protocol timeout and tries once more."""
+        closing ACK was lost), it waits out the vehicle's protocol timeout and tries once more. Refused with
+        MAV_MISSION_ERROR mid-transfer, it cancels that transfer and tries once more at once."""
         first = await self._upload(items, mission_type)
+        if first.interrupted:
+            return (await self._upload(items, mission_type)).result
         if not first.busy:
             return first.result
         await self._wait_out_transfer()
@@ -127,11 +139,21 @@ class MissionClient(OperationsClient):
                 return bool(msg.target_system == self.source_system and kind_of == kind)
             return bool(msg.get_type() == "MISSION_CURRENT")
 
-        resends, asked = 0, False
+        resends, asked, sent_last = 0, False, not items
+
+        def answers(msg: Any) -> bool:
+            """A stale message (a copy delivered late, or an earlier upload's) cannot answer this upload: the
+            vehicle accepts a plan only once its last item has come, and asks only for items below the count."""
+            if msg.get_type() == "MISSION_CURRENT":
+                return False
+            if msg.get_type() == "MISSION_ACK":
+                return sent_last or int(msg.type) != MAV_MISSION_ACCEPTED
+            return bool(0 <= int(msg.seq) < len(items))
+
         async with self._listen(wanted) as inbox:
             outgoing = self._mav.mission_count_encode(ts, tc, len(items), kind)
             while True:
-                msg, tries = await self._exchange(inbox, outgoing, lambda m: m.get_type() != "MISSION_CURRENT")
+                msg, tries = await self._exchange(inbox, outgoing, answers)
                 resends += tries
                 if msg is None:
                     self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
@@ -139,11 +161,7 @@ class MissionClient(OperationsClient):
                 if msg.get_type() == "MISSION_ACK":
                     break
                 seq, asked = int(msg.seq), True
-                if not 0 <= seq < len(items):
-                    self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_INVALID_SEQUENCE, kind))
-                    return _Upload(
-                        result("failed", f"the vehicle asked for item {seq} of {len(items)}", resends=resends)
-                    )
+                sent_last = sent_last or seq == len(items) - 1
                 frame, command, p1, p2, p3, p4, x, y, z = items[seq].int_fields()
                 auto = int(items[seq].autocontinue)
                 outgoing = self._mav.mission_item_int_encode(
@@ -151,7 +169,10 @@ class MissionClient(OperationsClient):
                 )
             if int(msg.type) != MAV_MISSION_ACCEPTED:
                 refused = result("denied", await self._refusal(mark, int(msg.type)), int(msg.type), resends)
-                return _Upload(refused, busy=int(msg.type) == MAV_MISSION_ERROR and not asked)
+                error = int(msg.type) == MAV_MISSION_ERROR
+                if error and asked and not sent_last:  # the vehicle may be going on with the transfer: end it
+                    self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
+                return _Upload(refused, busy=error and not asked, interrupted=error and asked and not sent_last)
             if kind == MISSION_TYPE_IDS["mission"] and items:
                 current = await self._next_current(inbox, len(items))
                 if current is not None and int(current.mission_state) == MISSION_STATE_NO_MISSION:
@@ -161,7 +182,15 @@ class MissionClient(OperationsClient):
         return _Upload(result("ok", ack=MAV_MISSION_ACCEPTED, resends=resends))
 
     async def download_mission(self, *, mission_type: MissionType = "mission") -> MissionResult:
-        """The vehicle's ``mission_type`` plan, in ``items``."""
+        """The vehicle's ``mission_type`` plan, in ``items``. Ended with MAV_MISSION_ERROR after its first item was
+        asked for (PX4 ends a download so on a request out of order, as a copy of an earlier request delivered late
+        is, and when the plan changes under it), it downloads once more."""
+        first, interrupted = await self._download(mission_type)
+        if not interrupted:
+            return first
+        return (await self._download(mission_type))[0]
+
+    async def _download(self, mission_type: MissionType) -> tuple[MissionResult, bool]:
         started, mark, kind = time.monotonic(), self.text_mark, MISSION_TYPE_IDS[mission_type]
         ts, tc = self._target()
         got: list[MissionItem] = []
@@ -180,35 +209,39 @@ class MissionClient(OperationsClient):
                 and int(getattr(msg, "mission_type", 0)) == kind
             )
 
+        def refusal(msg: Any) -> bool:
+            """The vehicle's MISSION_ACK in a download is a refusal; an ACCEPTED one is a copy of an upload's or a
+            clear's answer delivered late (it ended the download as 'denied: MAV_MISSION_ACCEPTED')."""
+            return bool(msg.get_type() == "MISSION_ACK" and int(msg.type) != MAV_MISSION_ACCEPTED)
+
         async with self._listen(wanted) as inbox:
             request = self._mav.mission_request_list_encode(ts, tc, kind)
-            msg, resends = await self._exchange(
-                inbox, request, lambda m: m.get_type() in ("MISSION_COUNT", "MISSION_ACK")
-            )
+            msg, resends = await self._exchange(inbox, request, lambda m: m.get_type() == "MISSION_COUNT" or refusal(m))
             if msg is None:
-                return result("timeout", self._silence("download"))
+                return result("timeout", self._silence("download")), False
             if msg.get_type() == "MISSION_ACK":
-                return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type))
+                return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type)), False
             count = int(msg.count)
             for seq in range(count):
                 request = self._mav.mission_request_int_encode(ts, tc, seq, kind)
 
                 def answers(m: Any, seq: int = seq) -> bool:
-                    return m.get_type() == "MISSION_ACK" or (m.get_type() != "MISSION_COUNT" and int(m.seq) == seq)
+                    return refusal(m) or (m.get_type() in ("MISSION_ITEM_INT", "MISSION_ITEM") and int(m.seq) == seq)
 
                 msg, tries = await self._exchange(inbox, request, answers)
                 resends += tries
                 if msg is None:
-                    return result("timeout", self._silence(f"download (item {seq} of {count})"))
+                    return result("timeout", self._silence(f"download (item {seq} of {count})")), False
                 if msg.get_type() == "MISSION_ACK":
-                    return result("denied", await self._refusal(mark, int(msg.type)), int(msg.type))
+                    ack = int(msg.type)
+                    return result("denied", await self._refusal(mark, ack), ack), ack == MAV_MISSION_ERROR
                 try:
                     got.append(MissionItem.from_message(msg))
                 except ValueError as exc:
                     self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
-                    return result("failed", f"item {seq} from the vehicle is not valid: {exc}")
+                    return result("failed", f"item {seq} from the vehicle is not valid: {exc}"), False
             self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_ACCEPTED, kind))
-        return result("ok")
+        return result("ok"), False
 
     async def clear_mission(self, *, mission_type: MissionType | None = "mission") -> MissionResult:
         """Clear the vehicle's ``mission_type`` plan (None: all three). Ignored as busy (a transfer still open on
