@@ -15,11 +15,17 @@ loaded 2-core machine the client's threads are not starved (``speed=None`` would
 
 
 @pytest.fixture
-def vehicle() -> Iterator[MavlinkVehicle]:
+def vehicle_seed() -> int:
+    """The seed of the simulated vehicle's wind gusts and GPS noise; a test module's own fixture overrides it."""
+    return 5
+
+
+@pytest.fixture
+def vehicle(vehicle_seed: int) -> Iterator[MavlinkVehicle]:
     """The vehicle ticking fast, sending only to clients that talk to it, with every failsafe on: running free, it
     judges link loss on the wall clock, so the client's 1 Hz heartbeat keeps the link alive however fast simulated
     time runs (a return home mid-test would fail these flights). A test module's own ``vehicle`` overrides it."""
-    v = MavlinkVehicle(Simulator(seed=5), gcs=None, api=None)
+    v = MavlinkVehicle(Simulator(seed=vehicle_seed), gcs=None, api=None)
     v.start(speed=FAST_FORWARD)
     try:
         yield v

@@ -141,11 +141,8 @@ def everything(msg: Any, to_vehicle: bool) -> bool:
 
 
 @pytest.fixture
-def vehicle():
-    v = MavlinkVehicle(Simulator(seed=11), gcs=None, api=None)
-    v.start(speed=FAST_FORWARD)
-    yield v
-    v.close()
+def vehicle_seed() -> int:
+    return 11
 
 
 @pytest.fixture

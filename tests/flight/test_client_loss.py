@@ -20,11 +20,8 @@ COMMAND_ACK, MISSION_ACK, MISSION_CURRENT = 77, 47, 42
 
 
 @pytest.fixture
-def vehicle():
-    v = MavlinkVehicle(Simulator(seed=11), gcs=None, api=None)
-    v.start(speed=FAST_FORWARD)
-    yield v
-    v.close()
+def vehicle_seed() -> int:
+    return 11
 
 
 @pytest.fixture

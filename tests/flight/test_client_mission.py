@@ -10,12 +10,9 @@ from typing import Any
 import pytest
 
 from agentic_core.contracts.geodesy import local_offset, offset_position
-from flight.mavlink import MavlinkVehicle
-from flight.sim import Simulator
 from flight.vehicle import MissionItem, MissionType, VehicleClient
 from tests.waiting import wait_for_async
 
-from .conftest import FAST_FORWARD
 from .test_client import run
 
 HOME = (21.4133, 39.8933)
@@ -26,13 +23,8 @@ def at(north: float, east: float) -> tuple[float, float]:
 
 
 @pytest.fixture
-def vehicle():
-    v = MavlinkVehicle(Simulator(seed=11), gcs=None, api=None)
-    v.start(speed=FAST_FORWARD)
-    try:
-        yield v
-    finally:
-        v.close()
+def vehicle_seed() -> int:
+    return 11
 
 
 def same_item(a: MissionItem, b: MissionItem) -> bool:

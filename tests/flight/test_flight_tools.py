@@ -12,8 +12,6 @@ from pydantic import BaseModel
 from agentic_core.contracts.geodesy import local_offset, offset_position
 from agentic_core.mission import model as mission
 from agentic_core.mission.steps import Environment, perform, prepare
-from flight.mavlink import MavlinkVehicle
-from flight.sim import Simulator
 from flight.tools import NEEDS_WORLD_MODEL, TIMEOUTS_S, beside, flight_tools, register_flight_tools
 from flight.vehicle import FlightResult, Telemetry, VehicleClient
 from tools import Caller, ToolExecutor, ToolRegistry
@@ -43,13 +41,8 @@ loaded 2-core machine the client's threads are not starved (``speed=None`` would
 
 
 @pytest.fixture
-def vehicle():
-    v = MavlinkVehicle(Simulator(seed=9), gcs=None, api=None)  # every failsafe on
-    v.start(speed=FAST_FORWARD)
-    try:
-        yield v
-    finally:
-        v.close()
+def vehicle_seed() -> int:
+    return 9
 
 
 @pytest.fixture
