@@ -41,6 +41,19 @@ def problems(text: str) -> list[str]:
     return [str(p) for p in info.value.problems]
 
 
+def refused_once(text: str) -> tuple[Any, int]:
+    """The one problem a large text is refused with, and the peak of memory allocated while refusing it."""
+    tracemalloc.start()
+    try:
+        with pytest.raises(MissionError) as info:
+            load_document(text, "big.yaml")
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    [problem] = info.value.problems
+    return problem, peak
+
+
 # ---- the bound on steps ----
 
 
@@ -59,14 +72,7 @@ def test_a_large_mission_is_refused_before_it_is_built() -> None:
     now reading stops at the step past the bound."""
     text = chain(40_000)
     assert len(text) > EVENT_COUNT_FROM
-    tracemalloc.start()
-    try:
-        with pytest.raises(MissionError) as info:
-            load_document(text, "big.yaml")
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    [problem] = info.value.problems
+    problem, peak = refused_once(text)
     assert (problem.line, problem.col) == (4 + MAX_STEPS, 5)
     assert f"at most {MAX_STEPS:,} steps" in problem.message
     assert peak < 20 * 2**20, f"refusing took {peak / 2**20:.0f} MB"
@@ -177,14 +183,7 @@ def test_a_30_mb_fence_is_refused_at_the_point_past_the_bound_before_it_is_built
     stops at the point past the bound."""
     text = fenced(850_000)
     assert len(text) > 30 * 10**6
-    tracemalloc.start()
-    try:
-        with pytest.raises(MissionError) as info:
-            load_document(text, "big.yaml")
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    [problem] = info.value.problems
+    problem, peak = refused_once(text)
     assert (problem.line, problem.col, problem.message) == (5 + MAX_POINTS, 7, LIST_OVER_MESSAGE)
     # the YAML reader copies the text once (it appends a NUL): a copy of what was read, no more
     assert peak < len(text) + 20 * 2**20, f"refusing took {peak / 2**20:.0f} MB"
