@@ -38,7 +38,7 @@ from .action_args import (
     SurveyArgs,
     TakeoffArgs,
 )
-from .mission_limits import FailsafeAction, FailsafeKind, Limits
+from .mission_limits import GPS_LANDS, FailsafeAction, FailsafeKind, Limits
 from .mission_steps import (
     ACTION_TOOLS,
     ACTIONS,
@@ -66,6 +66,7 @@ from .mission_steps import (
     walk_steps,
 )
 from .mission_values import (
+    MAX_POINTS,
     TEMPLATE_PATTERN,
     Circle,
     Contract,
@@ -220,6 +221,8 @@ for _model in (Trigger, PolicyGraph):
 __all__ = [
     "ACTIONS",
     "ACTION_TOOLS",
+    "GPS_LANDS",
+    "MAX_POINTS",
     "MAX_STEPS",
     "NESTED_STEP_LISTS",
     "ON_ABORT_TOOLS",

@@ -21,10 +21,9 @@ from agentic_core.contracts.yaml_positions import node_position, position_at
 
 from .step_bound import (
     EVENT_COUNT_FROM,
-    LIST_OVER_MESSAGE,
     count_over,
-    first_long_list,
     first_past_bounds,
+    first_past_size,
     over_message,
 )
 
@@ -314,9 +313,9 @@ def _parse(text: str, smap: SourceMap) -> Any:
     over_data = count_over(data)
     if over_data is not None:
         raise MissionError([smap.problem(over_data[0], over_message(over_data[1]))])
-    long = first_long_list(data)
-    if long is not None:
-        raise MissionError([smap.problem(long, LIST_OVER_MESSAGE)])
+    too_big = first_past_size(data)
+    if too_big is not None:
+        raise MissionError([smap.problem(*too_big)])
     return data
 
 

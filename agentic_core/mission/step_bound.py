@@ -1,12 +1,12 @@
-"""The bounds on a mission's size: at most :data:`MAX_STEPS` steps, nested and trigger steps included, and no list
-longer than :data:`MAX_LIST_ITEMS` (a polygon's points), each refused with the file, line and column of the first
-step or item past it.
+"""The bounds on a mission's size: at most :data:`MAX_STEPS` steps, nested and trigger steps included, no list
+longer than :data:`MAX_LIST_ITEMS` (a polygon's points) and at most :data:`MAX_VALUES` values in all, each refused
+with the file, line and column of the first step, item or value past it.
 
 A real mission has tens of steps and polygons of tens of points; a file of hundreds of thousands (30 MB of
-``hover``, or of one fence's points) would take gigabytes to check. A large text is counted from the parser's
-events before it is built, stopping at the first step or item past a bound, so such a file is refused in the time
-it takes to read that far; any text is counted again once built (aliases can repeat a step in a few bytes), and
-the polygons' contracts hold their own bound.
+``hover``, of one fence's points, or of many polygons' points) would take gigabytes to check. A large text is
+counted from the parser's events before it is built, stopping at the first step, item or value past a bound, so
+such a file is refused in the time it takes to read that far; any text is counted again once built (aliases can
+repeat a step in a few bytes), and the polygons' contracts hold their own bound.
 
 >>> import yaml
 >>> text = "steps:\\n" + "".join(f"  - {{id: s{i}, action: rtl}}\\n" for i in range(MAX_STEPS + 1))
@@ -35,6 +35,12 @@ LIST_OVER_MESSAGE = (
     f"a list in a mission has at most {MAX_LIST_ITEMS:,} items (a polygon at most {MAX_POINTS:,} points); this is "
     f"item {MAX_LIST_ITEMS + 1:,}"
 )
+
+MAX_VALUES = 100_000
+"""The most values (numbers and texts; a mapping's keys not counted) a mission may hold: 1,000 steps of a dozen
+values, and polygons of 10,000 points, fit many times over."""
+
+VALUES_OVER_MESSAGE = f"a mission holds at most {MAX_VALUES:,} values; this is value {MAX_VALUES + 1:,}"
 
 EVENT_COUNT_FROM = 1 << 20
 """Texts of at least this many characters are counted from events before they are built: a mission of 1,000
@@ -91,29 +97,34 @@ def count_over(data: Any) -> tuple[Path, int] | None:
     return (first, count) if first is not None else None
 
 
-def first_long_list(data: Any) -> Path | None:
-    """The path of the first item, in the order written, past :data:`MAX_LIST_ITEMS` in any list of parsed mission
-    data, or None. Each list or mapping is walked once, however often aliases repeat it."""
-    seen: set[int] = set()
+def first_past_size(data: Any) -> tuple[Path, str] | None:
+    """The path of the first list item past :data:`MAX_LIST_ITEMS`, or of the first value past :data:`MAX_VALUES`,
+    in the order written, in parsed mission data, and what is wrong there; None within both. What aliases repeat
+    is counted as often as it is repeated (the loader copies it: the alias budget bounds the copies)."""
+    values = 0
     stack: list[tuple[Path, Iterator[tuple[Any, Any]], Any]] = []
 
     def open_(path: Path, value: Any) -> None:
-        if isinstance(value, dict | list) and id(value) not in seen:
-            seen.add(id(value))
-            items = iter(value.items()) if isinstance(value, dict) else enumerate(value[:MAX_LIST_ITEMS])
-            stack.append((path, items, value))
+        items = iter(value.items()) if isinstance(value, dict) else enumerate(value[:MAX_LIST_ITEMS])
+        stack.append((path, items, value))
 
-    open_((), data)
+    if isinstance(data, dict | list):
+        open_((), data)
     while stack:
         path, items, value = stack[-1]
         item = next(items, None)
         if item is None:
             stack.pop()
             if isinstance(value, list) and len(value) > MAX_LIST_ITEMS:
-                return (*path, MAX_LIST_ITEMS)
+                return (*path, MAX_LIST_ITEMS), LIST_OVER_MESSAGE
             continue
         key, child = item
-        open_((*path, key), child)
+        if isinstance(child, dict | list):
+            open_((*path, key), child)
+            continue
+        values += 1
+        if values > MAX_VALUES:
+            return (*path, key), VALUES_OVER_MESSAGE
     return None
 
 
@@ -136,10 +147,11 @@ _ITEMS = {"steps": "step", "triggers": "trigger"}
 
 
 def first_past_bounds(loader: yaml.SafeLoader) -> tuple[int, int, str] | None:
-    """The 1-based line and column of the first step or list item past a bound, and what is wrong there, read from
-    ``loader``'s events (consumed: the loader is done with after), or None when the document is within them."""
+    """The 1-based line and column of the first step, list item or value past a bound, and what is wrong there,
+    read from ``loader``'s events (consumed: the loader is done with after), or None when the document is within
+    them. Values are the scalars that are not a mapping's keys; what an alias repeats is not seen here."""
     stack: list[_Open] = []
-    count = 0
+    count = values = 0
     reading_key = False
     while loader.check_event():
         event = loader.get_event()  # type: ignore[no-untyped-call]
@@ -150,7 +162,8 @@ def first_past_bounds(loader: yaml.SafeLoader) -> tuple[int, int, str] | None:
         if not isinstance(event, yaml.NodeEvent):
             continue
         parent = stack[-1] if stack else None
-        if parent is not None and parent.mapping and reading_key:
+        is_key = parent is not None and parent.mapping and reading_key
+        if parent is not None and is_key:
             parent.key = event.value if isinstance(event, yaml.ScalarEvent) else None
             role = "other"
             reading_key = False
@@ -168,6 +181,10 @@ def first_past_bounds(loader: yaml.SafeLoader) -> tuple[int, int, str] | None:
                     return (*_where(event), over_message())
             if parent.items > MAX_LIST_ITEMS:
                 return (*_where(event), LIST_OVER_MESSAGE)
+        if parent is not None and not is_key and isinstance(event, yaml.ScalarEvent):
+            values += 1
+            if values > MAX_VALUES:
+                return (*_where(event), VALUES_OVER_MESSAGE)
         if isinstance(event, yaml.CollectionStartEvent):
             mapping = isinstance(event, yaml.MappingStartEvent)
             stack.append(_Open(mapping, role if mapping == (role in ("root", "step", "trigger")) else "other"))
@@ -184,9 +201,11 @@ __all__ = [
     "EVENT_COUNT_FROM",
     "LIST_OVER_MESSAGE",
     "MAX_LIST_ITEMS",
+    "MAX_VALUES",
+    "VALUES_OVER_MESSAGE",
     "count_over",
-    "first_long_list",
     "first_past_bounds",
+    "first_past_size",
     "over_message",
     "step_paths",
 ]

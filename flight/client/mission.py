@@ -75,6 +75,10 @@ TRANSFER_TIMEOUT_S = 5.5
 """How long a transfer the vehicle holds open lasts at most (PX4's mission protocol timeout, 5 s, and a margin)."""
 MAX_ITEMS = 0xFFFF
 
+UPLOAD_TRIES = 3
+"""Uploads of one plan at most: a late copy of our own message can break off a try, and one more late copy (of the
+cancel that ended it) the next."""
+
 
 @dataclass(frozen=True)
 class _Upload:
@@ -82,8 +86,8 @@ class _Upload:
     busy: bool = False
     """Refused before any item was asked for, as a vehicle busy with another transfer refuses."""
     interrupted: bool = False
-    """Refused with MAV_MISSION_ERROR between the first request and the last item, as PX4 answers a copy of our
-    MISSION_COUNT delivered late ("WPM: REJ. CMD: Busy") while it goes on with the transfer."""
+    """Refused with MAV_MISSION_ERROR once an item was asked for, as PX4 answers a copy of our MISSION_COUNT
+    delivered late ("WPM: REJ. CMD: Busy") while it goes on with the transfer, even as its last item goes out."""
 
 
 class MissionClient(OperationsClient):
@@ -96,14 +100,18 @@ class MissionClient(OperationsClient):
     ) -> MissionResult:
         """Upload ``items`` as the vehicle's ``mission_type`` plan (replacing it whole). Refused as busy at once
         (MAV_MISSION_ERROR to the MISSION_COUNT: a transfer still open on the vehicle, as after a download whose
-        closing ACK was lost), it waits out the vehicle's protocol timeout and tries once more. Refused with
-        MAV_MISSION_ERROR mid-transfer, it cancels that transfer and tries once more at once."""
-        first = await self._upload(items, mission_type)
-        if first.interrupted:
-            return (await self._upload(items, mission_type)).result
-        if not first.busy:
-            return first.result
-        await self._wait_out_transfer()
+        closing ACK was lost), it waits out the vehicle's protocol timeout and tries again. Refused with
+        MAV_MISSION_ERROR once an item was asked for (a late copy of our MISSION_COUNT, or of our cancel, answered
+        while the vehicle goes on), it cancels that transfer and tries again at once. :data:`UPLOAD_TRIES` in all,
+        the transfer waited out once: a genuine refusal is reported as the last try's."""
+        waited = False
+        for _ in range(UPLOAD_TRIES - 1):
+            attempt = await self._upload(items, mission_type)
+            if attempt.busy and not waited:
+                await self._wait_out_transfer()
+                waited = True
+            elif not attempt.interrupted:
+                return attempt.result
         return (await self._upload(items, mission_type)).result
 
     async def _wait_out_transfer(self) -> None:
@@ -170,9 +178,9 @@ class MissionClient(OperationsClient):
             if int(msg.type) != MAV_MISSION_ACCEPTED:
                 refused = result("denied", await self._refusal(mark, int(msg.type)), int(msg.type), resends)
                 error = int(msg.type) == MAV_MISSION_ERROR
-                if error and asked and not sent_last:  # the vehicle may be going on with the transfer: end it
+                if error and asked:  # the vehicle may be going on with the transfer: end it
                     self._send(self._mav.mission_ack_encode(ts, tc, MAV_MISSION_OPERATION_CANCELLED, kind))
-                return _Upload(refused, busy=error and not asked, interrupted=error and asked and not sent_last)
+                return _Upload(refused, busy=error and not asked, interrupted=error and asked)
             if kind == MISSION_TYPE_IDS["mission"] and items:
                 current = await self._next_current(inbox, len(items))
                 if current is not None and int(current.mission_state) == MISSION_STATE_NO_MISSION:

@@ -24,7 +24,8 @@ def vehicle_seed() -> int:
 def vehicle(vehicle_seed: int) -> Iterator[MavlinkVehicle]:
     """The vehicle ticking fast, sending only to clients that talk to it, with every failsafe on: running free, it
     judges link loss on the wall clock, so the client's 1 Hz heartbeat keeps the link alive however fast simulated
-    time runs (a return home mid-test would fail these flights). A test module's own ``vehicle`` overrides it."""
+    time runs (a return home mid-test would fail these flights). A test module chooses its seed with its own
+    ``vehicle_seed``, or overrides ``vehicle`` itself."""
     v = MavlinkVehicle(Simulator(seed=vehicle_seed), gcs=None, api=None)
     v.start(speed=FAST_FORWARD)
     try:

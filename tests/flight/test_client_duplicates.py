@@ -61,6 +61,7 @@ class DuplicatingRelay(LossyRelay):
         self.releases: list[Rule] = []
         self.delays: list[Rule] = []
         self.delayed: list[tuple[bytes, bool]] = []
+        self.losses: list[Rule] = []
         self.copied: list[str] = []
         """The type of every message copied (at once or kept back), in order."""
         self.released = 0
@@ -79,6 +80,10 @@ class DuplicatingRelay(LossyRelay):
     def release_before(self, match: Match) -> None:
         """The copies kept back are delivered just before the next datagram matching (which then goes on)."""
         self.releases.append(Rule(match, 1))
+
+    def lose(self, match: Match, *, times: int = 1) -> None:
+        """The next ``times`` datagrams matching are dropped (one way, one type and its fields: finer than ``drop``)."""
+        self.losses.append(Rule(match, times))
 
     def delay(self, match: Match, *, times: int = 1) -> None:
         """The next ``times`` datagrams matching go just after the next datagram going the same way."""
@@ -110,8 +115,8 @@ class DuplicatingRelay(LossyRelay):
             if msg is None:
                 self._deliver(data, to_vehicle)
                 continue
-            if self.drop.get(msg.get_msgId(), 0) > 0:
-                self.drop[msg.get_msgId()] -= 1
+            if self.drop.get(msg.get_msgId(), 0) > 0 or any(rule.take(msg, to_vehicle) for rule in self.losses):
+                self.drop[msg.get_msgId()] = max(0, self.drop.get(msg.get_msgId(), 0) - 1)
                 self.dropped.append(msg.get_msgId())
                 continue
             if any(rule.take(msg, to_vehicle) for rule in self.releases):
@@ -241,19 +246,36 @@ def test_a_stale_item_request_beyond_the_plan_does_not_fail_a_later_upload(vehic
     assert stored(vehicle, "mission") == 2
 
 
-def test_a_duplicated_count_arriving_mid_upload_is_survived(vehicle, relay):
-    """The MISSION_COUNT copied and delivered after the vehicle has taken item 1: the vehicle, as PX4, answers it
-    MAV_MISSION_ERROR ('WPM: REJ. CMD: Busy') and goes on with the transfer. The client cancels that transfer and
-    uploads again, so the plan is stored (before: the upload ended 'denied' on a refusal of a copy the client never
-    sent, and the vehicle, its requests unanswered, kept the old plan)."""
+CANCEL = kind("MISSION_ACK", to_vehicle=True, type=mavlink2.MAV_MISSION_OPERATION_CANCELLED)
+
+
+@pytest.mark.parametrize(
+    ("before_item", "then"),
+    [(2, None), (3, None), (2, "cancel lost"), (2, "cancel late")],
+    ids=["mid-upload", "as-the-last-item-goes", "its-cancel-lost", "its-cancel-late"],
+)
+def test_a_duplicated_count_arriving_mid_upload_is_survived(vehicle, relay, before_item, then):
+    """The MISSION_COUNT copied and delivered once the vehicle has asked for an item (the last one, too): the
+    vehicle, as PX4, answers it MAV_MISSION_ERROR ('WPM: REJ. CMD: Busy') and goes on with the transfer. The client
+    cancels that transfer and uploads again, so the plan is stored (before: the upload ended 'denied' on a refusal
+    of a copy the client never sent, and the vehicle, its requests unanswered, kept the old plan; as the last item
+    went out, or with the cancel lost (the vehicle still busy) or delivered late into the next try, it still did)."""
     items = plans(vehicle)["mission"]
+    assert before_item < len(items)
 
     async def go() -> Any:
         async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
             relay.keep_copy(kind("MISSION_COUNT", to_vehicle=True))
-            relay.release_before(kind("MISSION_ITEM_INT", to_vehicle=True, seq=2))
+            relay.release_before(kind("MISSION_ITEM_INT", to_vehicle=True, seq=before_item))
+            if then == "cancel lost":
+                relay.lose(CANCEL)
+            elif then == "cancel late":  # a copy kept back and delivered in the next try, just before its item 1
+                relay.keep_copy(CANCEL)
+                relay.releases.append(
+                    Rule(lambda m, out: out and m.get_type() == "MISSION_ITEM_INT" and m.seq == 1 and relay.released, 1)
+                )
             up = await client.upload_mission(items)
-            assert relay.released == 1
+            assert relay.released == (2 if then == "cancel late" else 1)
             return up
 
     up = run(go(), timeout_s=60.0)

@@ -18,6 +18,8 @@ from agentic_core.mission.step_bound import (
     EVENT_COUNT_FROM,
     LIST_OVER_MESSAGE,
     MAX_LIST_ITEMS,
+    MAX_VALUES,
+    VALUES_OVER_MESSAGE,
     count_over,
     first_past_bounds,
     step_paths,
@@ -192,8 +194,7 @@ def test_a_30_mb_fence_is_refused_at_the_point_past_the_bound_before_it_is_built
 @pytest.mark.parametrize("large", [False, True], ids=["built", "read-from-events"])
 def test_any_list_past_the_bound_is_refused_where_it_is_in_a_small_text_or_a_large_one(large: bool) -> None:
     """The same refusal, at the same place, whether the text is read from its events (a megabyte or more: padded
-    here by a comment at its end) or built first; a list an alias repeats is counted once, and the list past the
-    bound is found where it is written, inside or after another."""
+    here by a comment at its end) or built first."""
     many = ", ".join(["'true'"] * (MAX_LIST_ITEMS + 1))
     text = f"{HEAD}  - {{id: h, action: hover, preconditions: [{many}], args: {{duration_s: 1}}}}\n"
     if large:
@@ -201,6 +202,44 @@ def test_any_list_past_the_bound_is_refused_where_it_is_in_a_small_text_or_a_lar
     [problem] = problems(text)
     col = text.splitlines()[4].index("'true'") + 1 + len("'true', ") * MAX_LIST_ITEMS
     assert problem == f"m.yaml:5:{col}: {LIST_OVER_MESSAGE}"
+
+
+def surveys(count: int, points_each: int) -> str:
+    """A mission of ``count`` survey steps, each over ``points_each`` points (four values a point), one a line."""
+    area = "".join(f"        - {{lat: {21.41 + i * 1e-7:.7f}, lon: 39.89}}\n" for i in range(points_each))
+    step = "    action: survey\n    args:\n      altitude_m: 20\n      polygon:\n" + area
+    return "plan_id: t\ngoal: x\nsteps:\n" + "".join(f"  - id: s{k}\n" + step for k in range(count))
+
+
+@pytest.mark.parametrize("large", [False, True], ids=["built", "read-from-events"])
+def test_values_past_the_bound_are_refused_at_the_first_one_past_it(large: bool) -> None:
+    """Many lists each within their bound still hold a bound in all: 11 steps of 9,500 values each (a step's id and
+    action are values too; keys are not), refused at value 100,001, where it is, built or read from events."""
+    count, each = 11, 9_500
+    lines = [f"  - {{id: s{k}, action: hover, preconditions: [{', '.join(['1'] * each)}]}}" for k in range(count)]
+    text = "plan_id: t\ngoal: x\nsteps:\n" + "\n".join(lines) + "\n"
+    if large:
+        text += "# " + "x" * EVENT_COUNT_FROM + "\n"
+    else:
+        assert len(text) < EVENT_COUNT_FROM
+    left = MAX_VALUES + 1 - 2  # plan_id's and goal's values come first
+    for k in range(count):
+        left -= 2  # the step's id and action
+        if left <= each:
+            line, col = 4 + k, lines[k].index("[") + 2 + 3 * (left - 1)
+            break
+        left -= each
+    assert problems(text) == [f"m.yaml:{line}:{col}: {VALUES_OVER_MESSAGE}"]
+
+
+def test_a_30_mb_mission_of_many_large_polygons_is_refused_before_it_is_built() -> None:
+    """Hostile: 75 surveys of 10,000 points each, every list within its bound, 30 MB: validating took 22 s and
+    2 GB; reading now stops at the value past the bound."""
+    text = surveys(75, 10_000)
+    assert len(text) > 30 * 10**6
+    problem, peak = refused_once(text)
+    assert problem.message == VALUES_OVER_MESSAGE
+    assert peak < len(text) + 20 * 2**20, f"refusing took {peak / 2**20:.0f} MB"
 
 
 def test_survey_and_swarm_areas_are_bounded_built_in_code_too() -> None:
