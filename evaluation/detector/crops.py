@@ -81,8 +81,15 @@ def turn(crop: U8, boxes: FloatArray, which: int) -> tuple[U8, FloatArray]:
     return np.ascontiguousarray(crop), b
 
 
-def targets(boxes: FloatArray, visible: FloatArray, *, size: int, stride: int) -> Targets:
-    """The :class:`Targets` of a square crop's boxes; those seen less than :data:`MIN_SEEN` are ignored."""
+def targets(
+    boxes: FloatArray, visible: FloatArray, *, size: int, stride: int, neighbour_boxes: bool = False
+) -> Targets:
+    """The :class:`Targets` of a square crop's boxes; those seen less than :data:`MIN_SEEN` are ignored.
+
+    With ``neighbour_boxes`` the box is also taught at the two cells next to the centre cell nearest the centre
+    (one across, one down or up, as YOLOv5 assigns them; their offsets stay within the decoder's −0.5 to 1.5),
+    unless a cell is another person's centre: when a crowd's score peak lands a cell off the centre, the box
+    reported there fits the person instead of being one no loss ever taught."""
     grid = size // stride
     heat = np.zeros((grid, grid), np.float32)
     weight = np.ones((grid, grid), np.float32)
@@ -104,6 +111,21 @@ def targets(boxes: FloatArray, visible: FloatArray, *, size: int, stride: int) -
         reg[:, gy, gx] = (cx - gx, cy - gy, math.log(w / stride), math.log(h / stride))
         box[:, gy, gx] = (x0, y0, x1, y1)
         mask[gy, gx] = 1
+    if neighbour_boxes:
+        centres = mask.copy()
+        for (x0, y0, x1, y1), counted in zip(boxes.tolist(), seen.tolist(), strict=True):
+            if not counted:
+                continue
+            w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
+            cx, cy = (x0 + x1) / 2.0 / stride, (y0 + y1) / 2.0 / stride
+            gx, gy = min(max(int(cx), 0), grid - 1), min(max(int(cy), 0), grid - 1)
+            across = gx - 1 if cx - gx < 0.5 else gx + 1
+            down = gy - 1 if cy - gy < 0.5 else gy + 1
+            for nx, ny in ((across, gy), (gx, down)):
+                if 0 <= nx < grid and 0 <= ny < grid and not centres[ny, nx] and not mask[ny, nx]:
+                    reg[:, ny, nx] = (cx - nx, cy - ny, math.log(w / stride), math.log(h / stride))
+                    box[:, ny, nx] = (x0, y0, x1, y1)
+                    mask[ny, nx] = 1
     weight[heat >= 1.0] = 1.0
     return Targets(heat, weight, reg, box, mask)
 

@@ -72,6 +72,8 @@ class TrainConfig:
     extra_altitudes_m: tuple[float, ...] = ()
     init_sha256: str | None = None
     """The SHA-256 of the ONNX weights training started from (:mod:`.warm_start`), None for a fresh network."""
+    neighbour_boxes: bool = False
+    """Teach the box at the two cells next to each centre too (:func:`.crops.targets`)."""
 
 
 @dataclass
@@ -196,7 +198,10 @@ def _batches(frames: Sequence[Labelled], config: TrainConfig, rng: np.random.Gen
         images = np.stack([c for c, _, _ in chosen]).astype(np.float32).transpose(0, 3, 1, 2) / 255.0
         gain = rng.uniform(0.85, 1.15, (len(chosen), 1, 1, 1)).astype(np.float32)
         images = np.clip(images * gain, 0.0, 1.0)
-        made = [targets(b, v, size=config.crop_px, stride=STRIDE) for _, b, v in chosen]
+        made = [
+            targets(b, v, size=config.crop_px, stride=STRIDE, neighbour_boxes=config.neighbour_boxes)
+            for _, b, v in chosen
+        ]
         names = ("heat", "weight", "reg", "box", "mask")
         yield (images, *(np.stack([getattr(t, name) for t in made]) for name in names))
 
@@ -349,6 +354,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     parser.add_argument("--learning-rate", type=float, default=defaults.learning_rate)
     parser.add_argument("--context32", action="store_true", help="add the stride-32 context branch")
+    parser.add_argument(
+        "--neighbour-boxes", action="store_true", help="teach the box at the two cells next to each centre too"
+    )
     parser.add_argument("--cache", type=Path, help="an .npz of the rendered frames: read if it exists, else written")
     parser.add_argument("--init", type=Path, help="an ONNX export of this network to fine-tune (its recipe beside it)")
     parser.add_argument("--extra-seed", type=int, help="a second data seed, rendered at --extra-altitudes")
@@ -368,6 +376,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         extra_frames=args.extra_frames,
         extra_altitudes_m=tuple(args.extra_altitudes),
         init_sha256=None if args.init is None else sha256_of(args.init),
+        neighbour_boxes=args.neighbour_boxes,
     )
     started = time.monotonic()
     frames = _cached(args.cache, lambda: render_frames(config))

@@ -27,6 +27,8 @@ def _initialisers(path: Path) -> dict[str, tuple[Any, Any]]:
     for node in model.graph.node:  # equal tensors (fresh biases) are saved once, the others as Identity of it
         if node.op_type == "Identity" and node.input[0] in arrays:
             arrays[node.output[0]] = arrays[node.input[0]]
+        elif node.op_type == "DequantizeLinear" and node.input[0] in arrays:  # an int8 export's weights
+            arrays[node.output[0]] = _dequantised(node, arrays)
     out: dict[str, tuple[Any, Any]] = {}
     for node in model.graph.node:
         if node.op_type == "Conv" and node.name.startswith("/net/") and len(node.input) == 3:
@@ -36,6 +38,21 @@ def _initialisers(path: Path) -> dict[str, tuple[Any, Any]]:
                 arrays[node.input[2]],
             )
     return out
+
+
+def _dequantised(node: Any, arrays: dict[str, Any]) -> Any:
+    """The float tensor a DequantizeLinear of constants gives: (q − zero point) × scale, per tensor or per channel
+    along its ``axis``."""
+    q = arrays[node.input[0]].astype(np.float32)
+    scale = np.asarray(arrays[node.input[1]], np.float32)
+    zero = np.asarray(arrays[node.input[2]], np.float32) if len(node.input) > 2 and node.input[2] else 0.0
+    axis = next((int(a.i) for a in node.attribute if a.name == "axis"), 1)
+    if scale.ndim == 1 and q.ndim > 1:
+        shape = [1] * q.ndim
+        shape[axis] = -1
+        scale = scale.reshape(shape)
+        zero = np.asarray(zero, np.float32).reshape(shape) if np.ndim(zero) == 1 else zero
+    return (q - zero) * scale
 
 
 def net_from_onnx(path: Path, width: int, *, context32: bool = False) -> Any:

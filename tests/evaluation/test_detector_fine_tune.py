@@ -106,3 +106,24 @@ def test_the_int8_model_keeps_its_float_ends_and_finds_what_the_float_one_finds(
     assert both.mean() > 0.05 and np.corrcoef(f32[4][both], i8[4][both])[0, 1] > 0.9
     assert np.abs(f32[:2] - i8[:2]).max() < 0.5  # centres within half a pixel
     assert np.median(np.abs(np.log(i8[2:4] / f32[2:4]))) < 0.05  # sizes within 5 %
+
+
+def test_an_int8_export_is_rebuilt_with_its_weights_dequantised(
+    exported: tuple[Path, list[Any]], tmp_path: Path
+) -> None:
+    """The shipped weights are int8: fine-tuning from them rebuilds each convolution from its DequantizeLinear
+    (q − zero point) × scale, within half a quantisation step of the float weights it was quantised from."""
+    torch: Any = pytest.importorskip("torch")
+    folder, _ = exported
+    assert quantising.main(["--src", str(folder), "--out", str(tmp_path), "--frames", "2"]) == 0
+    float_net = net_from_onnx(folder / "person.onnx", SMALL.net_width)
+    int8_net = net_from_onnx(tmp_path / "person.onnx", SMALL.net_width)
+    compared = 0
+    for (name, a), (_, b) in zip(float_net.state_dict().items(), int8_net.state_dict().items(), strict=True):
+        if not name.endswith("weight") or a.dim() != 4:
+            continue
+        step = torch.abs(a).amax(dim=(1, 2, 3), keepdim=True) / 127.0  # symmetric int8, per output channel
+        assert bool((torch.abs(a - b) <= 0.51 * step + 1e-7).all()), name
+        compared += 1
+    assert compared >= 10
+    assert any(not torch.equal(a, b) for a, b in zip(float_net.parameters(), int8_net.parameters(), strict=True))

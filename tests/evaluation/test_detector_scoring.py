@@ -64,3 +64,29 @@ def test_training_targets_neither_teach_nor_punish_an_ignored_person() -> None:
     assert t.heat[11, 12] < 1e-3 and t.mask[11, 12] == 0  # the ignored one: no positive ...
     assert (t.weight[10:13, 11:14] == 0).all()  # ... and no penalty for finding it
     assert t.weight[3, 4] == 1.0 and t.weight[0, 15] == 1.0
+
+
+def test_neighbour_boxes_teach_the_two_nearest_cells_the_same_box_unless_another_person_is_centred_there() -> None:
+    """A crowd's score peak lands a cell off the centre; with ``neighbour_boxes`` the box is taught there too: at
+    the cell across and the cell down or up nearest the centre, each decoding (offset within the decoder's −0.5 to
+    1.5) to the same centre and size; a cell that is another person's centre keeps that person's box."""
+    stride = 4
+    one = np.array([[8.0, 14.0, 24.0, 20.0]], np.float32)  # centre (16, 17): cell (4, 4), at 0.0 across, 0.25 down
+    seen = np.array([0.9], np.float32)
+    plain = targets(one, seen, size=64, stride=stride)
+    t = targets(one, seen, size=64, stride=stride, neighbour_boxes=True)
+    assert int(plain.mask.sum()) == 1
+    cells = {(int(y), int(x)) for y, x in zip(*np.nonzero(t.mask), strict=True)}
+    assert cells == {(4, 4), (4, 3), (3, 4)}  # the centre, the cell to its left, the cell above it
+    for y, x in cells:
+        dx, dy, log_w, log_h = (float(v) for v in t.reg[:, y, x])
+        assert -0.5 <= dx < 1.5 and -0.5 <= dy < 1.5
+        assert ((x + dx) * stride, (y + dy) * stride) == (16.0, 17.0)
+        assert (np.exp(log_w) * stride, np.exp(log_h) * stride) == pytest.approx((16.0, 6.0))
+        assert [float(v) for v in t.box[:, y, x]] == [8.0, 14.0, 24.0, 20.0]
+    assert (t.heat == plain.heat).all() and (t.weight == plain.weight).all()  # the score's targets unchanged
+    # a second person centred in the first one's left neighbour keeps that cell
+    two = np.array([[8.0, 14.0, 24.0, 20.0], [10.0, 16.0, 18.0, 20.0]], np.float32)  # centre (14, 18): cell (3, 4)
+    t2 = targets(two, np.array([0.9, 0.9], np.float32), size=64, stride=stride, neighbour_boxes=True)
+    assert [float(v) for v in t2.box[:, 4, 3]] == [10.0, 16.0, 18.0, 20.0]
+    assert [float(v) for v in t2.box[:, 4, 4]] == [8.0, 14.0, 24.0, 20.0]
