@@ -29,7 +29,7 @@ from agentic_core.contracts.policy_graph import MAX_STEPS, NESTED_STEP_LISTS
 Path = tuple[str | int, ...]
 
 MAX_LIST_ITEMS = MAX_POINTS
-"""The longest list a large mission text may hold: a polygon's points bound it (the steps' own bound is lower)."""
+"""The longest list a mission file may hold: a polygon's points bound it (the steps' own bound is lower)."""
 
 LIST_OVER_MESSAGE = (
     f"a list in a mission has at most {MAX_LIST_ITEMS:,} items (a polygon at most {MAX_POINTS:,} points); this is "
@@ -38,7 +38,7 @@ LIST_OVER_MESSAGE = (
 
 MAX_VALUES = 100_000
 """The most values (numbers and texts; a mapping's keys not counted) a mission may hold: 1,000 steps of a dozen
-values, and polygons of 10,000 points, fit many times over."""
+values (12,000) beside four polygons of 10,000 points (20,000 each) fit."""
 
 VALUES_OVER_MESSAGE = f"a mission holds at most {MAX_VALUES:,} values; this is value {MAX_VALUES + 1:,}"
 
