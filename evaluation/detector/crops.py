@@ -98,6 +98,7 @@ def targets(
     mask = np.zeros((grid, grid), np.uint8)
     ys, xs = np.mgrid[0:grid, 0:grid].astype(np.float32)
     seen = visible >= MIN_SEEN
+    placed: list[tuple[tuple[float, float, float, float], float, float, int, int, float, float]] = []
     for (x0, y0, x1, y1), counted in zip(boxes.tolist(), seen.tolist(), strict=True):
         w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
         cx, cy = (x0 + x1) / 2.0 / stride, (y0 + y1) / 2.0 / stride
@@ -111,20 +112,15 @@ def targets(
         reg[:, gy, gx] = (cx - gx, cy - gy, math.log(w / stride), math.log(h / stride))
         box[:, gy, gx] = (x0, y0, x1, y1)
         mask[gy, gx] = 1
-    if neighbour_boxes:
-        centres = mask.copy()
-        for (x0, y0, x1, y1), counted in zip(boxes.tolist(), seen.tolist(), strict=True):
-            if not counted:
-                continue
-            w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
-            cx, cy = (x0 + x1) / 2.0 / stride, (y0 + y1) / 2.0 / stride
-            gx, gy = min(max(int(cx), 0), grid - 1), min(max(int(cy), 0), grid - 1)
+        placed.append(((x0, y0, x1, y1), cx, cy, gx, gy, w, h))
+    if neighbour_boxes:  # after every centre is placed: a centre cell keeps its own person's box
+        for corners, cx, cy, gx, gy, w, h in placed:
             across = gx - 1 if cx - gx < 0.5 else gx + 1
             down = gy - 1 if cy - gy < 0.5 else gy + 1
             for nx, ny in ((across, gy), (gx, down)):
-                if 0 <= nx < grid and 0 <= ny < grid and not centres[ny, nx] and not mask[ny, nx]:
+                if 0 <= nx < grid and 0 <= ny < grid and not mask[ny, nx]:
                     reg[:, ny, nx] = (cx - nx, cy - ny, math.log(w / stride), math.log(h / stride))
-                    box[:, ny, nx] = (x0, y0, x1, y1)
+                    box[:, ny, nx] = corners
                     mask[ny, nx] = 1
     weight[heat >= 1.0] = 1.0
     return Targets(heat, weight, reg, box, mask)

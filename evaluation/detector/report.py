@@ -118,6 +118,8 @@ def _training_line(recipe: dict[str, Any]) -> str:
     if cfg.get("extra_frames"):
         extra = cfg.get("extra_altitudes_m")
         line += f" and seed {cfg.get('extra_seed')}, {cfg.get('extra_frames')} frames at {extra} m"
+    if cfg.get("neighbour_boxes"):
+        line += ", the box taught at the two cells beside each centre cell too"
     return (
         f"{line}, crops of {cfg.get('crop_px')} px, {train.get('epochs_done')} epochs ({train.get('steps')} steps of "
         f"{cfg.get('batch')}, peak learning rate {cfg.get('learning_rate')}) in {train.get('seconds')} s of wall time "

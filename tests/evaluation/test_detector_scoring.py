@@ -4,6 +4,8 @@ and no detection hides behind an ignored person it does not overlap."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -90,3 +92,13 @@ def test_neighbour_boxes_teach_the_two_nearest_cells_the_same_box_unless_another
     t2 = targets(two, np.array([0.9, 0.9], np.float32), size=64, stride=stride, neighbour_boxes=True)
     assert [float(v) for v in t2.box[:, 4, 3]] == [10.0, 16.0, 18.0, 20.0]
     assert [float(v) for v in t2.box[:, 4, 4]] == [8.0, 14.0, 24.0, 20.0]
+
+
+def test_the_report_says_how_the_box_was_taught() -> None:
+    """A recipe trained with ``--neighbour-boxes`` says so in the report's training line; one without does not."""
+    from evaluation.detector.report import _training_line
+
+    recipe: dict[str, Any] = {"config": {"data_seed": 1, "frames": 2, "neighbour_boxes": True}, "training": {}}
+    assert "two cells beside each centre cell" in _training_line(recipe)
+    recipe["config"]["neighbour_boxes"] = False
+    assert "beside each centre" not in _training_line(recipe)
