@@ -17,7 +17,7 @@ from typing import Any
 import yaml
 
 from agentic_core.contracts.problems import LocatedProblem, ProblemsError
-from agentic_core.contracts.yaml_positions import node_position, position_at
+from agentic_core.contracts.yaml_positions import KeyIndex, node_position, position_at
 
 from .step_bound import (
     EVENT_COUNT_FROM,
@@ -52,6 +52,7 @@ class SourceMap:
     root: yaml.Node | None = None
     problems: list[Problem] = field(default_factory=list)
     text: str | None = None  # the document ``root`` is composed from when it is first needed
+    _keys: KeyIndex = field(default_factory=dict, repr=False)  # mapping keys of ``root``, by node, once looked up
 
     def tree(self) -> yaml.Node | None:
         """The composed document (None for an empty one, or a map with neither tree nor text)."""
@@ -62,7 +63,7 @@ class SourceMap:
     def at(self, path: Path, *, key: bool = False) -> tuple[int, int]:
         """The position of ``path``, or of its nearest ancestor that exists (a missing field: its parent)."""
         root = self.tree()
-        return position_at(root, path, key=key) if root is not None else (1, 1)
+        return position_at(root, path, key=key, index=self._keys) if root is not None else (1, 1)
 
     def problem(self, path: Path, message: str, *, key: bool = False) -> Problem:
         line, col = self.at(path, key=key)
