@@ -33,7 +33,7 @@ from pydantic import BaseModel, ValidationError
 
 from agentic_core.contracts.input_files import InputFileError, check_input_file
 from agentic_core.contracts.problems import LocatedProblem, ProblemsError
-from agentic_core.contracts.yaml_positions import node_position, position_at
+from agentic_core.contracts.yaml_positions import KeyIndex, node_position, position_at
 from flight.sim.scene_model import Path, Scene, describe_path, scene_problems
 
 _Loader: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -125,8 +125,10 @@ def _parse(text: str, file: str) -> Scene:
         scene = Scene.model_validate(data, context={"defer_checks": True})
     except ValidationError as exc:
         raise SceneFileError([*problems, *_schema_problems(exc, data, root, file)]) from None
+    index: KeyIndex = {}  # each mapping's keys looked up once, however many problems it holds
     for path, message in scene_problems(scene):
-        line, col = position_at(root, path, key=isinstance(path[-1], str) and path[-2:-1] == ("mix",))
+        mix_key = isinstance(path[-1], str) and path[-2:-1] == ("mix",)
+        line, col = position_at(root, path, key=mix_key, index=index)
         problems.append(SceneProblem(file, line, col, f"{describe_path(path, data)}: {message}"))
     if problems:
         raise SceneFileError(problems)
@@ -135,20 +137,21 @@ def _parse(text: str, file: str) -> Scene:
 
 def _schema_problems(exc: ValidationError, data: Any, root: yaml.Node, file: str) -> list[SceneProblem]:
     out: list[SceneProblem] = []
+    index: KeyIndex = {}  # each mapping's keys looked up once, however many problems it holds
     for err in exc.errors():
         loc = tuple(err["loc"])
         if loc and loc[-1] == "[key]":
             path: Path = loc[:-1]
-            line, col = position_at(root, path, key=True)
+            line, col = position_at(root, path, key=True, index=index)
             message = f"{describe_path(path, data)}: {err['msg']} (got {_short(path[-1])})"
         elif err["type"] == "missing":
             path = loc
-            line, col = position_at(root, path[:-1])
+            line, col = position_at(root, path[:-1], index=index)
             message = f"{describe_path(path[:-1], data)}: " if len(path) > 1 else ""
             message += f"missing required field {path[-1]!r}"
         elif err["type"] == "extra_forbidden":
             path = loc
-            line, col = position_at(root, path, key=True)
+            line, col = position_at(root, path, key=True, index=index)
             known = _fields_at(path[:-1])
             close = difflib.get_close_matches(str(path[-1]), known, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else f"; known fields: {', '.join(known)}"
@@ -156,7 +159,7 @@ def _schema_problems(exc: ValidationError, data: Any, root: yaml.Node, file: str
             message = f"{where}: unknown field {path[-1]!r}{hint}"
         else:
             path = loc
-            line, col = position_at(root, path)
+            line, col = position_at(root, path, index=index)
             message = f"{describe_path(path, data)}: {err['msg']} (got {_short(err['input'])})"
         out.append(SceneProblem(file, line, col, message))
     return out
