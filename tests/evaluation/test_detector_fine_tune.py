@@ -103,7 +103,12 @@ def test_the_int8_model_keeps_its_float_ends_and_finds_what_the_float_one_finds(
     x = np.ascontiguousarray(frames[0].image.transpose(2, 0, 1)[None], dtype=np.float32) / 255.0
     f32, i8 = _onnx_output(folder / "person.onnx", x)[0], _onnx_output(tmp_path / "person.onnx", x)[0]
     both = (f32[4] > 0) & (i8[4] > 0)  # cells that are a peak in both
-    assert both.mean() > 0.05 and np.corrcoef(f32[4][both], i8[4][both])[0, 1] > 0.9
+    # most of the float model's peaks are the int8 one's too (0.88-0.92 over repeated runs), and enough of them to
+    # compare. The old 'a twentieth of all cells' (240 of 4,800) sat a dozen cells under the 249-258 that training
+    # three steps gives, which varies from run to run (oneDNN's sums are not bit-reproducible): the likely cause
+    # of the one failure seen
+    assert both.sum() >= 100 and both.sum() >= 0.8 * (f32[4] > 0).sum()
+    assert np.corrcoef(f32[4][both], i8[4][both])[0, 1] > 0.9
     assert np.abs(f32[:2] - i8[:2]).max() < 0.5  # centres within half a pixel
     assert np.median(np.abs(np.log(i8[2:4] / f32[2:4]))) < 0.05  # sizes within 5 %
 
