@@ -93,8 +93,8 @@ IntArray = NDArray[np.int64]
 
 CROWD_STEP_S = 0.1
 """The longest step of the crowd between two frames (s): a walker moves 13 cm in a step, and the heading and sway
-processes are exact at any step; every frame is still taken at its own time. A sixth of the work of 1/30 s, which
-had made the crowd of a 9,000-person scene a third of a flight's computing at a 5 Hz camera."""
+processes are exact at any step; every frame is still taken at its own time. At a 5 Hz camera, two steps a frame
+instead of six at 1/30 s: the crowd of a 9,000-person scene had been a third of a flight's computing."""
 POSE_FACTOR: dict[Behaviour, float] = {"sitting": 0.9, "resting": 0.8, "collapsed": 0.8}
 
 
