@@ -52,7 +52,7 @@ class SourceMap:
     root: yaml.Node | None = None
     problems: list[Problem] = field(default_factory=list)
     text: str | None = None  # the document ``root`` is composed from when it is first needed
-    _keys: KeyIndex = field(default_factory=dict, repr=False)  # mapping keys of ``root``, by node, once looked up
+    _keys: KeyIndex = field(default_factory=dict, init=False, repr=False)  # ``root``'s mapping keys, once looked up
 
     def tree(self) -> yaml.Node | None:
         """The composed document (None for an empty one, or a map with neither tree nor text)."""
