@@ -113,7 +113,8 @@ class MissionRuntime:
         except StepFailed as failed:
             return {**self.failure(step, failed.reason), "attempts": {step_id: step.max_retries + 1}}
         except StepInterrupted as stopped:
-            return self.interrupted(step, stopped.outcome, "repeating" if isinstance(step, RepeatStep) else "blocked")
+            status = "repeating" if isinstance(step, RepeatStep) else "blocked"
+            return self.interrupted(step, stopped.outcome, status, stopped.approved)
         return {
             "status": {step_id: "ok"},
             "outputs": {step_id: output},
@@ -121,15 +122,19 @@ class MissionRuntime:
             "log": [{"step": step_id, "status": "ok", "attempts": attempts}],
         }
 
-    def interrupted(self, step: Step, outcome: Interrupted, status: str) -> dict[str, Any]:
+    def interrupted(
+        self, step: Step, outcome: Interrupted, status: str, approved: dict[str, Any] | None = None
+    ) -> dict[str, Any]:
         """A step whose action was stopped before its end runs again once the scheduler lets it (a repeat starts its
-        pass again); a trigger that stopped it stays latched on its event until it fires."""
-        update: dict[str, Any] = {
-            "status": {step.id: status},
-            "log": [{"step": step.id, "status": "interrupted", "error": outcome.reason, "trigger": outcome.trigger}],
-        }
+        pass again); a trigger that stopped it stays latched on its event until it fires. The operator's approval
+        of it is kept over a pause; a trigger that took over changed the situation, so it is asked again."""
+        entry = {"step": step.id, "status": "interrupted", "error": outcome.reason, "trigger": outcome.trigger}
+        update: dict[str, Any] = {"status": {step.id: status}, "log": [entry]}
         if outcome.trigger is not None:
             update["latched"] = {outcome.trigger: outcome.event}
+        elif approved is not None:
+            update["approved"] = {step.id: approved}
+            entry["approval"] = "kept"
         return update
 
     def iterate(self, step: RepeatStep, state: Mapping[str, Any]) -> dict[str, Any]:

@@ -81,11 +81,13 @@ class Interrupted:
 
 
 class StepInterrupted(AgenticUAVError):
-    """Raised out of a step whose action was :class:`Interrupted`; the mission runtime reschedules the step."""
+    """Raised out of a step whose action was :class:`Interrupted`; the mission runtime reschedules the step.
+    ``approved`` holds the arguments the operator approved for it, if it asked."""
 
-    def __init__(self, outcome: Interrupted) -> None:
+    def __init__(self, outcome: Interrupted, approved: dict[str, Any] | None = None) -> None:
         super().__init__(outcome.reason)
         self.outcome = outcome
+        self.approved = approved
 
 
 @dataclass(frozen=True)
@@ -233,11 +235,15 @@ def _approve(step: Step, args: dict[str, Any], env: Environment) -> dict[str, An
 
 
 def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str, Any]:
-    """What runs once per step, before any attempt: preconditions, argument templates, operator approval."""
+    """What runs once per step, before any attempt: preconditions, argument templates, operator approval. A step
+    the operator approved before a pause interrupted it flies again with the arguments approved, not asked again."""
     where = scope(state, env)
     for text in step.preconditions:
         if not check(text, where):
             raise StepFailed(f"precondition {text!r} is false")
+    kept = (state.get("approved") or {}).get(step.id) if step.approval else None
+    if kept is not None:
+        return dict(kept)
     try:
         args: dict[str, Any] = render(step_args(step), where)
     except ExpressionError as exc:
@@ -301,6 +307,10 @@ def run_with_retries(step: Step, state: Mapping[str, Any], env: Environment) -> 
             if attempts > step.max_retries:
                 failed.reason += f" (after {attempts} attempt{'s' if attempts > 1 else ''})"
                 raise
+        except StepInterrupted as stopped:
+            if step.approval:
+                stopped.approved = args
+            raise
 
 
 def run_sequence(steps: list[Step], state: Mapping[str, Any], env: Environment) -> dict[str, Any]:
@@ -323,10 +333,14 @@ def run_iteration(
 ) -> tuple[dict[str, Any], bool]:
     """One pass of a repeat's body; returns (output, finished) — finished when ``until`` holds or at the limit.
     The repeat's own preconditions and approval are checked before its first pass."""
-    if done == 0:
-        prepare(step, state, env)
-    with within(iteration=done + 1):
-        body = run_sequence(step.steps, state, env)
+    args = prepare(step, state, env) if done == 0 else None
+    try:
+        with within(iteration=done + 1):
+            body = run_sequence(step.steps, state, env)
+    except StepInterrupted as stopped:
+        if step.approval and args is not None:
+            stopped.approved = args
+        raise
     output = {"iterations": done + 1, "last": body}
     outputs = {**(state.get("outputs") or {}), **body, step.id: output}
     finished = check(step.until, scope({**state, "outputs": outputs}, env)) or done + 1 >= step.max_iterations

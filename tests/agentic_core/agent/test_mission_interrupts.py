@@ -98,6 +98,60 @@ def test_an_interruption_without_a_trigger_blocks_the_step_and_it_runs_again() -
     assert out.get("fired", []) == [] and out.get("latched", {}) == {}
 
 
+class Approver:
+    """A headless operator: approves every request, with ``edits`` of the arguments; records what it was asked."""
+
+    def __init__(self, edits: dict[str, Any] | None = None) -> None:
+        self.edits = edits
+        self.asked: list[dict[str, Any]] = []
+
+    def __call__(self, request: dict[str, Any]) -> Any:
+        self.asked.append(request)
+        return {"approve": True, "args": self.edits} if self.edits else True
+
+
+def fly_approved(text: str, dispatch: Scripted, approver: Approver) -> dict[str, Any]:
+    plan = mission(text)
+    env = Environment(dispatch, world=lambda: {"objects": [], "relations": []}, approve=approver)
+    out: dict[str, Any] = compile_mission(plan, env).invoke(initial_state(plan), {"recursion_limit": 500})
+    return out
+
+
+APPROVED_LEG = WATCHED.replace("{id: leg, action: fly_to,", "{id: leg, action: fly_to, approval: true,")
+APPROVED_PATROL = PATROL.replace("    action: repeat\n", "    action: repeat\n    approval: true\n")
+
+
+def test_a_pause_keeps_the_operators_approval_and_the_step_flies_again_with_the_arguments_approved() -> None:
+    dispatch = Scripted(lambda n, args: Interrupted("paused by the operator") if n == 1 else None)
+    approver = Approver(edits={"north_m": 80})
+    out = fly_approved(APPROVED_LEG, dispatch, approver)
+    assert [r["step"] for r in approver.asked] == ["leg"]  # asked once, not again after the pause
+    legs = [args for tool, args, _ in dispatch.calls if tool == "flight.fly_to"]
+    assert [leg["north_m"] for leg in legs] == [80, 80]  # the operator's edit, both times
+    assert out["status"]["leg"] == "ok" and out["approved"] == {"leg": legs[0]}
+    (entry,) = [e for e in out["log"] if e.get("status") == "interrupted"]
+    assert entry["approval"] == "kept" and entry["trigger"] is None
+
+
+def test_a_trigger_that_takes_over_an_approved_step_has_it_asked_again() -> None:
+    dispatch = Scripted(lambda n, args: by_trigger(n))
+    approver = Approver()
+    out = fly_approved(APPROVED_LEG, dispatch, approver)
+    assert [r["step"] for r in approver.asked] == ["leg", "leg"]  # the situation changed: asked again
+    assert out.get("approved", {}) == {} and out["status"]["leg"] == "ok"
+    (entry,) = [e for e in out["log"] if e.get("status") == "interrupted"]
+    assert "approval" not in entry
+
+
+def test_a_paused_approved_repeat_starts_its_pass_again_without_asking_again() -> None:
+    dispatch = Scripted(lambda n, args: Interrupted("paused by the operator") if n == 2 else None)
+    approver = Approver()
+    out = fly_approved(APPROVED_PATROL, dispatch, approver)
+    assert [r["step"] for r in approver.asked] == ["patrol"]
+    assert out["outputs"]["patrol"]["iterations"] == 2 and out["status"]["patrol"] == "ok"
+    assert dispatch.tools().count("flight.fly_to") == 6  # gate_a, gate_b (paused), then two whole passes
+
+
 def test_an_interrupted_repeat_starts_its_pass_again_and_does_not_count_it() -> None:
     dispatch = Scripted(lambda n, args: by_trigger(n, at=2))  # gate_b of the first pass
     out = fly(PATROL, dispatch)
