@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -78,7 +79,7 @@ def run(plan: Sequence[Stage], final: Path, *, log: Callable[[str], None] = prin
     made["total"] = {key: round(sum(s[key] for s in made.values()), 1) for key in ("seconds", "cpu_seconds")}
     recipe_path = final / RECIPE_NAME
     recipe = json.loads(recipe_path.read_text())
-    recipe["made"] = {"command": "python -m evaluation.detector.recipe", "stages": made}
+    recipe["made"] = {"command": "python -m evaluation.detector.recipe", "cpus": os.cpu_count(), "stages": made}
     recipe_path.write_text(json.dumps(recipe, indent=2) + "\n")
     return made
 

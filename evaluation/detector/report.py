@@ -154,7 +154,8 @@ def _description(recipe: dict[str, Any], threshold: float) -> list[str]:
         lines.insert(
             2,
             f"- made from nothing by one command, `{made.get('command')}`, in {total.get('seconds', 0.0) / 60:.1f} "
-            f"min of wall time ({total.get('cpu_seconds', 0.0) / 60:.1f} CPU min) on a 2-core machine (minutes: "
+            f"min of wall time ({total.get('cpu_seconds', 0.0) / 60:.1f} CPU min) on a {made.get('cpus', '?')}-core "
+            "machine (minutes: "
             f"{each}; training's budget decides how many steps it takes)",
         )
     parent = recipe.get("parent")

@@ -4,6 +4,7 @@ stage is timed into the final recipe, a failing stage stops it with its status, 
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -48,7 +49,7 @@ def test_every_stage_is_timed_into_the_final_recipe(tmp_path: Path, monkeypatch:
     assert set(made) == {"one", "two", "total"}
     assert made["total"]["seconds"] == pytest.approx(made["one"]["seconds"] + made["two"]["seconds"], abs=0.11)
     recipe = json.loads((final / "person.json").read_text())
-    assert recipe["sha256"] == "x" and recipe["made"]["stages"] == made
+    assert recipe["sha256"] == "x" and recipe["made"]["stages"] == made and recipe["made"]["cpus"] == os.cpu_count()
     assert lines[0].startswith("== one: python -m fake_write") and lines[-1].startswith("== two:")
 
 
@@ -82,9 +83,10 @@ def test_the_report_says_what_the_recipe_took_and_nothing_when_it_was_not_made_b
     made["total"] = {"seconds": 1410.0, "cpu_seconds": 2400.0}
     recipe: dict[str, Any] = {
         "sha256": "0" * 64, "config": {}, "training": {}, "calibration_data": {"frames": 2},
-        "made": {"command": "python -m evaluation.detector.recipe", "stages": made},
+        "made": {"command": "python -m evaluation.detector.recipe", "cpus": 2, "stages": made},
     }  # fmt: skip
     (line,) = [t for t in _description(recipe, 0.3) if t.startswith("- made from nothing")]
-    assert "in 23.5 min of wall time (40.0 CPU min)" in line and "render and train 22.5, report 1.0" in line
+    assert "in 23.5 min of wall time (40.0 CPU min) on a 2-core machine" in line
+    assert "render and train 22.5, report 1.0" in line
     del recipe["made"]
     assert not [t for t in _description(recipe, 0.3) if "made from nothing" in t]
