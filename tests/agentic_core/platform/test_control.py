@@ -18,8 +18,14 @@ PATROL = REPO / "missions" / "hajj_patrol.yaml"
 NORMAL = REPO / "tests" / "agentic_core" / "run" / "scenes" / "small_normal.yaml"
 
 
-def patrol(tmp_path: Path) -> MissionRun:
-    settings = RunSettings(mission=PATROL, scene=NORMAL, runs_dir=tmp_path / "runs", params={"rounds": "1"},
+def patrol(tmp_path: Path, *, approved: bool = False) -> MissionRun:
+    """The patrol mission; ``approved``: its patrol (a repeat) asks for approval first, answered by the policy."""
+    mission = PATROL
+    if approved:
+        mission = tmp_path / "patrol.yaml"
+        text = PATROL.read_text(encoding="utf-8")
+        mission.write_text(text.replace("    action: repeat\n", "    action: repeat\n    approval: true\n", 1))
+    settings = RunSettings(mission=mission, scene=NORMAL, runs_dir=tmp_path / "runs", params={"rounds": "1"},
                            camera_hz=5.0)  # fmt: skip
     return MissionRun(settings)
 
@@ -31,7 +37,9 @@ def flying_a_leg(run: MissionRun) -> bool:
 
 @pytest.mark.slow
 def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(tmp_path: Path) -> None:
-    run = patrol(tmp_path)
+    """The paused step (the patrol, approved before it started) flies again after resume without being asked
+    again, with the approval kept."""
+    run = patrol(tmp_path, approved=True)
     held: list[tuple[float, float]] = []
 
     result = fly_steered(run, pause_and_hold(run, lambda: flying_a_leg(run), "the first leg", 10.0, held))
@@ -48,6 +56,9 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
     assert stopped and "paused" in stopped[0]["summary"]
     flown = [r["name"] for r in of_kind(records, "tool") if r.get("status") == "ok"]
     assert flown.count("incidents.log") == 2 and flown[-1] == "flight.rtl"  # the whole pass was flown after all
+    assert [r["request"]["step"] for r in of_kind(records, "approval")] == ["patrol"]  # asked once, not after resume
+    (interrupted,) = [r for r in of_kind(records, "mission") if r.get("status") == "interrupted"]
+    assert interrupted["step"] == "patrol" and interrupted["approval"] == "kept"
 
 
 @pytest.mark.slow
