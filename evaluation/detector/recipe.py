@@ -5,7 +5,7 @@ the crowd rescue, calibrate and report, each stage timed.
 process), each in a folder of its own under ``DIR``; the last, ``DIR/final``, holds ``person.onnx`` and
 ``person.json`` as they ship (the recipe gains a ``made`` entry with every stage's wall and CPU seconds), and
 ``DIR/docs`` the report. Training stops at ``--train-minutes`` of wall clock (the learning rate's schedule follows
-the budget), so the whole recipe fits in about ten minutes more than that on a 2-core machine.
+the budget), so the whole recipe takes about seven minutes more than that on a 2-core machine.
 
 >>> stages("runs/det")[0].name, [s.name for s in stages("runs/det")][1:]
 ('train', ['quantise', 'box_refit', 'rescue_fit', 'report'])
@@ -25,7 +25,7 @@ from pathlib import Path
 from .train import RECIPE_NAME
 
 TRAIN_MINUTES = 19.0
-"""Training's wall-clock budget: rendering before it and the later stages take about nine minutes more here."""
+"""Training's wall-clock budget: rendering before it (2 min) and the later stages (5 min) take about seven more."""
 
 EXTRA_ALTITUDES_M = ("10", "12.5", "15", "17.5", "20", "25", "30")
 """The second data seed's altitudes: more frames where lying persons are smallest among the ones that matter."""

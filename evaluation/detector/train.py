@@ -13,6 +13,7 @@ import argparse
 import hashlib
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -87,18 +88,42 @@ class TrainStats:
     loss_by_epoch: list[float] = field(default_factory=list)
 
 
-def render_frames(config: TrainConfig, *, seed: int | None = None, count: int | None = None) -> list[Labelled]:
-    """The labelled frames of ``seed`` (the config's data seed by default)."""
+RENDER_WORKERS = min(2, os.cpu_count() or 1)
+"""Processes the training command renders its frames in (:func:`render_frames`)."""
+RENDER_CHUNK = 64
+"""Frames a worker renders at a time (a multiple of the dataset's views per scene); a series this long or shorter
+is rendered in this process."""
+
+
+def _render_part(seed: int, start: int, count: int, altitudes_m: tuple[float, ...], size: tuple[int, int]) -> list[Any]:
     from flight.sim.render.dataset import labelled_frames
 
-    frames = labelled_frames(
-        config.data_seed if seed is None else seed,
-        config.frames if count is None else count,
-        altitudes_m=config.altitudes_m,
-        width=config.width_px,
-        height=config.height_px,
-    )
-    return list(frames)
+    width, height = size
+    return list(labelled_frames(seed, count, altitudes_m=altitudes_m, width=width, height=height, start=start))
+
+
+def render_frames(
+    config: TrainConfig, *, seed: int | None = None, count: int | None = None, workers: int = 1
+) -> list[Labelled]:
+    """The labelled frames of ``seed`` (the config's data seed by default): the same whatever ``workers``. With
+    ``workers`` above 1 a long series is rendered in parts of :data:`RENDER_CHUNK` frames over that many spawned
+    processes, which import the caller's main module again: call it so only from a guarded ``__main__`` (as the
+    training command does, where rendering is most of a short run's set-up)."""
+    seed = config.data_seed if seed is None else seed
+    count = config.frames if count is None else count
+    size = (config.width_px, config.height_px)
+    if workers <= 1 or count <= RENDER_CHUNK:
+        return _render_part(seed, 0, count, config.altitudes_m, size)
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    starts = range(0, count, RENDER_CHUNK)
+    counts = [min(RENDER_CHUNK, count - start) for start in starts]
+    context = multiprocessing.get_context("spawn")  # not fork: torch's thread pools may already be running here
+    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        parts = pool.map(_render_part, [seed] * len(counts), starts, counts, [config.altitudes_m] * len(counts),
+                         [size] * len(counts))  # fmt: skip
+        return [frame for part in parts for frame in part]
 
 
 @dataclass(frozen=True)
@@ -380,10 +405,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         neighbour_boxes=args.neighbour_boxes,
     )
     started = time.monotonic()
-    frames = _cached(args.cache, lambda: render_frames(config))
+    frames = _cached(args.cache, lambda: render_frames(config, workers=RENDER_WORKERS))
     if config.extra_frames:
         extra = TrainConfig(altitudes_m=config.extra_altitudes_m, width_px=config.width_px, height_px=config.height_px)
-        frames += _cached(args.extra_cache, lambda: render_frames(extra, seed=args.extra_seed, count=args.extra_frames))
+        frames += _cached(
+            args.extra_cache,
+            lambda: render_frames(extra, seed=args.extra_seed, count=args.extra_frames, workers=RENDER_WORKERS),
+        )
     print(f"rendered {len(frames)} frames in {time.monotonic() - started:.0f} s", flush=True)
     init, parent = None, {}
     if args.init is not None:

@@ -68,3 +68,16 @@ def test_the_command_line_writes_weights_and_recipe(tmp_path: Path) -> None:
     assert main([*args, "--max-minutes", "0.05"]) == 0
     recipe = json.loads((tmp_path / "person.json").read_text())
     assert recipe["config"]["frames"] == 2 and (tmp_path / "person.onnx").is_file()
+
+
+def test_frames_rendered_in_parts_over_processes_are_those_rendered_in_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    import evaluation.detector.train as training
+
+    monkeypatch.setattr(training, "RENDER_CHUNK", 8)
+    config = TrainConfig(width_px=160, height_px=120, altitudes_m=(10.0, 30.0, 60.0))
+    alone = render_frames(config, count=20, workers=1)
+    apart = render_frames(config, count=20, workers=2)
+    assert len(alone) == len(apart) == 20
+    for a, b in zip(alone, apart, strict=True):
+        assert np.array_equal(a.image, b.image) and np.array_equal(a.boxes, b.boxes) and a.poses == b.poses
+        assert a.altitude_m == b.altitude_m and np.array_equal(a.visible, b.visible)

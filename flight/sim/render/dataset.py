@@ -66,14 +66,18 @@ def labelled_frames(
     altitudes_m: Sequence[float] = (10, 20, 30, 40, 50, 60),
     width: int = 640,
     height: int = 480,
+    start: int = 0,
 ) -> Iterator[LabelledFrame]:
-    """``count`` labelled frames, the same for the same arguments."""
+    """``count`` labelled frames, the same for the same arguments; from frame ``start`` on (a multiple of
+    :data:`VIEWS_PER_SCENE`, where a scene begins), so that parts of one series can be rendered apart."""
     if count < 0:
         raise ValueError(f"count must be >= 0, got {count}")
+    if start < 0 or start % VIEWS_PER_SCENE:
+        raise ValueError(f"start must be a multiple of {VIEWS_PER_SCENE} from 0, got {start}")
     if not altitudes_m:
         raise ValueError("altitudes_m must name at least one altitude")
     renderer: SceneRenderer | None = None
-    for k in range(count):
+    for k in range(start, start + count):
         if k % VIEWS_PER_SCENE == 0:
             renderer = SceneRenderer(random_scene(seed, k // VIEWS_PER_SCENE), seed=seed)
         assert renderer is not None

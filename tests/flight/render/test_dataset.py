@@ -110,3 +110,14 @@ def test_a_label_is_the_tight_box_of_the_persons_drawn_pixels(monkeypatch: pytes
     assert np.abs(outward.mean(axis=0)).max() <= 0.3, (
         f"diagonal lying persons at {altitude:g} m: {outward.mean(axis=0)}"
     )
+
+
+def test_a_series_can_start_where_a_scene_begins_and_nowhere_else() -> None:
+    whole = list(labelled_frames(5, 8, width=160, height=120))
+    tail = list(labelled_frames(5, 4, width=160, height=120, start=4))
+    assert len(tail) == 4
+    for a, b in zip(whole[4:], tail, strict=True):
+        assert np.array_equal(a.image, b.image) and np.array_equal(a.boxes, b.boxes)
+    for start in (-4, 2):
+        with pytest.raises(ValueError, match=f"start must be a multiple of 4 from 0, got {start}"):
+            list(labelled_frames(5, 4, start=start))
