@@ -1,9 +1,9 @@
-"""The shipped person detector made from nothing with one command: render, train, quantise, refit the boxes, fit
-the crowd rescue, calibrate and report, each stage timed.
+"""Our person detector made from nothing with one command, through every stage the shipped one went through:
+render, train, quantise, refit the boxes, fit the crowd rescue, calibrate and report, each stage timed.
 
 ``python -m evaluation.detector.recipe --out DIR`` runs the stages in order (each one's own command, in this
 process), each in a folder of its own under ``DIR``; the last, ``DIR/final``, holds ``person.onnx`` and
-``person.json`` as they ship (the recipe gains a ``made`` entry with every stage's wall and CPU seconds), and
+``person.json`` as a run loads them (the recipe gains a ``made`` entry with every stage's wall and CPU seconds), and
 ``DIR/docs`` the report. Training stops at ``--train-minutes`` of wall clock (the learning rate's schedule follows
 the budget), so the whole recipe takes about seven minutes more than that on a 2-core machine.
 
@@ -41,7 +41,7 @@ class Stage:
 
 
 def stages(out: Path | str, *, train_minutes: float = TRAIN_MINUTES, threads: int = 2) -> list[Stage]:
-    """The stages that make the shipped weights in ``out`` (each writes the folder the next one reads)."""
+    """The stages that make the weights in ``out`` (each writes the folder the next one reads)."""
     root = Path(out)
     float_, int8, refit, final = (str(root / name) for name in ("float", "int8", "refit", "final"))
     train = (
