@@ -114,7 +114,8 @@ class MissionRuntime:
             return {**self.failure(step, failed.reason), "attempts": {step_id: step.max_retries + 1}}
         except StepInterrupted as stopped:
             status = "repeating" if isinstance(step, RepeatStep) else "blocked"
-            return self.interrupted(step, stopped.outcome, status, stopped.approved)
+            kept = (state.get("approved") or {}).get(step_id) is not None
+            return self.interrupted(step, stopped.outcome, status, stopped.approved, kept_before=kept)
         return {
             "status": {step_id: "ok"},
             "outputs": {step_id: output},
@@ -123,7 +124,13 @@ class MissionRuntime:
         }
 
     def interrupted(
-        self, step: Step, outcome: Interrupted, status: str, approved: dict[str, Any] | None = None
+        self,
+        step: Step,
+        outcome: Interrupted,
+        status: str,
+        approved: dict[str, Any] | None = None,
+        *,
+        kept_before: bool = False,
     ) -> dict[str, Any]:
         """A step whose action was stopped before its end runs again once the scheduler lets it (a repeat starts its
         pass again); a trigger that stopped it stays latched on its event until it fires. The operator's approval
@@ -132,6 +139,8 @@ class MissionRuntime:
         update: dict[str, Any] = {"status": {step.id: status}, "log": [entry]}
         if outcome.trigger is not None:
             update["latched"] = {outcome.trigger: outcome.event}
+            if kept_before:
+                update["approved"] = {step.id: None}  # the approval kept over an earlier pause no longer holds
         elif approved is not None:
             update["approved"] = {step.id: approved}
             entry["approval"] = "kept"

@@ -46,7 +46,7 @@ class MissionState(TypedDict, total=False):
     fired: Annotated[list[str], operator.add]
     events: Annotated[dict[str, Any], merge]  # trigger id -> the event it last fired for
     latched: Annotated[dict[str, Any], merge_latched]  # trigger id -> an event it was let act on, not yet fired
-    approved: Annotated[dict[str, Any], merge]  # step id -> the arguments the operator approved, kept over a pause
+    approved: Annotated[dict[str, Any], merge]  # step id -> the arguments approved, kept over a pause (None: ask)
     reflections: int
     halt: Annotated[str | None, worst]
     preempted_by: str | None  # a trigger that took over: the rest of the plan is cancelled

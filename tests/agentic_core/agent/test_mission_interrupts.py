@@ -143,6 +143,18 @@ def test_a_trigger_that_takes_over_an_approved_step_has_it_asked_again() -> None
     assert "approval" not in entry
 
 
+def test_an_approval_kept_over_a_pause_is_asked_again_once_a_trigger_takes_the_step_over() -> None:
+    def stop(n: int, args: dict[str, Any]) -> Interrupted | None:
+        return Interrupted("paused by the operator") if n == 1 else by_trigger(n, at=2)
+
+    dispatch = Scripted(stop)
+    approver = Approver()
+    out = fly_approved(APPROVED_LEG, dispatch, approver)
+    assert [r["step"] for r in approver.asked] == ["leg", "leg"]  # kept over the pause, asked after the trigger
+    assert dispatch.tools().count("flight.fly_to") == 3 and out["status"]["leg"] == "ok"
+    assert out["approved"] == {"leg": None}
+
+
 def test_a_paused_approved_repeat_starts_its_pass_again_without_asking_again() -> None:
     dispatch = Scripted(lambda n, args: Interrupted("paused by the operator") if n == 2 else None)
     approver = Approver()
