@@ -14,6 +14,10 @@ from typing import TypeVar
 
 T = TypeVar("T")
 
+CONNECT_S = 30.0
+"""How long a test waits for a vehicle's first HEARTBEAT. A healthy one answers within a simulated second; the
+bound only has to outlast a stall of a loaded CI machine (5 s did not, once), and costs nothing when all is well."""
+
 
 def wait_for(predicate: Callable[[], T], timeout_s: float, interval_s: float = 0.01, what: str = "the condition") -> T:
     """Poll ``predicate`` until it returns something truthy and return that; an AssertionError naming ``what``

@@ -17,6 +17,7 @@ import pytest
 from flight.cli import build_parser, parse_address, parse_home, parse_speed
 from flight.signing import new_key, write_key_file
 from flight.vehicle import VehicleClient
+from tests.waiting import CONNECT_S
 
 
 def free_udp_port():
@@ -75,7 +76,7 @@ def test_sim_runs_until_sigterm_and_stops_cleanly():
         assert f"gcs 127.0.0.1:{gcs}" in line and "speed max" in line
 
         async def talk():
-            async with await VehicleClient.connect(("127.0.0.1", int(found.group(1))), timeout_s=5.0) as client:
+            async with await VehicleClient.connect(("127.0.0.1", int(found.group(1))), timeout_s=CONNECT_S) as client:
                 telemetry = await client.wait_telemetry(5.0)
                 assert telemetry is not None
                 assert await client.get_param("SYS_FAILURE_EN") == 1  # failure injection enabled from the command line
@@ -126,9 +127,11 @@ def test_sim_with_a_signing_key_answers_only_signed_clients_and_says_what_it_ref
         address = ("127.0.0.1", int(found.group(1)))
 
         async def talk():
-            async with await VehicleClient.connect(address, timeout_s=5.0, signing_key=key) as client:
+            async with await VehicleClient.connect(address, timeout_s=CONNECT_S, signing_key=key) as client:
                 assert await client.get_param("MIS_TAKEOFF_ALT") == 2.5
-            async with await VehicleClient.connect(address, timeout_s=5.0) as unsigned:  # it hears; it is not heard
+            async with await VehicleClient.connect(
+                address, timeout_s=CONNECT_S
+            ) as unsigned:  # it hears; it is not heard
                 assert await unsigned.get_param("MIS_TAKEOFF_ALT", timeout_s=1.0) is None
 
         asyncio.run(talk())

@@ -12,7 +12,7 @@ from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import VehicleClient, VehicleConnectionError, parse_address
-from tests.waiting import wait_for_async
+from tests.waiting import CONNECT_S, wait_for_async
 
 from .conftest import FAST_FORWARD
 
@@ -51,7 +51,7 @@ def test_local_offsets_round_trip_and_addresses_parse():
 
 def test_arm_takeoff_goto_land(vehicle):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert client.telemetry.connected and client.telemetry.mode == "hold"
             assert not client.telemetry.armed
             updates = []
@@ -103,7 +103,7 @@ def test_arm_takeoff_goto_land(vehicle):
 
 def test_orbit_is_flown_as_waypoints_when_do_orbit_is_unsupported_then_hover_and_payload(vehicle):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert (await client.arm()).ok
             assert (await client.takeoff(8.0)).ok
             result, _ = await client.command(34, (10.0,), frame=6, x=0, y=0, z=math.nan, attempts=1, timeout_s=5.0)
@@ -143,7 +143,7 @@ def test_orbit_is_flown_as_waypoints_when_do_orbit_is_unsupported_then_hover_and
 
 def test_refusals_are_denied_with_the_vehicles_reason(vehicle):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             early: Any = await client.takeoff(10.0)
             assert early.status == "denied" and "arm first" in early.reason
             assert early.ack == 2 and early.reached is None
@@ -167,7 +167,7 @@ def test_refusals_are_denied_with_the_vehicles_reason(vehicle):
 
 def test_a_stopped_vehicle_times_out_and_connect_gives_up(vehicle):
     async def fly():
-        client = await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.2, ack_attempts=2)
+        client = await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S, ack_timeout_s=0.2, ack_attempts=2)
         try:
             vehicle.stop()  # the socket stays open, nothing answers
             result: Any = await client.arm()
@@ -186,7 +186,7 @@ def test_a_stopped_vehicle_times_out_and_connect_gives_up(vehicle):
 
 def test_a_vehicle_that_stops_mid_flight_makes_the_wait_time_out(vehicle):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert (await client.arm()).ok
             assert (await client.takeoff(5.0)).ok
             home: Any = client.home
@@ -210,7 +210,7 @@ def test_listening_client_hears_a_vehicle_that_sends_to_it():
     try:
 
         async def listen():
-            async with await VehicleClient.connect(f"udpin:127.0.0.1:{port}", timeout_s=5.0) as client:
+            async with await VehicleClient.connect(f"udpin:127.0.0.1:{port}", timeout_s=CONNECT_S) as client:
                 assert client.remote == v.address
                 assert (await client.arm()).ok  # answers go back to where the vehicle sends from
 
@@ -227,7 +227,7 @@ def test_deadlines_run_on_the_vehicles_clock_so_a_slow_simulation_is_not_a_timeo
     slow.start(speed=FAST_FORWARD)
 
     async def fly():
-        async with await VehicleClient.connect(slow.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(slow.address, timeout_s=CONNECT_S) as client:
             assert (await client.arm()).ok
             assert (await client.takeoff(5.0)).ok
             slow.stop()

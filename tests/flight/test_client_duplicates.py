@@ -16,7 +16,7 @@ from agentic_core.contracts.geodesy import offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import MissionItem, VehicleClient
-from tests.waiting import wait_for_async
+from tests.waiting import CONNECT_S, wait_for_async
 
 from .conftest import FAST_FORWARD
 from .test_client import run
@@ -183,7 +183,7 @@ def test_every_message_duplicated_both_ways_still_flies_and_transfers(vehicle, r
     relay.duplicate(everything, copies=copies, times=10**9)
 
     async def go() -> None:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             for mission_type, items in plans(vehicle).items():
                 up: Any = await client.upload_mission(items, mission_type=mission_type)  # type: ignore[arg-type]
                 assert up.ok, (mission_type, up.reason)
@@ -212,7 +212,7 @@ def test_a_stale_mission_ack_does_not_end_a_later_upload(vehicle, relay):
     first, second = plans(vehicle)["mission"][:2], plans(vehicle)["mission"]
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             relay.keep_copy(kind("MISSION_ACK", to_vehicle=False))
             assert (await client.upload_mission(first)).ok
             relay.release_before(kind("MISSION_COUNT", to_vehicle=True))
@@ -233,7 +233,7 @@ def test_a_stale_item_request_beyond_the_plan_does_not_fail_a_later_upload(vehic
     four = plans(vehicle)["mission"]
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             relay.keep_copy(kind("MISSION_REQUEST_INT", to_vehicle=False, seq=3))
             assert (await client.upload_mission(four)).ok
             relay.release_before(kind("MISSION_COUNT", to_vehicle=True))
@@ -264,7 +264,7 @@ def test_a_duplicated_count_arriving_mid_upload_is_survived(vehicle, relay, befo
     assert before_item < len(items)
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             relay.keep_copy(kind("MISSION_COUNT", to_vehicle=True))
             relay.release_before(kind("MISSION_ITEM_INT", to_vehicle=True, seq=before_item))
             if then == "cancel lost":
@@ -290,7 +290,7 @@ def test_a_late_copy_of_an_item_request_in_a_download_is_survived(vehicle, relay
     items = plans(vehicle)["mission"]
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert (await client.upload_mission(items)).ok
             relay.keep_copy(kind("MISSION_REQUEST_INT", to_vehicle=True, seq=0))
             relay.release_before(kind("MISSION_REQUEST_INT", to_vehicle=True, seq=2))
@@ -310,7 +310,7 @@ def test_a_stale_accepted_ack_never_makes_a_denied_goto_ok(vehicle, relay):
     geofence), did not move, and the result says so."""
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert await client.set_param("GF_MAX_HOR_DIST", 100.0) == 100.0
             assert (await client.arm()).ok and (await client.takeoff(5.0)).ok
             relay.keep_copy(kind("COMMAND_ACK", to_vehicle=False, command=192, result=0))
@@ -330,7 +330,7 @@ def test_a_stale_echo_does_not_answer_a_later_set(vehicle, relay):
     later set waits for its own echo and returns the value the vehicle holds."""
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             relay.keep_copy(kind("PARAM_VALUE", to_vehicle=False))
             assert await client.set_param("MPC_XY_CRUISE", 6.0) == 6.0
             relay.release_before(kind("PARAM_SET", to_vehicle=True))
@@ -346,7 +346,7 @@ def test_a_refusal_and_its_reason_swapped_still_give_the_reason(vehicle, relay):
     relay.delay(kind("STATUSTEXT", to_vehicle=False))
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             return await client.land()  # on the ground: refused
 
     refused = run(go())

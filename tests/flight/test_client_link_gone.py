@@ -8,14 +8,14 @@ from typing import Any
 
 from flight.client.core import LINK_SILENT_S
 from flight.vehicle import VehicleClient
-from tests.waiting import wait_for_async
+from tests.waiting import CONNECT_S, wait_for_async
 
 from .test_client import run
 
 
 def test_a_return_home_on_a_vehicle_gone_silent_ends_after_the_silence_bound(vehicle):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert client.link_silent_s == LINK_SILENT_S and client.silent_s < 2.0
             client.link_silent_s = 2.0
             assert (await client.arm()).ok
@@ -36,7 +36,7 @@ def test_a_return_home_on_a_vehicle_gone_silent_ends_after_the_silence_bound(veh
 
 def test_a_vehicle_that_keeps_talking_is_not_given_up_on(vehicle):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             client.link_silent_s = 0.5  # shorter than any action here: only real silence may end one
             assert (await client.arm()).ok
             up: Any = await client.takeoff(8.0)

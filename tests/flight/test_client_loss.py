@@ -10,7 +10,7 @@ from agentic_core.contracts.geodesy import offset_position
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import MissionItem, VehicleClient
-from tests.waiting import wait_for_async
+from tests.waiting import CONNECT_S, wait_for_async
 
 from .conftest import FAST_FORWARD
 from .test_client import run
@@ -36,7 +36,7 @@ def test_a_land_or_return_whose_ack_was_lost_is_done_not_denied(vehicle, relay, 
     home = vehicle.sim.environment.home
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert await client.set_param("RTL_RETURN_ALT", 5.0) == 5.0  # a short return, over before the resend
             assert (await client.arm()).ok and (await client.takeoff(6.0)).ok
             assert (await client.goto(*offset_position(home.lat_deg, home.lon_deg, 5.0, 0.0), 6.0)).ok
@@ -55,7 +55,7 @@ def test_a_clear_ignored_as_busy_after_a_lost_closing_ack_waits_it_out(vehicle, 
     items = [MissionItem.waypoint(*offset_position(home.lat_deg, home.lon_deg, 10.0 * k, 0.0), 10.0) for k in (1, 2)]
 
     async def go() -> Any:
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert (await client.upload_mission(items)).ok
             relay.drop = {MISSION_ACK: 1}
             assert (await client.download_mission()).count == len(items)
@@ -80,13 +80,13 @@ def test_a_fresh_client_that_misses_two_mission_reports_still_restarts_a_finishe
     lossy = LossyRelay(v.address, {})
 
     async def go() -> None:
-        async with await VehicleClient.connect(v.address, timeout_s=5.0) as first:  # flown once, to its end
+        async with await VehicleClient.connect(v.address, timeout_s=CONNECT_S) as first:  # flown once, to its end
             assert (await first.upload_mission(items)).ok and (await first.start_mission()).ok
             assert (await first.wait_mission(timeout_s=60.0)).ok
             assert (await first.land()).ok
         speed[0] = 1.0  # real time, as a vehicle is: the 1 Hz reports are a second apart
         lossy.drop = {MISSION_CURRENT: 2}
-        async with await VehicleClient.connect(lossy.address, timeout_s=5.0, ack_timeout_s=0.5) as fresh:
+        async with await VehicleClient.connect(lossy.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as fresh:
             assert (await fresh.start_mission()).ok
             await wait_for_async(lambda: -v.sim.state().down_m > 3.0, 15.0, what="the mission flown again")
 
@@ -131,7 +131,7 @@ def test_a_plan_the_vehicle_will_not_fly_is_denied_with_three_mission_reports_lo
     lossy = LossyRelay(v.address, {})
 
     async def go() -> Any:
-        async with await VehicleClient.connect(lossy.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(lossy.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert await client.set_param("GF_MAX_HOR_DIST", 100.0) == 100.0
             lossy.drop = {MISSION_CURRENT: 3}
             return await client.upload_mission(far)

@@ -11,7 +11,7 @@ import pytest
 
 from agentic_core.contracts.geodesy import local_offset, offset_position
 from flight.vehicle import MissionItem, MissionType, VehicleClient
-from tests.waiting import wait_for_async
+from tests.waiting import CONNECT_S, wait_for_async
 
 from .test_client import run
 
@@ -57,7 +57,7 @@ def test_plans_go_up_and_come_back_and_clear(vehicle):
     rally = [MissionItem.rally_point(*at(-30, 0), 20.0)]
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             plans: list[tuple[list[MissionItem], MissionType]] = [
                 (mission, "mission"),
                 (fence, "fence"),
@@ -82,7 +82,7 @@ def test_plans_go_up_and_come_back_and_clear(vehicle):
 
 def test_refusals_come_back_as_denied_with_the_result_and_the_reason(vehicle):
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             turns = MissionItem(command=18, lat=at(10, 0)[0], lon=at(10, 0)[1], alt=10.0)  # LOITER_TURNS: not PX4's
             bad: Any = await client.upload_mission([MissionItem.takeoff(10.0), turns])
             assert bad.status == "denied" and bad.result == "MAV_MISSION_UNSUPPORTED"
@@ -108,7 +108,7 @@ def test_a_mission_is_flown_from_the_client(vehicle):
     items += [MissionItem.waypoint(*at(*waypoints[2][:2]), waypoints[2][2]), MissionItem.land()]
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert (await client.upload_mission(items)).ok
             positions: list[tuple[float, float, float]] = []
             sub = client.subscribe()
@@ -186,7 +186,7 @@ def test_lost_mission_messages_are_sent_again(vehicle):
     items = [MissionItem.waypoint(*at(10 * k, 0), 10.0) for k in range(1, 5)]
 
     async def go():
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             up: Any = await client.upload_mission(items)
             assert up.ok, up.reason
             assert sorted(relay.dropped) == [count, request_int, item_int, item_int]  # both directions lost some
@@ -210,7 +210,7 @@ def test_a_lost_parameter_set_is_sent_again(vehicle, lost):
     home = vehicle.sim.environment.home
 
     async def go():
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert await client.get_param("GF_MAX_VER_DIST") is not None  # its type is known: the next is one set
             relay.drop = {param_set: 1} if lost == "the set" else {param_value: 1}
             assert await client.set_param("GF_MAX_VER_DIST", 33.0, timeout_s=3.0) == 33.0
@@ -232,7 +232,7 @@ def test_a_set_is_answered_by_its_own_echo_not_an_earlier_reads(vehicle):
     link echoes the old value, and that is what the set returns, once its try's time is up."""
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             old = await client.get_param("GF_MAX_VER_DIST")
             assert old is not None
             read, echoed = await asyncio.gather(
@@ -254,7 +254,7 @@ def test_an_upload_after_a_download_whose_closing_ack_was_lost_waits_it_out(vehi
     items = [MissionItem.waypoint(*at(10 * k, 0), 10.0) for k in range(1, 4)]
 
     async def go():
-        async with await VehicleClient.connect(relay.address, timeout_s=5.0, ack_timeout_s=0.5) as client:
+        async with await VehicleClient.connect(relay.address, timeout_s=CONNECT_S, ack_timeout_s=0.5) as client:
             assert (await client.upload_mission(items)).ok
             relay.drop = {ack: 1}
             assert (await client.download_mission()).count == len(items)
@@ -272,7 +272,7 @@ def test_an_upload_after_a_download_whose_closing_ack_was_lost_waits_it_out(vehi
 
 def test_a_silent_vehicle_makes_transfers_time_out(vehicle):
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.1) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S, ack_timeout_s=0.1) as client:
             vehicle.stop()  # the socket stays open, nothing answers
             up: Any = await client.upload_mission([MissionItem.waypoint(*at(10, 0), 10.0)])
             assert up.status == "timeout" and up.result is None and "no answer" in up.reason
@@ -298,13 +298,13 @@ def test_a_finished_mission_starts_over_and_can_start_from_an_item(vehicle):
     vehicle.on_tick.append(lambda _state: seqs.append(runner.store.current_seq))
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert (await client.upload_mission(items)).ok
             assert (await client.start_mission()).ok
             first: Any = await client.wait_mission(timeout_s=60.0)
             assert first.ok and first.state.mission_reached == 2
         finished_at = len(seqs)
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as fresh:  # knows nothing yet
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as fresh:  # knows nothing yet
             again: Any = await fresh.start_mission()
             assert again.ok, again.reason
             assert again.state.mission_state in ("active", "complete")

@@ -12,6 +12,7 @@ from flight.geodesy import offset_position
 from flight.mavlink import FlightMode
 from flight.mavlink.geofence import Circle, Polygon
 from flight.vehicle import VehicleClient
+from tests.waiting import CONNECT_S
 
 from .test_client import run
 
@@ -27,7 +28,7 @@ def test_a_polygon_fence_is_uploaded_read_back_and_is_what_the_failsafe_checks(v
     square = [at(vehicle, n, e) for n, e in ((-50, -50), (50, -50), (50, 50), (-50, 50))]
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             result: Any = await client.upload_fence(polygon=square, max_alt_m=25.0, floor_m=3.0)
             assert result.ok, result
             assert result.items == 4
@@ -57,7 +58,7 @@ def test_a_circle_fence_caps_a_high_return_altitude(vehicle):
     centre = at(vehicle, 0, 0)
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             assert await client.set_param("RTL_RETURN_ALT", 80.0) == 80.0
             result: Any = await client.upload_fence(circle=(*centre, 150.0), max_alt_m=40.0)
             assert result.ok and result.items == 1, result
@@ -90,7 +91,7 @@ def test_a_bad_fence_fails_with_a_reason_and_sends_nothing(vehicle, kwargs, word
     before = vehicle.params["GF_MAX_VER_DIST"]
 
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             return await client.upload_fence(**kwargs)
 
     result: Any = run(go(), 30.0)
@@ -100,7 +101,7 @@ def test_a_bad_fence_fails_with_a_reason_and_sends_nothing(vehicle, kwargs, word
 
 def test_a_fence_the_vehicle_refuses_is_reported_denied(vehicle):
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             # a ceiling above what the vehicle accepts (GF_MAX_VER_DIST is at most 10000 m)
             return await client.upload_fence(circle=(*at(vehicle, 0, 0), 100.0), max_alt_m=20000.0)
 
@@ -110,7 +111,7 @@ def test_a_fence_the_vehicle_refuses_is_reported_denied(vehicle):
 
 def test_inject_failure_through_the_client(vehicle):
     async def go():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             refused = await client.inject_failure(m.FAILURE_UNIT_SYSTEM_BATTERY, m.FAILURE_TYPE_OFF)
             assert refused.status == "denied" and "SYS_FAILURE_EN" in (refused.reason or "")
             assert await client.set_param("SYS_FAILURE_EN", 1) == 1

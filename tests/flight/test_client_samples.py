@@ -15,6 +15,7 @@ from flight.client.telemetry import Telemetry
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from flight.vehicle import CAMERA_STREAMS, VehicleClient
+from tests.waiting import CONNECT_S
 
 from .test_client import run
 
@@ -50,7 +51,7 @@ def test_camera_rates_and_a_callback_per_sample_on_another_thread(realtime_vehic
     inbox: queue.Queue[tuple[TelemetrySample, str]] = queue.Queue()
 
     async def fly():
-        async with await VehicleClient.connect(realtime_vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(realtime_vehicle.address, timeout_s=CONNECT_S) as client:
             assert await client.wait_telemetry(5.0) is not None
             cancel = client.on_sample(lambda s: inbox.put((s, threading.current_thread().name)))
 
@@ -97,7 +98,7 @@ def test_attitude_reaches_the_sample_in_flight():
     v.start(speed=10.0)
 
     async def fly():
-        async with await VehicleClient.connect(v.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(v.address, timeout_s=CONNECT_S) as client:
             assert (await client.arm()).ok
             assert (await client.takeoff(6.0)).ok
             lat, lon = client.telemetry.lat_deg, client.telemetry.lon_deg
@@ -134,7 +135,7 @@ def test_samples_carry_the_gps_fix_and_the_wind_estimate_and_so_does_the_vehicle
     try:
 
         async def listen():
-            async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+            async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
                 deadline = time.monotonic() + 10.0
                 while time.monotonic() < deadline:
                     await asyncio.sleep(0.05)

@@ -6,6 +6,7 @@ from typing import Any
 
 from flight.geodesy import offset_position
 from flight.vehicle import VehicleClient
+from tests.waiting import CONNECT_S
 
 from .test_client import run
 
@@ -16,7 +17,7 @@ def test_an_armed_vehicle_keeps_the_fence_it_holds_and_refuses_another(vehicle: 
     elsewhere = offset_position(home.lat_deg, home.lon_deg, 30.0, 0.0)
 
     async def go() -> tuple[Any, Any, Any]:
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S) as client:
             first = await client.upload_fence(circle=(*centre, 150.0), max_alt_m=25.0, floor_m=2.0)
             assert first.ok, first
             assert (await client.arm()).ok

@@ -14,6 +14,7 @@ from agentic_core.mission import model as mission
 from agentic_core.mission.steps import Environment, perform, prepare
 from flight.tools import NEEDS_WORLD_MODEL, TIMEOUTS_S, beside, flight_tools, register_flight_tools
 from flight.vehicle import FlightResult, Telemetry, VehicleClient
+from tests.waiting import CONNECT_S
 from tools import Caller, ToolExecutor, ToolRegistry
 
 PILOT = Caller(id="pilot", scopes=frozenset({"flight:command", "flight:payload", "flight:read"}))
@@ -48,7 +49,7 @@ def vehicle_seed() -> int:
 @pytest.fixture
 def executor(vehicle):
     registry = ToolRegistry()
-    register_flight_tools(registry, lambda: VehicleClient.connect(vehicle.address, timeout_s=5.0))
+    register_flight_tools(registry, lambda: VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S))
     ex = ToolExecutor(registry, default_caller=PILOT)
     try:
         yield ex
@@ -117,7 +118,9 @@ def test_targets_are_found_through_the_resolver_and_landing_stops_short_of_them(
     person = offset_position(home.lat_deg, home.lon_deg, 30.0, 0.0)
     known = {"P-12": person}
     registry = ToolRegistry()
-    register_flight_tools(registry, lambda: VehicleClient.connect(vehicle.address, timeout_s=5.0), targets=known.get)
+    register_flight_tools(
+        registry, lambda: VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S), targets=known.get
+    )
     with ToolExecutor(registry, default_caller=PILOT) as ex:
         assert ex.call("flight.takeoff", {"altitude_m": 10}).status == "ok"
         unknown = ex.call("flight.fly_to", {"target_id": "P-99"})

@@ -12,7 +12,7 @@ from flight.signing import new_key
 from flight.sim import Simulator
 from flight.vehicle import VehicleClient, VehicleConnectionError
 from tests.flight.attacks.conftest import Attacker
-from tests.waiting import wait_for_async
+from tests.waiting import CONNECT_S, wait_for_async
 
 FAST_FORWARD = 20.0
 
@@ -56,7 +56,9 @@ def test_spoofed_telemetry_from_another_socket_cannot_end_a_goto(key, signing):
     spoofer.mav.srcComponent = 1
 
     async def fly():
-        async with await VehicleClient.connect(v.address, timeout_s=5.0, signing_key=key if signing else None) as c:
+        async with await VehicleClient.connect(
+            v.address, timeout_s=CONNECT_S, signing_key=key if signing else None
+        ) as c:
             assert (await c.arm()).ok and (await c.takeoff(5.0)).ok
             start = c.telemetry
             assert start.lat_deg is not None and start.lon_deg is not None
@@ -91,7 +93,7 @@ def test_spoofed_telemetry_from_another_socket_cannot_end_a_goto(key, signing):
 
 def test_the_signed_client_flies_the_signed_vehicle_and_a_wrong_key_is_not_heard(vehicle, key):
     async def fly():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, signing_key=key) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S, signing_key=key) as client:
             assert (await client.arm()).ok and (await client.takeoff(5.0)).ok
             assert (await client.goto_local(20.0, 0.0, 5.0)).ok
             assert (await client.land()).ok
@@ -106,7 +108,7 @@ def test_the_signed_client_flies_the_signed_vehicle_and_a_wrong_key_is_not_heard
 
 def test_an_unsigned_client_cannot_command_a_signed_vehicle(vehicle):
     async def try_it():
-        async with await VehicleClient.connect(vehicle.address, timeout_s=5.0, ack_timeout_s=0.3) as client:
+        async with await VehicleClient.connect(vehicle.address, timeout_s=CONNECT_S, ack_timeout_s=0.3) as client:
             result = await client.arm()  # it hears the vehicle (it does not check), but is not obeyed
             assert not result.ok and not vehicle.sim.armed
             await wait_for_async(lambda: vehicle.security()["unsigned"] >= 3, 5.0, what="refusals counted")
