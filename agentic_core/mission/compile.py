@@ -32,6 +32,7 @@ from .steps import (
     Interrupted,
     StepFailed,
     StepInterrupted,
+    keep_approval,
     run_iteration,
     run_with_retries,
     step_call,
@@ -142,7 +143,7 @@ class MissionRuntime:
             if kept_before:
                 update["approved"] = {step.id: None}  # the approval kept over an earlier pause no longer holds
         elif approved is not None:
-            update["approved"] = {step.id: approved}
+            update["approved"] = {step.id: keep_approval(approved, self.env)}
             entry["approval"] = "kept"
         return update
 

@@ -54,6 +54,9 @@ class Environment:
     stopping: Callable[[], str | None] = lambda: None
     """Why the run is being paused or stopped (the control port), None to go on: a ``wait_until``, which calls no
     tool that could be interrupted, gives way to it at its next poll."""
+    run_id: str | None = None
+    """The run these steps fly in. An approval kept over a pause holds in this run only (its ``--resume`` too):
+    a fork of it, a new run from one of its checkpoints, asks the operator again."""
 
 
 class StepFailed(RunFailure):
@@ -241,9 +244,9 @@ def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str,
     for text in step.preconditions:
         if not check(text, where):
             raise StepFailed(f"precondition {text!r} is false")
-    kept = (state.get("approved") or {}).get(step.id) if step.approval else None
+    kept = kept_approval(state, step, env)
     if kept is not None:
-        return dict(kept)
+        return kept
     try:
         args: dict[str, Any] = render(step_args(step), where)
     except ExpressionError as exc:
@@ -251,6 +254,21 @@ def prepare(step: Step, state: Mapping[str, Any], env: Environment) -> dict[str,
     if step.approval:
         args = _approve(step, args, env)
     return args
+
+
+def keep_approval(args: Mapping[str, Any], env: Environment) -> dict[str, Any]:
+    """What the mission state keeps of an approval interrupted by a pause: the arguments approved, and the run
+    they were approved in."""
+    return {"run": env.run_id, "args": dict(args)}
+
+
+def kept_approval(state: Mapping[str, Any], step: Step, env: Environment) -> dict[str, Any] | None:
+    """The arguments the operator approved for ``step`` before a pause, when the approval was given in this run
+    (None otherwise: ask). A fork carries its original's state but not its operator's yes."""
+    kept = (state.get("approved") or {}).get(step.id) if step.approval else None
+    if not isinstance(kept, Mapping) or kept.get("run") != env.run_id or not isinstance(kept.get("args"), Mapping):
+        return None
+    return dict(kept["args"])
 
 
 def _survey_legs(args: Mapping[str, Any]) -> list[tuple[float, float]]:

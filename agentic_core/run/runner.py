@@ -210,6 +210,7 @@ class MissionRun:
             approve=None if settings.approval == "ask" else policy_approval(settings.approval == "approve",
                                                                               self.bus.publish),
             gate=self.gate,
+            run_id=self.run_id,
             planner=self.model.plan if self.model.planner is not None else None,
             review=lambda steps: review(steps, self.registry, self.agent) + self.model.reads.problems(steps, self.plan)
             + destination_review(steps, self.config),

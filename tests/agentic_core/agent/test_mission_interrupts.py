@@ -13,7 +13,7 @@ import pytest
 
 from agentic_core.mission import Environment, compile_mission, initial_state
 from agentic_core.mission.compile import MissionRuntime
-from agentic_core.mission.steps import Interrupted, current_call
+from agentic_core.mission.steps import Interrupted, current_call, keep_approval, prepare
 from agentic_core.mission.triggers import identity, may_fire, object_id, trigger_events
 
 from .missions import PATROL, TWO_TRIGGERS, WATCHED, mission, trigger
@@ -128,9 +128,29 @@ def test_a_pause_keeps_the_operators_approval_and_the_step_flies_again_with_the_
     assert [r["step"] for r in approver.asked] == ["leg"]  # asked once, not again after the pause
     legs = [args for tool, args, _ in dispatch.calls if tool == "flight.fly_to"]
     assert [leg["north_m"] for leg in legs] == [80, 80]  # the operator's edit, both times
-    assert out["status"]["leg"] == "ok" and out["approved"] == {"leg": legs[0]}
+    assert out["status"]["leg"] == "ok" and out["approved"] == {"leg": {"run": None, "args": legs[0]}}
     (entry,) = [e for e in out["log"] if e.get("status") == "interrupted"]
     assert entry["approval"] == "kept" and entry["trigger"] is None
+
+
+@pytest.mark.parametrize(
+    ("kept", "asked"),
+    [
+        ({"run": "flight-1", "args": {"north_m": 80}}, False),  # this run's: flies with it
+        ({"run": "flight-0", "args": {"north_m": 80}}, True),  # the run it was forked from: asked again
+        ({"north_m": 80}, True),  # kept before approvals named their run: asked again
+        ({"run": "flight-1", "args": "north_m=80"}, True),  # not arguments: asked again
+    ],
+)
+def test_a_kept_approval_holds_in_the_run_that_gave_it_only(kept: dict[str, Any], asked: bool) -> None:
+    plan = mission(APPROVED_LEG)
+    (leg,) = [s for s in plan.steps if s.id == "leg"]
+    approver = Approver()
+    env = Environment(Scripted(lambda n, args: None), approve=approver, run_id="flight-1")
+    args = prepare(leg, {"approved": {"leg": kept}, "outputs": {}}, env)
+    assert bool(approver.asked) is asked
+    assert asked or args == {"north_m": 80}
+    assert keep_approval(args, env) == {"run": "flight-1", "args": args}
 
 
 def test_a_trigger_that_takes_over_an_approved_step_has_it_asked_again() -> None:

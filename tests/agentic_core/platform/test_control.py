@@ -9,7 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from agentic_core.run.runner import MissionRun, RunSettings
+from agentic_core.graph.checkpoint.sqlite import SqliteSaver
+from agentic_core.run.fork import CHECKPOINTS_FILE, fork_run
+from agentic_core.run.runner import MissionRun, RunSettings, resume_run
 from tests.waiting import wait_for
 
 from .conftest import REPO, fly_steered, of_kind, pause_and_hold, telemetry, trace
@@ -38,7 +40,7 @@ def flying_a_leg(run: MissionRun) -> bool:
 @pytest.mark.slow
 def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(tmp_path: Path) -> None:
     """The paused step (the patrol, approved before it started) flies again after resume without being asked
-    again, with the approval kept."""
+    again, with the approval kept; a fork of the run from a checkpoint that keeps it asks again."""
     run = patrol(tmp_path, approved=True)
     held: list[tuple[float, float]] = []
 
@@ -59,6 +61,17 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
     assert [r["request"]["step"] for r in of_kind(records, "approval")] == ["patrol"]  # asked once, not after resume
     (interrupted,) = [r for r in of_kind(records, "mission") if r.get("status") == "interrupted"]
     assert interrupted["step"] == "patrol" and interrupted["approval"] == "kept"
+
+    # A fork from a checkpoint that keeps the approval is a new run: its operator is asked again.
+    saver = SqliteSaver(result.run_dir / CHECKPOINTS_FILE)
+    kept = [c for c in saver.list(result.run_id) if (c.values.get("approved") or {}).get("patrol") is not None]
+    assert kept, "no checkpoint keeps the approval"
+    runs = result.run_dir.parent
+    fork = resume_run(runs, fork_run(runs, result.run_id, kept[-1].id), progress=None, approval="approve")
+    assert fork.summary.outcome == "completed"
+    after = trace(fork.run_dir)
+    start = next(k for k, r in enumerate(after) if r.get("event") == "fork")
+    assert [r["request"]["step"] for r in of_kind(after[start:], "approval")] == ["patrol"]  # before: none
 
 
 @pytest.mark.slow
