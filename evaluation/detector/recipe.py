@@ -5,7 +5,9 @@ render, train, quantise, refit the boxes, fit the crowd rescue, calibrate and re
 process), each in a folder of its own under ``DIR``; the last, ``DIR/final``, holds ``person.onnx`` and
 ``person.json`` as a run loads them (the recipe gains a ``made`` entry with every stage's wall and CPU seconds), and
 ``DIR/docs`` the report. Training stops at ``--train-minutes`` of wall clock (the learning rate's schedule follows
-the budget), so the whole recipe takes about seven minutes more than that on a 2-core machine.
+the budget), so the whole recipe takes about seven minutes more than that on a 2-core machine; how many steps that
+buys depends on the machine. ``--train-steps N`` trains exactly N steps instead, with no time budget: the same
+N (and ``--threads``) make the same weights.
 
 >>> stages("runs/det")[0].name, [s.name for s in stages("runs/det")][1:]
 ('train', ['quantise', 'box_refit', 'rescue_fit', 'report'])
@@ -40,15 +42,22 @@ class Stage:
     argv: tuple[str, ...]
 
 
-def stages(out: Path | str, *, train_minutes: float = TRAIN_MINUTES, threads: int = 2) -> list[Stage]:
-    """The stages that make the weights in ``out`` (each writes the folder the next one reads)."""
+def stages(
+    out: Path | str, *, train_minutes: float = TRAIN_MINUTES, threads: int = 2, train_steps: int | None = None
+) -> list[Stage]:
+    """The stages that make the weights in ``out`` (each writes the folder the next one reads); ``train_steps``
+    replaces the time budget with an exact step count."""
     root = Path(out)
     float_, int8, refit, final = (str(root / name) for name in ("float", "int8", "refit", "final"))
+    budget = (
+        ("--max-minutes", f"{train_minutes:g}", "--max-cpu-minutes", f"{train_minutes * threads:g}")
+        if train_steps is None
+        else ("--steps", str(train_steps))
+    )
     train = (
         "--out", float_, "--context32", "--neighbour-boxes", "--extra-seed", "4", "--extra-frames", "800",
         "--extra-altitudes", *EXTRA_ALTITUDES_M, "--epochs", "60", "--learning-rate", "2e-3",
-        "--threads", str(threads), "--max-minutes", f"{train_minutes:g}",
-        "--max-cpu-minutes", f"{train_minutes * threads:g}",
+        "--threads", str(threads), *budget,
     )  # fmt: skip
     return [
         Stage("train", "evaluation.detector.train", train),
@@ -89,12 +98,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m evaluation.detector.recipe", description=__doc__)
     parser.add_argument("--out", type=Path, required=True, help="folder for every stage's output (created)")
     parser.add_argument("--train-minutes", type=float, default=TRAIN_MINUTES, help="training's wall-clock budget")
+    parser.add_argument(
+        "--train-steps", type=int, help="train exactly this many steps instead (no time budget): reproducible"
+    )
     parser.add_argument("--threads", type=int, default=2, help="torch threads for training")
     args = parser.parse_args(argv)
     if args.train_minutes <= 0 or args.threads < 1:
         parser.error("--train-minutes must be above 0 and --threads at least 1")
+    if args.train_steps is not None and args.train_steps < 1:
+        parser.error("--train-steps must be at least 1")
     args.out.mkdir(parents=True, exist_ok=True)
-    made = run(stages(args.out, train_minutes=args.train_minutes, threads=args.threads), args.out / "final")
+    plan = stages(args.out, train_minutes=args.train_minutes, threads=args.threads, train_steps=args.train_steps)
+    made = run(plan, args.out / "final")
     total = made["total"]
     print(f"made {args.out / 'final'} in {total['seconds'] / 60:.1f} min ({total['cpu_seconds'] / 60:.1f} CPU min)")
     return 0

@@ -120,6 +120,10 @@ def _training_line(recipe: dict[str, Any]) -> str:
         line += f" and seed {cfg.get('extra_seed')}, {cfg.get('extra_frames')} frames at {extra} m"
     if cfg.get("neighbour_boxes"):
         line += ", the box taught at the two cells beside each centre cell too"
+    stopped = {"steps": "a fixed step count" if cfg.get("steps") else "its epochs", "wall clock": "its wall-clock "
+               "budget", "CPU time": "its CPU budget"}.get(str(train.get("stopped_by")))  # fmt: skip
+    if stopped is not None:
+        line += f", ended by {stopped}"
     return (
         f"{line}, crops of {cfg.get('crop_px')} px, {train.get('epochs_done')} epochs ({train.get('steps')} steps of "
         f"{cfg.get('batch')}, peak learning rate {cfg.get('learning_rate')}) in {train.get('seconds')} s of wall time "
@@ -156,7 +160,12 @@ def _description(recipe: dict[str, Any], threshold: float) -> list[str]:
             f"- made from nothing by one command, `{made.get('command')}`, in {total.get('seconds', 0.0) / 60:.1f} "
             f"min of wall time ({total.get('cpu_seconds', 0.0) / 60:.1f} CPU min) on a {made.get('cpus', '?')}-core "
             "machine (minutes: "
-            f"{each}; training's budget decides how many steps it takes)",
+            f"{each}; "
+            + (
+                "a fixed step count, so the same command makes the same weights)"
+                if recipe.get("config", {}).get("steps")
+                else "training's wall-clock budget decides how many steps it takes)"
+            ),
         )
     parent = recipe.get("parent")
     while isinstance(parent, dict):

@@ -75,6 +75,10 @@ class TrainConfig:
     """The SHA-256 of the ONNX weights training started from (:mod:`.warm_start`), None for a fresh network."""
     neighbour_boxes: bool = False
     """Teach the box at the two cells next to each centre too (:func:`.crops.targets`)."""
+    steps: int | None = None
+    """Train exactly this many steps, the learning rate's schedule following them alone and no time budget
+    applied: the same frames, seed, threads and steps give the same weights. None: ``epochs``, cut short by
+    ``max_minutes`` or ``max_cpu_minutes``, whose schedule follows the clock (how long depends on the machine)."""
 
 
 @dataclass
@@ -86,6 +90,8 @@ class TrainStats:
     seconds: float = 0.0
     cpu_seconds: float = 0.0
     loss_by_epoch: list[float] = field(default_factory=list)
+    stopped_by: str = ""
+    """What ended training: ``steps`` (the step budget or the epochs done), ``wall clock`` or ``CPU time``."""
 
 
 RENDER_WORKERS = min(2, os.cpu_count() or 1)
@@ -263,6 +269,12 @@ class _Budget:
         """The larger share used of the two budgets (1 or more: spent)."""
         return max(self.wall() / self._wall_s, self.cpu() / self._cpu_s)
 
+    def spent_on(self) -> str:
+        """Which budget ran out (``steps`` when neither did)."""
+        if self.wall() >= self._wall_s:
+            return "wall clock"
+        return "CPU time" if self.cpu() >= self._cpu_s else "steps"
+
 
 def train(
     frames: Sequence[Labelled],
@@ -285,10 +297,14 @@ def train(
     net = PersonNet(config.net_width, context32=config.context32) if init is None else init
     net = net.to(memory_format=torch.channels_last)  # oneDNN's own layout: about 1.2-1.4x faster steps on the CPU
     per_epoch = max(1, len(frames) * config.crops_per_frame // config.batch)
-    total = per_epoch * config.epochs if max_steps is None else min(max_steps, per_epoch * config.epochs)
+    total = per_epoch * config.epochs if config.steps is None else config.steps
+    total = total if max_steps is None else min(max_steps, total)
     optimiser = torch.optim.AdamW(net.parameters(), lr=config.learning_rate, weight_decay=1e-4)
     stats = TrainStats()
-    budget = _Budget(config.max_minutes * 60.0, config.max_cpu_minutes * 60.0)
+    timed = config.steps is None
+    budget = _Budget(
+        config.max_minutes * 60.0 if timed else math.inf, config.max_cpu_minutes * 60.0 if timed else math.inf
+    )
     net.train()
     if init is not None:
         freeze_norms(net)
@@ -312,6 +328,7 @@ def train(
         log(f"epoch {stats.epochs_done}: {stats.steps}/{total} steps, loss {stats.loss_by_epoch[-1]}, "
             f"{budget.wall():.0f} s, {budget.cpu():.0f} CPU s")  # fmt: skip
     stats.seconds, stats.cpu_seconds = round(budget.wall(), 1), round(budget.cpu(), 1)
+    stats.stopped_by = "steps" if stats.steps >= total else budget.spent_on()
     net.eval()
     return net, stats
 
@@ -374,6 +391,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     defaults = TrainConfig()
     for name in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width", "threads", "extra_frames"):
         parser.add_argument(f"--{name.replace('_', '-')}", type=int, default=getattr(defaults, name))
+    parser.add_argument(
+        "--steps", type=int, help="train exactly this many steps, no time budget: the same steps, the same weights"
+    )
     parser.add_argument("--max-minutes", type=float, default=defaults.max_minutes, help="wall-clock budget")
     parser.add_argument(
         "--max-cpu-minutes", type=float, default=defaults.max_cpu_minutes, help="CPU budget, all threads together"
@@ -391,6 +411,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.extra_frames and (args.extra_seed is None or not args.extra_altitudes):
         parser.error("--extra-frames needs --extra-seed and --extra-altitudes")
+    if args.steps is not None and args.steps < 1:
+        parser.error("--steps must be at least 1")
     config = TrainConfig(
         **{k: getattr(args, k) for k in ("data_seed", "frames", "epochs", "crops_per_frame", "batch", "net_width")},
         threads=args.threads,
@@ -403,6 +425,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         extra_altitudes_m=tuple(args.extra_altitudes),
         init_sha256=None if args.init is None else sha256_of(args.init),
         neighbour_boxes=args.neighbour_boxes,
+        steps=args.steps,
     )
     started = time.monotonic()
     frames = _cached(args.cache, lambda: render_frames(config, workers=RENDER_WORKERS))

@@ -30,7 +30,9 @@ def test_each_stage_reads_the_folder_the_one_before_it_wrote(tmp_path: Path) -> 
     assert _flag(rescue, "--src") == _flag(refit, "--out")
     assert _flag(report, "--weights") == _flag(rescue, "--out") == str(tmp_path / "final")
     assert _flag(train, "--max-minutes") == "7.5" and _flag(train, "--threads") == "1"
-    assert {"--context32", "--neighbour-boxes"} <= set(train)
+    assert {"--context32", "--neighbour-boxes"} <= set(train) and "--steps" not in train
+    counted = stages(tmp_path, threads=1, train_steps=500)[0].argv
+    assert _flag(counted, "--steps") == "500" and "--max-minutes" not in counted and "--max-cpu-minutes" not in counted
 
 
 def _fake_stage(folder: Path, name: str, body: str) -> str:
@@ -65,7 +67,13 @@ def test_a_failing_stage_stops_the_recipe_with_its_status(tmp_path: Path, monkey
 
 
 @pytest.mark.parametrize(
-    ("argv", "said"), [(["--train-minutes", "0"], "--train-minutes"), (["--threads", "0"], "--threads")]
+    ("argv", "said"),
+    [
+        (["--train-minutes", "0"], "--train-minutes"),
+        (["--threads", "0"], "--threads"),
+        (["--train-steps", "0"], "--train-steps"),
+        (["--train-steps", "many"], "--train-steps"),
+    ],
 )
 def test_bad_arguments_are_refused_with_status_2(
     argv: list[str], said: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -87,6 +95,10 @@ def test_the_report_says_what_the_recipe_took_and_nothing_when_it_was_not_made_b
     }  # fmt: skip
     (line,) = [t for t in _description(recipe, 0.3) if t.startswith("- made from nothing")]
     assert "in 23.5 min of wall time (40.0 CPU min) on a 2-core machine" in line
-    assert "render and train 22.5, report 1.0" in line
+    assert "render and train 22.5, report 1.0" in line and "wall-clock budget decides how many steps" in line
+    recipe["config"]["steps"], recipe["training"]["stopped_by"] = 500, "steps"
+    text = _description(recipe, 0.3)
+    assert "a fixed step count, so the same command makes the same weights" in text[2]
+    assert "ended by a fixed step count" in next(t for t in text if t.startswith("- training:"))
     del recipe["made"]
     assert not [t for t in _description(recipe, 0.3) if "made from nothing" in t]

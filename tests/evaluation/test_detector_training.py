@@ -68,6 +68,29 @@ def test_the_command_line_writes_weights_and_recipe(tmp_path: Path) -> None:
     assert main([*args, "--max-minutes", "0.05"]) == 0
     recipe = json.loads((tmp_path / "person.json").read_text())
     assert recipe["config"]["frames"] == 2 and (tmp_path / "person.onnx").is_file()
+    assert main([*args, "--steps", "2"]) == 0
+    recipe = json.loads((tmp_path / "person.json").read_text())
+    assert recipe["config"]["steps"] == 2 and recipe["training"]["steps"] == 2
+    assert recipe["training"]["stopped_by"] == "steps"
+
+
+def test_a_step_budget_trains_the_same_weights_twice_and_a_time_budget_says_it_stopped_training() -> None:
+    """``steps``: the schedule follows the steps alone, so two runs give the same weights (not so with a time
+    budget, whose schedule follows the clock); a run cut short by the clock says which budget ended it."""
+    import torch
+
+    config = TrainConfig(frames=2, width_px=320, height_px=240, crop_px=96, batch=2, crops_per_frame=2, epochs=1,
+                         threads=1, steps=3)  # fmt: skip
+    frames = render_frames(config)
+    (a, first), (b, second) = (train(frames, config, log=lambda _: None) for _ in range(2))
+    assert first.steps == second.steps == 3 and first.epochs_done == 2  # 2 steps an epoch: past ``epochs=1``
+    assert first.stopped_by == "steps" and first.loss_by_epoch == second.loss_by_epoch
+    pairs = zip(a.state_dict().items(), b.state_dict().items(), strict=True)
+    assert all(name == other and torch.equal(x, y) for (name, x), (other, y) in pairs)
+    timed = TrainConfig(frames=2, width_px=320, height_px=240, crop_px=96, batch=2, crops_per_frame=2, epochs=50,
+                        threads=1, max_minutes=1e-4)  # fmt: skip
+    _, cut = train(frames, timed, log=lambda _: None)
+    assert cut.stopped_by == "wall clock" and cut.steps < 50
 
 
 def test_frames_rendered_in_parts_over_processes_are_those_rendered_in_one(monkeypatch: pytest.MonkeyPatch) -> None:
