@@ -4,12 +4,20 @@ how well a confidence is calibrated (expected calibration error, the reliability
 
 The World Model's ``conf`` is the calibrated value: a track at 0.8 is a person four times in five.
 
+One raw score does not mean the same for every size: a detector is surer of a large person than its score says,
+and less sure of a tiny one. With ``size_edges_px``, each band of box sizes (the box's longer side) has a map of
+its own, fitted on that band's detections; a score given without its size uses the map of all sizes.
+
 >>> import numpy as np
 >>> cal = Calibration.fit(np.array([0.1, 0.2, 0.3, 0.6, 0.7, 0.9]), np.array([0, 0, 1, 0, 1, 1]))
 >>> cal.apply(np.array([0.1, 0.65, 0.95])).round(2).tolist()
 [0.0, 0.75, 1.0]
 >>> Calibration.model_validate(cal.model_dump()) == cal
 True
+>>> sized = Calibration.fit(np.array([0.4, 0.4, 0.4, 0.4]), np.array([0, 0, 1, 1]), np.array([5, 5, 50, 50]),
+...                         size_edges_px=[20.0], min_band=2)
+>>> sized.apply(np.array([0.4, 0.4]), np.array([5.0, 50.0])).tolist(), sized.apply(np.array([0.4])).tolist()
+([0.0, 1.0], [0.5])
 >>> round(expected_calibration_error(np.array([0.9, 0.9, 0.1, 0.1]), np.array([1, 1, 0, 0])), 3)
 0.1
 """
@@ -26,23 +34,52 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 FloatArray = NDArray[np.float64]
 
 
+MIN_BAND = 200
+"""Fewest detections a size band is fitted on; a band with fewer takes the map of all sizes."""
+
+
+def _check_curve(scores: list[float], probs: list[float], where: str) -> None:
+    s, p = np.asarray(scores), np.asarray(probs)
+    if len(s) != len(p):
+        raise ValueError(f"{where}: {len(s)} scores but {len(p)} probabilities")
+    if not (np.all(np.diff(s) > 0) and np.all(np.diff(p) >= 0) and np.all((p >= 0) & (p <= 1))):
+        raise ValueError(f"{where}: scores must increase and probabilities be non-decreasing in 0-1")
+
+
+class SizeBand(BaseModel):
+    """The map of one band of box sizes, as :class:`Calibration`'s own ``scores`` and ``probs``."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    scores: list[float] = Field(min_length=1)
+    probs: list[float] = Field(min_length=1)
+
+
 class Calibration(BaseModel):
     """A non-decreasing piecewise-linear map from raw score to probability: ``scores`` are its knots (increasing),
-    ``probs`` the values there (non-decreasing, 0–1); below the first knot the first value, above the last the last."""
+    ``probs`` the values there (non-decreasing, 0–1); below the first knot the first value, above the last the last.
+    With ``size_edges_px`` (increasing), ``by_size`` holds one map more than there are edges: the first for boxes
+    whose longer side is under the first edge, the last for those at or over the last."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     method: str = "isotonic"
     scores: list[float] = Field(min_length=1)
     probs: list[float] = Field(min_length=1)
+    size_edges_px: list[float] = Field(default_factory=list)
+    by_size: list[SizeBand] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _monotone(self) -> Calibration:
-        s, p = np.asarray(self.scores), np.asarray(self.probs)
-        if len(s) != len(p):
-            raise ValueError(f"calibration: {len(s)} scores but {len(p)} probabilities")
-        if not (np.all(np.diff(s) > 0) and np.all(np.diff(p) >= 0) and np.all((p >= 0) & (p <= 1))):
-            raise ValueError("calibration: scores must increase and probabilities be non-decreasing in 0-1")
+        _check_curve(self.scores, self.probs, "calibration")
+        for k, band in enumerate(self.by_size):
+            _check_curve(band.scores, band.probs, f"calibration: by_size[{k}]")
+        edges = np.asarray(self.size_edges_px)
+        if not (np.all(edges > 0) and np.all(np.diff(edges) > 0)):
+            raise ValueError("calibration: size_edges_px must be positive and increasing")
+        if (self.size_edges_px or self.by_size) and len(self.by_size) != len(edges) + 1:
+            raise ValueError(f"calibration: {len(edges)} size edges need {len(edges) + 1} maps in by_size, "
+                             f"not {len(self.by_size)}")  # fmt: skip
         return self
 
     @classmethod
@@ -51,22 +88,56 @@ class Calibration(BaseModel):
         return cls(method="identity", scores=[0.0, 1.0], probs=[0.0, 1.0])
 
     @classmethod
-    def fit(cls, scores: NDArray[np.floating], labels: NDArray[Any]) -> Calibration:
-        """Isotonic regression of ``labels`` (1: a true person) on ``scores``, with tied scores pooled first."""
-        from scipy.optimize import isotonic_regression
-
+    def fit(
+        cls,
+        scores: NDArray[np.floating],
+        labels: NDArray[Any],
+        long_px: NDArray[np.floating] | None = None,
+        *,
+        size_edges_px: list[float] | None = None,
+        min_band: int = MIN_BAND,
+    ) -> Calibration:
+        """Isotonic regression of ``labels`` (1: a true person) on ``scores``, with tied scores pooled first; with
+        ``long_px`` (each box's longer side) and ``size_edges_px``, also one per band of sizes."""
         if len(scores) == 0:
             raise ValueError("calibration: no scores to fit")
-        knots, inverse = np.unique(np.asarray(scores, dtype=np.float64), return_inverse=True)
-        counts = np.bincount(inverse).astype(np.float64)
-        means = np.bincount(inverse, weights=np.asarray(labels, dtype=np.float64)) / counts
-        fitted = np.clip(isotonic_regression(means, weights=counts).x, 0.0, 1.0)
-        keep = np.r_[True, np.diff(fitted) > 0] | np.r_[np.diff(fitted) > 0, True]
-        return cls(scores=knots[keep].tolist(), probs=np.maximum.accumulate(fitted[keep]).tolist())
+        every = _isotonic(scores, labels)
+        if long_px is None or not size_edges_px:
+            return cls(scores=every[0], probs=every[1])
+        band = np.searchsorted(np.asarray(size_edges_px), np.asarray(long_px, dtype=np.float64), side="right")
+        y = np.asarray(labels, dtype=np.float64)
+        curves = []
+        for k in range(len(size_edges_px) + 1):
+            inside = band == k
+            fitted = int(inside.sum()) >= min_band
+            knots, probs = _isotonic(np.asarray(scores)[inside], y[inside]) if fitted else every
+            curves.append(SizeBand(scores=knots, probs=probs))
+        return cls(scores=every[0], probs=every[1], size_edges_px=list(size_edges_px), by_size=curves)
 
-    def apply(self, scores: NDArray[np.floating]) -> FloatArray:
-        """The calibrated probability of each raw score."""
-        return np.interp(np.asarray(scores, dtype=np.float64), self.scores, self.probs)
+    def apply(self, scores: NDArray[np.floating], long_px: NDArray[np.floating] | None = None) -> FloatArray:
+        """The calibrated probability of each raw score; with ``long_px`` (each box's longer side, pixels), by the
+        map of its size band."""
+        raw = np.asarray(scores, dtype=np.float64)
+        if long_px is None or not self.by_size:
+            return np.interp(raw, self.scores, self.probs)
+        band = np.searchsorted(np.asarray(self.size_edges_px), np.asarray(long_px, dtype=np.float64), side="right")
+        out = np.empty(raw.shape, np.float64)
+        for k, curve in enumerate(self.by_size):
+            inside = band == k
+            out[inside] = np.interp(raw[inside], curve.scores, curve.probs)
+        return out
+
+
+def _isotonic(scores: NDArray[np.floating], labels: NDArray[Any]) -> tuple[list[float], list[float]]:
+    """The knots and values of the isotonic fit of ``labels`` on ``scores`` (tied scores pooled first)."""
+    from scipy.optimize import isotonic_regression
+
+    knots, inverse = np.unique(np.asarray(scores, dtype=np.float64), return_inverse=True)
+    counts = np.bincount(inverse).astype(np.float64)
+    means = np.bincount(inverse, weights=np.asarray(labels, dtype=np.float64)) / counts
+    fitted = np.clip(isotonic_regression(means, weights=counts).x, 0.0, 1.0)
+    keep = np.r_[True, np.diff(fitted) > 0] | np.r_[np.diff(fitted) > 0, True]
+    return knots[keep].tolist(), np.maximum.accumulate(fitted[keep]).tolist()
 
 
 @dataclass(frozen=True)
@@ -98,4 +169,4 @@ def expected_calibration_error(conf: NDArray[np.floating], labels: NDArray[Any],
     return float(np.sum(r.count * np.abs(r.confidence - r.frequency)) / np.sum(r.count))
 
 
-__all__ = ["Calibration", "Reliability", "expected_calibration_error", "reliability"]
+__all__ = ["MIN_BAND", "Calibration", "Reliability", "SizeBand", "expected_calibration_error", "reliability"]

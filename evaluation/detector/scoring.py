@@ -53,6 +53,9 @@ class Matched:
     counted: list[NDArray[np.bool_]]
     """Per frame, which true boxes count (not ignored)."""
     frames: int
+    long_px: NDArray[np.float64]
+    """Each detection's box's longer side in pixels, in the order of ``scores`` (what a size-aware calibration
+    reads)."""
 
     def counted_detections(self, threshold: float) -> NDArray[np.bool_]:
         """The detections scoring at least ``threshold`` that precision counts (all but the ignored)."""
@@ -68,6 +71,7 @@ def match(
     """Match each frame's detections (boxes, scores) to its true boxes, best score first, each counted true box
     once; ``ignore`` (per frame, per true box) names the ignored persons."""
     scores: list[float] = []
+    long_px: list[float] = []
     hits: list[bool] = []
     ignored: list[bool] = []
     indices: list[NDArray[np.int64]] = []
@@ -94,6 +98,7 @@ def match(
                     best[j] = float(conf[i])
                     index[i] = j
             scores.append(float(conf[i]))
+            long_px.append(float(max(boxes[i][2] - boxes[i][0], boxes[i][3] - boxes[i][1])))
             hits.append(bool(index[i] >= 0))
             ignored.append(bool(index[i] < 0 and dont_care))
         indices.append(index[order])
@@ -102,7 +107,7 @@ def match(
         counted_all.append(~skip)
     return Matched(
         np.array(scores), np.array(hits, bool), np.array(ignored, bool), indices, truth_hit, truth_score,
-        counted_all, len(truth),
+        counted_all, len(truth), np.array(long_px, np.float64),
     )  # fmt: skip
 
 

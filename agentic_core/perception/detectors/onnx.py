@@ -4,7 +4,8 @@ protocol, run on the CPU with onnxruntime (the ``vision`` extra).
 A frame's pixels are letterboxed into the model's input, its output decoded (the YOLOv8/YOLO11 layout or the
 YOLOv5 one, told apart by shape unless ``layout`` says), overlapping boxes suppressed per class, and the rest mapped
 back to the frame's pixels. The raw score becomes the detection's confidence through a :class:`Calibration`
-(the identity unless one is given), so the World Model's ``conf`` is a probability.
+(the identity unless one is given; by the box's size when it has maps by size), so the World Model's ``conf`` is a
+probability.
 
 >>> from agentic_core.perception.detectors import OnnxDetector
 >>> OnnxDetector("no/such/model.onnx")
@@ -179,7 +180,8 @@ class OnnxDetector:
                 "rendering camera (--detector onnx:PATH turns it on)"
             )
         boxes, scores, labels = self.detect_array(frame.image)
-        conf = np.clip(self.calibration.apply(scores), 0.0, 1.0)
+        long_px = np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1])
+        conf = np.clip(self.calibration.apply(scores, long_px), 0.0, 1.0)
         if not (np.isfinite(boxes).all() and np.isfinite(conf).all()):  # validation says what is wrong
             return [
                 Detection(

@@ -39,6 +39,37 @@ def test_fitted_map_is_monotone_and_in_range(pairs) -> None:
     assert Calibration.model_validate_json(cal.model_dump_json()) == cal
 
 
+def by_size(seed: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scores whose hit rate depends on the box's size too: score² for boxes under 20 px, √score from 20 px."""
+    rng = np.random.default_rng(seed)
+    scores, long_px = rng.uniform(0.2, 1.0, n), rng.choice([8.0, 40.0], n)
+    rate = np.where(long_px < 20.0, scores**2, np.sqrt(scores))
+    return scores, (rng.uniform(size=n) < rate).astype(int), long_px
+
+
+def test_a_map_per_size_band_is_calibrated_in_each_band_where_one_map_is_not() -> None:
+    scores, labels, long_px = by_size(4, 8000)
+    held_scores, held_labels, held_long = by_size(5, 8000)
+    one = Calibration.fit(scores, labels)
+    sized = Calibration.fit(scores, labels, long_px, size_edges_px=[20.0])
+    assert sized.size_edges_px == [20.0] and len(sized.by_size) == 2
+    for small in (True, False):
+        band = (held_long < 20.0) == small
+        flat = expected_calibration_error(one.apply(held_scores[band]), held_labels[band])
+        banded = expected_calibration_error(sized.apply(held_scores[band], held_long[band]), held_labels[band])
+        assert flat > 0.1 and banded < 0.03  # one map is off by a tenth in each band
+    assert np.array_equal(sized.apply(held_scores), one.apply(held_scores))  # without sizes: the map of all sizes
+    assert Calibration.model_validate_json(sized.model_dump_json()) == sized
+
+
+def test_a_size_band_with_too_few_detections_takes_the_map_of_all_sizes() -> None:
+    scores, labels, long_px = by_size(6, 1000)
+    long_px[:10] = 100.0  # ten large boxes only
+    cal = Calibration.fit(scores, labels, long_px, size_edges_px=[20.0, 50.0], min_band=50)
+    assert (cal.by_size[2].scores, cal.by_size[2].probs) == (cal.scores, cal.probs)
+    assert cal.by_size[0].scores != cal.scores
+
+
 def test_reliability_bins_count_everything() -> None:
     scores, labels = overconfident(3, 1000)
     r = reliability(scores, labels, bins=10)
@@ -54,6 +85,19 @@ def test_reliability_bins_count_everything() -> None:
         {"scores": [0.0, 1.0], "probs": [0.0, 1.5]},
         {"scores": [0.0, 1.0], "probs": [0.5]},
         {"scores": [], "probs": []},
+        {"scores": [0.0, 1.0], "probs": [0.0, 1.0], "size_edges_px": [10.0], "by_size": []},
+        {
+            "scores": [0.0, 1.0],
+            "probs": [0.0, 1.0],
+            "size_edges_px": [20.0, 10.0],
+            "by_size": [{"scores": [0.0], "probs": [0.5]}] * 3,
+        },
+        {
+            "scores": [0.0, 1.0],
+            "probs": [0.0, 1.0],
+            "size_edges_px": [10.0],
+            "by_size": [{"scores": [0.0], "probs": [0.5]}, {"scores": [0.0, 1.0], "probs": [0.9, 0.1]}],
+        },
     ],
 )
 def test_maps_that_are_not_probabilities_are_refused(fields) -> None:

@@ -87,6 +87,17 @@ def test_calibration_maps_the_score(tmp_path: Path) -> None:
     assert hit.confidence == pytest.approx(0.4)
 
 
+def test_calibration_by_size_reads_each_boxs_longer_side(tmp_path: Path) -> None:
+    """The same raw score, 0.8, on a 20 px box and on a 60×10 px one (in the frame): each gets its size band's map."""
+    rows = [[100, 100, 10, 10, 0.8], [200, 160, 30, 5, 0.8]] + [[0, 0, 0, 0, 0]] * 4
+    model = constant_model(tmp_path / "s.onnx", v8_output(rows))
+    small, large = {"scores": [0.0, 1.0], "probs": [0.0, 0.25]}, {"scores": [0.0, 1.0], "probs": [0.0, 1.0]}
+    cal = Calibration(scores=[0.0, 1.0], probs=[0.0, 0.5], size_edges_px=[30.0], by_size=[small, large])
+    found = OnnxDetector(model, calibration=cal).detect(frame(pixels()))
+    sizes = sorted((round(d.box.x_max - d.box.x_min), round(d.confidence, 6)) for d in found)
+    assert sizes == [(20, 0.2), (60, 0.8)]  # one map for all sizes: 0.4 both
+
+
 def test_grayscale_and_dynamic_input(tmp_path: Path) -> None:
     out = v8_output([[100, 100, 20, 20, 0.8]] + [[0, 0, 0, 0, 0]] * 5)
     gray = constant_model(tmp_path / "g.onnx", out, input_shape=(1, 1, 240, 320))

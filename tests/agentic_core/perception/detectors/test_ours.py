@@ -22,6 +22,7 @@ def test_the_shipped_weights_match_their_recipe_and_load() -> None:
     detector = load_ours()
     assert detector.score_threshold == recipe["score_threshold"] and detector.input_size == (640, 480)
     assert detector.calibration.scores == recipe["calibration"]["scores"]
+    assert len(detector.calibration.by_size) == len(recipe["calibration"]["size_edges_px"]) + 1 > 1  # by box size
     boxes, scores, labels = detector.detect_array(np.full((480, 640, 3), 128, np.uint8))
     assert len(boxes) == len(scores) == len(labels)
 
