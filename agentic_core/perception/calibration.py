@@ -109,7 +109,7 @@ class Calibration(BaseModel):
         curves = []
         for k in range(len(size_edges_px) + 1):
             inside = band == k
-            fitted = int(inside.sum()) >= min_band
+            fitted = int(inside.sum()) >= max(min_band, 1)
             knots, probs = _isotonic(np.asarray(scores)[inside], y[inside]) if fitted else every
             curves.append(SizeBand(scores=knots, probs=probs))
         return cls(scores=every[0], probs=every[1], size_edges_px=list(size_edges_px), by_size=curves)

@@ -16,6 +16,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from pydantic import ValidationError
+
 from ...contracts.errors import InputError
 from ..calibration import Calibration
 from .onnx import OnnxDetector
@@ -62,7 +64,12 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
             f"{path}: SHA-256 {digest} is not the recipe's {recipe['sha256']} ({root / RECIPE}): the weights were "
             "changed or damaged; reinstall agentic-uavs or retrain (python -m evaluation.detector.train)"
         )
-    calibration = Calibration.model_validate(recipe["calibration"]) if recipe.get("calibration") else None
+    try:
+        calibration = Calibration.model_validate(recipe["calibration"]) if recipe.get("calibration") else None
+    except ValidationError as exc:
+        problem = exc.errors()[0]
+        where = ".".join(str(part) for part in problem["loc"])
+        raise InputError(f"{root / RECIPE}: calibration{'.' + where if where else ''}: {problem['msg']}") from None
     rescue = Rescue.from_recipe(recipe["rescue"], root / RECIPE) if recipe.get("rescue") is not None else None
     return OnnxDetector(
         path,

@@ -1,9 +1,11 @@
 """The shipped person detector: its weights match their recipe, it loads through ``load_ours`` with the recipe's
-calibration and threshold, and a copy whose bytes changed is refused by name."""
+calibration and threshold, and a copy whose bytes changed, or whose recipe holds a broken calibration, is refused by
+name."""
 
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 from pathlib import Path
 
@@ -33,4 +35,23 @@ def test_a_changed_copy_is_refused(tmp_path: Path) -> None:
     data[len(data) // 2] ^= 1
     (tmp_path / WEIGHTS).write_bytes(bytes(data))
     with pytest.raises(InputError, match=r"person\.onnx: SHA-256 [0-9a-f]{64} is not the recipe's"):
+        load_ours(tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        ({"size_edges_px": [10.0]}, r"calibration: Value error, calibration: 1 size edges need 2 maps in by_size"),
+        ({"by_size": [{"scores": [0.5], "probs": [2.0]}]}, r"calibration: Value error, calibration: by_size\[0\]"),
+        ({"scores": "high"}, r"calibration\.scores: Input should be a valid list"),
+    ],
+)
+def test_a_recipe_with_a_broken_calibration_is_refused_by_name(
+    tmp_path: Path, change: dict[str, object], said: str
+) -> None:
+    shutil.copy(weights_dir() / WEIGHTS, tmp_path / WEIGHTS)
+    recipe = read_recipe()
+    recipe["calibration"] = {**recipe["calibration"], **change}
+    (tmp_path / RECIPE).write_text(json.dumps(recipe))
+    with pytest.raises(InputError, match=r"person\.json: " + said):
         load_ours(tmp_path)
