@@ -64,7 +64,10 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
 
     # A fork from a checkpoint that keeps the approval is a new run: its operator is asked again.
     saver = SqliteSaver(result.run_dir / CHECKPOINTS_FILE)
-    kept = [c for c in saver.list(result.run_id) if (c.values.get("approved") or {}).get("patrol") is not None]
+    try:
+        kept = [c for c in saver.list(result.run_id) if (c.values.get("approved") or {}).get("patrol") is not None]
+    finally:
+        saver.close()
     assert kept, "no checkpoint keeps the approval"
     runs = result.run_dir.parent
     fork = resume_run(runs, fork_run(runs, result.run_id, kept[-1].id), progress=None, approval="approve")
