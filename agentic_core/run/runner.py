@@ -180,9 +180,8 @@ class MissionRun:
                 sys.stdin, self.progress or sys.stderr, timeout_s=settings.approval_timeout_s
             )
             self.control.answer_with(ask)
-        self.executor = ToolExecutor(
-            self.registry, audit=JsonlAuditLog(self.run_dir / "audit.jsonl"), default_caller=self.agent
-        )
+        self.audit = JsonlAuditLog(self.run_dir / "audit.jsonl")
+        self.executor = ToolExecutor(self.registry, audit=self.audit, default_caller=self.agent)
         self.faults = FaultSchedule([*(self.scene.faults if self.scene else []), *settings.faults],
                                     lambda name, args: self.executor.call(name, args, caller=SCHEDULE),
                                     self.bus.publish, delivered=(str(r.get("fault")) for r in earlier))  # fmt: skip
@@ -387,6 +386,7 @@ class MissionRun:
         self.faults.close()
         self.failsafes.close()
         self.executor.close()
+        self.audit.close()  # given to the executor, so not closed by it
         self.backend.close()
         self._world_log.close()
         self.telemetry.close()

@@ -4,7 +4,10 @@ every command is a ``control`` event naming who sent it."""
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import math
+import os
 from pathlib import Path
 
 import pytest
@@ -30,6 +33,15 @@ def patrol(tmp_path: Path, *, approved: bool = False) -> MissionRun:
     settings = RunSettings(mission=mission, scene=NORMAL, runs_dir=tmp_path / "runs", params={"rounds": "1"},
                            camera_hz=5.0)  # fmt: skip
     return MissionRun(settings)
+
+
+def open_files() -> list[str]:
+    """What this process holds open, by path."""
+    paths = []
+    for fd in os.listdir("/proc/self/fd"):
+        with contextlib.suppress(OSError):  # the listing's own descriptor is gone by now
+            paths.append(os.readlink(f"/proc/self/fd/{fd}"))
+    return paths
 
 
 def flying_a_leg(run: MissionRun) -> bool:
@@ -75,6 +87,8 @@ def test_a_pause_holds_the_aircraft_until_resume_and_the_mission_then_completes(
     after = trace(fork.run_dir)
     start = next(k for k, r in enumerate(after) if r.get("event") == "fork")
     assert [r["request"]["step"] for r in of_kind(after[start:], "approval")] == ["patrol"]  # before: none
+    gc.collect()  # what is still open now, something holds
+    assert not [f for f in open_files() if f.startswith(str(runs))]  # before: both runs' audit.jsonl
 
 
 @pytest.mark.slow
