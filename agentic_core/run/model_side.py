@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 
 from tools import Caller, ToolRegistry
@@ -20,6 +21,23 @@ from ..reasoning.reflection import LLMReflector
 from .privilege import plan_tools
 from .settings import AGENT
 from .untrusted_reads import UntrustedReads
+
+
+def model_client(reasoner: Reasoner) -> StructuredChat | None:
+    """The model client an llm or hybrid reasoner asks (None for yolo and rules)."""
+    client: StructuredChat | None = getattr(reasoner, "client", None) or getattr(
+        getattr(reasoner, "model", None), "client", None
+    )
+    return client
+
+
+def close_client(client: object) -> None:
+    """Close a model client's connections and event-loop thread, if it has a ``close``. Best effort: a model
+    call still hanging when the run ends must not keep the run from closing the rest."""
+    close = getattr(client, "close", None)
+    if callable(close):
+        with contextlib.suppress(Exception):
+            close()
 
 
 class ModelSide:
@@ -40,9 +58,7 @@ class ModelSide:
         self.gate = gate
         self.publish = publish
         self.pace = pace
-        self.client: StructuredChat | None = getattr(reasoner, "client", None) or getattr(
-            getattr(reasoner, "model", None), "client", None
-        )
+        self.client = model_client(reasoner)
         self.reads = UntrustedReads(publish)  # once the model reads untrusted text, only the mission's tools
         self.planner = (
             LLMPlanner(

@@ -54,7 +54,7 @@ from .fleet_seat import FleetSeat
 from .fly import fly
 from .link_key import keep_signing_key, run_signing_key
 from .model_check import require_model
-from .model_side import ModelSide
+from .model_side import ModelSide, close_client, model_client
 from .operator import OperatorAnswer, TerminalOperator
 from .own_tools import ANALYZE_SCENE, ANALYZE_SCENE_SCOPES
 from .perception_loop import PerceptionLoop
@@ -149,6 +149,7 @@ class MissionRun:
         self.plan = load_run_mission(settings.mission, self.registry, self.home())
         self.agent = mission_caller(self.plan, self.registry)  # the scopes this mission needs, no more
         chosen = make_reasoner(settings.reasoner, llm=settings.llm, goal=self.plan.goal)
+        self._model_client = model_client(chosen)  # made from the spec here, so closed here
         self.reasoner, self.model_note = require_model(chosen)
         self.memory, self.reasoner = with_memory(self, self.reasoner)  # (None, as it was) without --memory
         self.params = {name: parse_param(self.plan, name, text) for name, text in settings.params.items()}
@@ -387,6 +388,7 @@ class MissionRun:
         self.failsafes.close()
         self.executor.close()
         self.audit.close()  # given to the executor, so not closed by it
+        close_client(self._model_client)
         self.backend.close()
         self._world_log.close()
         self.telemetry.close()

@@ -5,9 +5,11 @@ model's part or the patrol (perception at 30 Hz is tested on its own, in tests/a
 
 from __future__ import annotations
 
+import contextlib
 import email
 import json
 import math
+import os
 import re
 from email.message import Message
 from pathlib import Path
@@ -199,6 +201,20 @@ def test_the_llm_reasoner_assesses_plans_the_response_and_flies_it(tmp_path: Pat
 
 
 @pytest.mark.slow
+def connections_to(port: int) -> int:
+    """How many TCP connections this process holds open to ``port`` on this machine (its client side)."""
+    mine = set()
+    for fd in os.listdir("/proc/self/fd"):
+        with contextlib.suppress(OSError):  # the listing's own descriptor is gone by now
+            mine.add(os.readlink(f"/proc/self/fd/{fd}"))
+    count = 0
+    for line in Path("/proc/self/net/tcp").read_text().splitlines()[1:]:
+        fields = line.split()
+        remote_port, state, inode = int(fields[2].split(":")[1], 16), fields[3], fields[9]
+        count += remote_port == port and state == "01" and f"socket:[{inode}]" in mine  # 01: established
+    return count
+
+
 def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan_beyond_its_scopes(
     tmp_path: Path,
 ) -> None:
@@ -222,6 +238,8 @@ def test_the_hybrid_reasoner_asks_the_model_only_on_the_event_and_refuses_a_plan
         run.registry.register(forbidden)
         result = run.execute()
         calls = len(server.bodies())
+        still_open = connections_to(int(server.url.rsplit(":", 1)[1]))
+    assert still_open == 0  # the model client the run made is closed with it (before: its connection stayed open)
     decisions = records(result, "decision")
     assert decisions and all(d["focus"] for d in decisions if d["escalated"])  # the model hears of the event only
     assert model.asked["Proposal"] == 1 and 2 <= calls <= 4
