@@ -52,4 +52,22 @@ def option_problem(exc: ValidationError) -> str:
     return f"--{name}: {str(first['msg']).removeprefix('Value error, ')}"
 
 
-__all__ = ["AgenticUAVError", "InputError", "RunFailure", "option_problem", "report_error"]
+def field_problem(exc: ValidationError, within: str = "") -> str:
+    """The first problem pydantic found, named by its field's dotted path (under ``within`` when given):
+    ``calibration.by_size.0.probs: Input should be a valid list``.
+
+    >>> from pydantic import BaseModel, ValidationError
+    >>> class Band(BaseModel):
+    ...     probs: list[float]
+    >>> try:
+    ...     Band.model_validate({"probs": "high"})
+    ... except ValidationError as exc:
+    ...     print(field_problem(exc, "calibration"))
+    calibration.probs: Input should be a valid list
+    """
+    first = exc.errors()[0]
+    where = ".".join(str(part) for part in (within, *first["loc"]) if part != "")
+    return f"{where}: {first['msg']}" if where else str(first["msg"])
+
+
+__all__ = ["AgenticUAVError", "InputError", "RunFailure", "field_problem", "option_problem", "report_error"]

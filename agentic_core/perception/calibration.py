@@ -46,6 +46,18 @@ def _check_curve(scores: list[float], probs: list[float], where: str) -> None:
         raise ValueError(f"{where}: scores must increase and probabilities be non-decreasing in 0-1")
 
 
+def long_sides(boxes: NDArray[np.floating]) -> FloatArray:
+    """The longer side of each box (N×4 corners, pixels): the size a calibration by size reads, fitted and applied
+    alike."""
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    return np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])
+
+
+def size_bands(edges_px: list[float], long_px: NDArray[np.floating]) -> NDArray[np.intp]:
+    """Each size's band: 0 under the first edge, ``len(edges_px)`` at or over the last."""
+    return np.searchsorted(np.asarray(edges_px, dtype=np.float64), np.asarray(long_px, dtype=np.float64), side="right")
+
+
 class SizeBand(BaseModel):
     """The map of one band of box sizes, as :class:`Calibration`'s own ``scores`` and ``probs``."""
 
@@ -104,7 +116,7 @@ class Calibration(BaseModel):
         every = _isotonic(scores, labels)
         if long_px is None or not size_edges_px:
             return cls(scores=every[0], probs=every[1])
-        band = np.searchsorted(np.asarray(size_edges_px), np.asarray(long_px, dtype=np.float64), side="right")
+        band = size_bands(size_edges_px, long_px)
         y = np.asarray(labels, dtype=np.float64)
         curves = []
         for k in range(len(size_edges_px) + 1):
@@ -120,7 +132,7 @@ class Calibration(BaseModel):
         raw = np.asarray(scores, dtype=np.float64)
         if long_px is None or not self.by_size:
             return np.interp(raw, self.scores, self.probs)
-        band = np.searchsorted(np.asarray(self.size_edges_px), np.asarray(long_px, dtype=np.float64), side="right")
+        band = size_bands(self.size_edges_px, long_px)
         out = np.empty(raw.shape, np.float64)
         for k, curve in enumerate(self.by_size):
             inside = band == k
@@ -169,4 +181,13 @@ def expected_calibration_error(conf: NDArray[np.floating], labels: NDArray[Any],
     return float(np.sum(r.count * np.abs(r.confidence - r.frequency)) / np.sum(r.count))
 
 
-__all__ = ["MIN_BAND", "Calibration", "Reliability", "SizeBand", "expected_calibration_error", "reliability"]
+__all__ = [
+    "MIN_BAND",
+    "Calibration",
+    "Reliability",
+    "SizeBand",
+    "expected_calibration_error",
+    "long_sides",
+    "reliability",
+    "size_bands",
+]

@@ -15,6 +15,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..contracts import InputError
+from ..contracts.errors import field_problem
 from ..perception.tracker import TrackerState
 from .settings import RunSettings
 
@@ -103,8 +104,7 @@ def read_record(runs_dir: Path, run_id: str) -> RunRecord:
     try:
         return RunRecord.model_validate_json(path.read_bytes())
     except ValidationError as exc:
-        first = exc.errors()[0]
-        raise InputError(f"{path}: {'.'.join(str(p) for p in first['loc'])}: {first['msg']}") from None
+        raise InputError(f"{path}: {field_problem(exc)}") from None
 
 
 def read_snapshot(run_dir: Path) -> Snapshot | None:

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from agentic_core.perception.calibration import Calibration, expected_calibration_error, reliability
+from agentic_core.perception.calibration import Calibration, expected_calibration_error, reliability, size_bands
 from agentic_core.perception.detectors import OnnxDetector
 from agentic_core.perception.detectors.ours import MAX_DETECTIONS
 from agentic_core.perception.detectors.rescue import Rescue
@@ -338,8 +338,9 @@ def _size_lines(scores: np.ndarray, hits: np.ndarray, long_px: np.ndarray, calib
         "|---|---|---|---|---|---|---|",
     ]
     edges = [0.0, *calibration.size_edges_px, math.inf]
-    for low, high in itertools.pairwise(edges):
-        inside = (long_px >= low) & (long_px < high)
+    bands = size_bands(calibration.size_edges_px, long_px)
+    for k, (low, high) in enumerate(itertools.pairwise(edges)):
+        inside = bands == k
         if not inside.any():
             continue
         label = f"{low:g}–{high:g} px" if math.isfinite(high) else f"{low:g} px and more"

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agentic_core.perception.calibration import long_sides
 from agentic_core.perception.detectors.yolo_decode import iou
 
 IOU_MATCH = 0.5
@@ -83,6 +84,7 @@ def match(
         if len(skip) != len(true_boxes):
             raise ValueError(f"frame {k}: {len(skip)} ignore flags for {len(true_boxes)} true boxes")
         order = np.argsort(-conf, kind="stable")
+        long_px.extend(long_sides(boxes)[order].tolist())
         taken = np.zeros(len(true_boxes), bool)
         best = np.zeros(len(true_boxes), np.float64)
         index = np.full(len(boxes), -1, np.int64)
@@ -98,7 +100,6 @@ def match(
                     best[j] = float(conf[i])
                     index[i] = j
             scores.append(float(conf[i]))
-            long_px.append(float(max(boxes[i][2] - boxes[i][0], boxes[i][3] - boxes[i][1])))
             hits.append(bool(index[i] >= 0))
             ignored.append(bool(index[i] < 0 and dont_care))
         indices.append(index[order])

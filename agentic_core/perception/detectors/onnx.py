@@ -31,7 +31,7 @@ from ...contracts.errors import InputError
 from ...contracts.extras import require
 from ...contracts.input_files import check_input_file
 from ...contracts.trusted import record_maker
-from ..calibration import Calibration
+from ..calibration import Calibration, long_sides
 from .rescue import Rescue, rescued_scores
 from .yolo_decode import NMS_IOU, Layout, decode, guess_layout, kept_in_frame, letterbox
 
@@ -180,8 +180,7 @@ class OnnxDetector:
                 "rendering camera (--detector onnx:PATH turns it on)"
             )
         boxes, scores, labels = self.detect_array(frame.image)
-        long_px = np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1])
-        conf = np.clip(self.calibration.apply(scores, long_px), 0.0, 1.0)
+        conf = np.clip(self.calibration.apply(scores, long_sides(boxes)), 0.0, 1.0)
         if not (np.isfinite(boxes).all() and np.isfinite(conf).all()):  # validation says what is wrong
             return [
                 Detection(

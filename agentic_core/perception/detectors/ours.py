@@ -18,7 +18,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from ...contracts.errors import InputError
+from ...contracts.errors import InputError, field_problem
 from ..calibration import Calibration
 from .onnx import OnnxDetector
 from .rescue import Rescue
@@ -67,9 +67,7 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
     try:
         calibration = Calibration.model_validate(recipe["calibration"]) if recipe.get("calibration") else None
     except ValidationError as exc:
-        problem = exc.errors()[0]
-        where = ".".join(str(part) for part in problem["loc"])
-        raise InputError(f"{root / RECIPE}: calibration{'.' + where if where else ''}: {problem['msg']}") from None
+        raise InputError(f"{root / RECIPE}: {field_problem(exc, 'calibration')}") from None
     rescue = Rescue.from_recipe(recipe["rescue"], root / RECIPE) if recipe.get("rescue") is not None else None
     return OnnxDetector(
         path,
