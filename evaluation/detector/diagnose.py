@@ -134,7 +134,7 @@ def cells_session(model: Path) -> tuple[Any, str, str | None]:
 
 def breakdown(detector: OnnxDetector, frames: Sequence[Labelled], threshold: float, pose: str) -> Breakdown:
     """Run ``detector`` (its own score floor) and its model's cells on ``frames``; classify the counted persons of
-    ``pose`` at ``threshold``."""
+    ``pose`` at ``threshold``. One pass, as the grid read is one pass's: a close frame's second look is left out."""
     session, name, before = cells_session(detector.path)
     outcome, cause, seen, ratio, shape = [], [], [], [], []
     for f in frames:

@@ -21,8 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agentic_core.contracts.camera import CameraSpec
 from agentic_core.perception.detectors import OnnxDetector
-from flight.sim.render.dataset import MIN_SEEN
+from flight.sim.render.dataset import HFOV_DEG, MIN_SEEN
 
 from .scoring import Matched, average_precision, match, precision_at, recall_of
 from .train import Labelled
@@ -51,12 +52,18 @@ class Scores:
 def detect_all(
     detector: OnnxDetector, frames: Sequence[Labelled]
 ) -> list[tuple[NDArray[np.float32], NDArray[np.float32]]]:
-    """The detector's boxes and raw scores on each frame."""
+    """The detector's boxes and raw scores on each frame, looked at twice where a run would (a close frame)."""
     out = []
-    for frame in frames:
-        boxes, scores, _ = detector.detect_array(frame.image)
+    for index, frame in enumerate(frames):
+        twice = detector.looks_twice(render_focal_px(frame.image.shape[1]), frame.altitude_m)
+        boxes, scores, _ = detector.detect_array(frame.image, twice=twice, index=index)
         out.append((boxes, scores))
     return out
+
+
+def render_focal_px(width_px: int) -> float:
+    """The focal length (pixels) of the renders' camera at ``width_px``: what a run's camera tells the detector."""
+    return CameraSpec(width_px=width_px, hfov_deg=HFOV_DEG).focal_px
 
 
 def evaluate(detector: OnnxDetector, frames: Sequence[Labelled]) -> Matched:
@@ -107,5 +114,6 @@ __all__ = [
     "evaluate",
     "ignored",
     "pose_masks",
+    "render_focal_px",
     "scores_at",
 ]

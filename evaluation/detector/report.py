@@ -23,8 +23,8 @@ import numpy as np
 
 from agentic_core.perception.calibration import Calibration, expected_calibration_error, reliability, size_bands
 from agentic_core.perception.detectors import OnnxDetector
-from agentic_core.perception.detectors.ours import MAX_DETECTIONS
-from agentic_core.perception.detectors.rescue import Rescue
+from agentic_core.perception.detectors.ours import MAX_DETECTIONS, passes
+from agentic_core.perception.detectors.second_look import SecondLook
 from flight.sim.render.dataset import MIN_SEEN
 
 from .diagnose import breakdown, breakdown_lines
@@ -38,6 +38,7 @@ from .evaluate import (
     best_threshold,
     evaluate,
     pose_masks,
+    render_focal_px,
     scores_at,
 )
 from .train import RECIPE_NAME, WEIGHTS_NAME, Labelled, TrainConfig, load_frames, render_frames, save_frames
@@ -77,28 +78,34 @@ def _detect_time(detector: OnnxDetector, frames: Sequence[Labelled]) -> float:
 
 def raw_detector(weights: Path, score_threshold: float = FLOOR) -> OnnxDetector:
     """The detector without calibration, keeping scores down to ``score_threshold`` (:data:`FLOOR` to score it;
-    the operating threshold to time it as a run uses it); with the recipe's rescue of crowded persons, as a run."""
+    the operating threshold to time it as a run uses it); with the recipe's rescue of crowded persons and second
+    look at close frames, as a run."""
     recipe = weights / RECIPE_NAME
-    entry = json.loads(recipe.read_text()).get("rescue") if recipe.is_file() else None
+    rescue, second_look = passes(json.loads(recipe.read_text()), recipe) if recipe.is_file() else (None, None)
     return OnnxDetector(
         weights / WEIGHTS_NAME,
         layout="v8",
         class_names=["person"],
         score_threshold=score_threshold,
         max_detections=MAX_DETECTIONS,
-        rescue=None if entry is None else Rescue.from_recipe(entry, recipe),
+        rescue=rescue,
+        second_look=second_look,
     )
 
 
 def calibrate(weights: Path, frames: int, cache: Path | None = None) -> tuple[Calibration, float, dict[str, Any]]:
-    """Fit the calibration and the threshold on calibration renders; store them in the recipe."""
+    """Fit the calibration and the threshold on calibration renders, the detector looking twice at close frames
+    (the recipe's :class:`SecondLook`, the default one when it names none); store them in the recipe."""
+    recipe_path = weights / RECIPE_NAME
+    recipe = json.loads(recipe_path.read_text())
+    if recipe.get("second_look") is None:
+        recipe["second_look"] = SecondLook().model_dump()
+        recipe_path.write_text(json.dumps(recipe, indent=2) + "\n")
     data = frames_for(CALIBRATION_SEED, frames, ALTITUDES_M, cache)
     m = evaluate(raw_detector(weights), data)
     threshold = best_threshold(m)
     counted = ~m.ignored
     calibration = Calibration.fit(m.scores[counted], m.hit[counted], m.long_px[counted], size_edges_px=SIZE_EDGES_PX)
-    recipe_path = weights / RECIPE_NAME
-    recipe = json.loads(recipe_path.read_text())
     recipe["calibration"] = calibration.model_dump()
     recipe["score_threshold"] = round(threshold, 4)
     recipe["calibration_data"] = {"seed": CALIBRATION_SEED, "frames": frames, "detections": len(m.scores)}
@@ -207,6 +214,18 @@ def _description(recipe: dict[str, Any], threshold: float) -> list[str]:
             f"{kept.get('f1', float('nan')):.3f}, precision {without.get('precision', float('nan')):.3f} → "
             f"{kept.get('precision', float('nan')):.3f} there; the weights before it, SHA-256 "
             f"`{rescue.get('before_sha256')}` (the same network, the scores before the peak test added as an output)"
+        )
+    look = recipe.get("second_look")
+    if isinstance(look, dict):
+        focal = render_focal_px(TrainConfig().width_px)
+        reach = look["person_m"] * focal / look["from_person_px"]
+        lines.append(
+            "- a second look at close frames (`agentic_core/perception/detectors/second_look.py`): where a person "
+            f"{look['person_m']:g} m long would span at least {look['from_person_px']:g} px (from {reach:.0f} m down "
+            f"on this camera), the model runs again on the frame shifted by {look['shift_px']} px (half a grid cell) "
+            "and the two passes' boxes are merged by NMS, each person at the better score: where a person falls on "
+            "the grid no longer decides whether a close look sees them. The rows under that height are with it; "
+            "the calibration is fitted on what it gives"
         )
     return [
         *lines,

@@ -23,8 +23,8 @@ from evaluation.detector.train import TrainConfig, render_frames
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="the shipped detector misses the Done-when: at 30 m it finds 0.657 of the lying persons seen at least half, "
-    "at precision 0.938 (docs/detector.md, which breaks down where the rest are lost); the threshold stays, and this "
+    reason="the shipped detector misses the Done-when: at 30 m it finds 0.654 of the lying persons seen at least half, "
+    "at precision 0.940 (docs/detector.md, which breaks down where the rest are lost); the threshold stays, and this "
     "marker goes when better weights pass",
 )
 def test_lying_persons_at_30_m_recall_and_precision_at_least_0_9() -> None:

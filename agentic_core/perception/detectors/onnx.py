@@ -33,6 +33,7 @@ from ...contracts.input_files import check_input_file
 from ...contracts.trusted import record_maker
 from ..calibration import Calibration, long_sides
 from .rescue import Rescue, rescued_scores
+from .second_look import SecondLook
 from .yolo_decode import NMS_IOU, Layout, decode, guess_layout, kept_in_frame, letterbox
 
 MAX_MODEL_BYTES = 1 << 30
@@ -62,7 +63,8 @@ class OnnxDetector:
     ``class_names`` default to the model's metadata (an ultralytics export carries them), else ``person`` for a
     one-class model; ``classes`` keeps only those names (all when None). ``input_size`` (width, height) is needed
     only when the model's input has no fixed size. ``rescue`` gives back cells a centre-point model's own peak test
-    removed in a crowd (:mod:`.rescue`; ours names it in its recipe).
+    removed in a crowd (:mod:`.rescue`; ours names it in its recipe); ``second_look`` runs the model twice on close
+    frames, the second time shifted by half a grid cell (:mod:`.second_look`; ours names it too).
     """
 
     def __init__(
@@ -79,6 +81,7 @@ class OnnxDetector:
         max_detections: int = 300,
         threads: int = 1,
         rescue: Rescue | None = None,
+        second_look: SecondLook | None = None,
     ) -> None:
         self.path = Path(path)
         if not self.path.exists():
@@ -102,6 +105,7 @@ class OnnxDetector:
         outputs = self.session.get_outputs()
         self.output_name: str = outputs[0].name
         self.rescue = rescue
+        self.second_look = second_look
         if rescue is not None and rescue.output not in [o.name for o in outputs]:
             raise InputError(f"{self.path}: no output {rescue.output!r} to rescue crowded persons from")
         meta = dict(self.session.get_modelmeta().custom_metadata_map)
@@ -147,11 +151,26 @@ class OnnxDetector:
             )
         return layout
 
-    def detect_array(self, image: NDArray[np.uint8]) -> tuple[NDArray[np.float32], NDArray[np.float32], list[str]]:
-        """Boxes (K×4, frame pixels, clipped), raw scores and class names of what the model finds in ``image``."""
+    def detect_array(
+        self, image: NDArray[np.uint8], *, twice: bool = False, index: int = 0
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32], list[str]]:
+        """Boxes (K×4, frame pixels, clipped), raw scores and class names of what the model finds in ``image``;
+        looked at ``twice`` when the detector has a :class:`SecondLook` (:meth:`looks_twice` says when), with the
+        shifts of the frame's ``index``."""
         if not (isinstance(image, np.ndarray) and image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.uint8):
             got = f"{image.dtype} {list(image.shape)}" if isinstance(image, np.ndarray) else type(image).__name__
             raise InputError(f"{self.path}: a frame's image must be H×W×3 uint8 RGB; got {got}")
+        if twice and self.second_look is not None:
+            look = self.second_look
+            return look.look(self._once, image, index=index, iou=self.iou_threshold, max_keep=self.max_detections)
+        return self._once(image)
+
+    def looks_twice(self, focal_px: float, height_m: float) -> bool:
+        """Whether a frame from a camera of ``focal_px`` at ``height_m`` above the ground is looked at twice."""
+        return self.second_look is not None and self.second_look.wanted(focal_px, height_m)
+
+    def _once(self, image: NDArray[np.uint8]) -> tuple[NDArray[np.float32], NDArray[np.float32], list[str]]:
+        """One pass of the model over a checked image."""
         height, width = image.shape[:2]
         tensor, box = letterbox(image, self.input_size, self.channels)
         wanted = [self.output_name] if self.rescue is None else [self.output_name, self.rescue.output]
@@ -179,7 +198,8 @@ class OnnxDetector:
                 f"{self.path}: frame {frame.index} has no pixels (Frame.image is None); an ONNX detector needs the "
                 "rendering camera (--detector onnx:PATH turns it on)"
             )
-        boxes, scores, labels = self.detect_array(frame.image)
+        twice = self.looks_twice(frame.spec.focal_px, -frame.pose.down_m)  # height above home, as the camera knows it
+        boxes, scores, labels = self.detect_array(frame.image, twice=twice, index=frame.index)
         conf = np.clip(self.calibration.apply(scores, long_sides(boxes)), 0.0, 1.0)
         if not (np.isfinite(boxes).all() and np.isfinite(conf).all()):  # validation says what is wrong
             return [

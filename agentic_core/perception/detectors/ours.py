@@ -22,6 +22,7 @@ from ...contracts.errors import InputError, field_problem
 from ..calibration import Calibration
 from .onnx import OnnxDetector
 from .rescue import Rescue
+from .second_look import SecondLook
 
 WEIGHTS = "person.onnx"
 RECIPE = "person.json"
@@ -68,7 +69,7 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
         calibration = Calibration.model_validate(recipe["calibration"]) if recipe.get("calibration") else None
     except ValidationError as exc:
         raise InputError(f"{root / RECIPE}: {field_problem(exc, 'calibration')}") from None
-    rescue = Rescue.from_recipe(recipe["rescue"], root / RECIPE) if recipe.get("rescue") is not None else None
+    rescue, second_look = passes(recipe, root / RECIPE)
     return OnnxDetector(
         path,
         layout="v8",
@@ -78,7 +79,16 @@ def load_ours(folder: Path | None = None, *, threads: int = 1) -> OnnxDetector:
         threads=threads,
         max_detections=MAX_DETECTIONS,
         rescue=rescue,
+        second_look=second_look,
     )
 
 
-__all__ = ["MAX_DETECTIONS", "RECIPE", "WEIGHTS", "load_ours", "read_recipe", "weights_dir"]
+def passes(recipe: dict[str, Any], where: Path) -> tuple[Rescue | None, SecondLook | None]:
+    """How a recipe runs its model beyond one plain pass: the rescue of crowded persons and the second look at
+    close frames, each None when the recipe has none; :class:`InputError` naming ``where`` when one is wrong."""
+    rescue = Rescue.from_recipe(recipe["rescue"], where) if recipe.get("rescue") is not None else None
+    look = SecondLook.from_recipe(recipe["second_look"], where) if recipe.get("second_look") is not None else None
+    return rescue, look
+
+
+__all__ = ["MAX_DETECTIONS", "RECIPE", "WEIGHTS", "load_ours", "passes", "read_recipe", "weights_dir"]
