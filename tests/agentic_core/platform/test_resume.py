@@ -56,6 +56,8 @@ def kill_when(runs: Path, smtp: Any, condition: Condition, *extra: str) -> Path:
         if proc.poll() is None:
             proc.kill()
             proc.wait(timeout=10.0)
+        if proc.stdin is not None:  # held open so an operator's question waits rather than reading an end
+            proc.stdin.close()
     (folder,) = [p for p in runs.iterdir() if p.is_dir()]
     return folder
 

@@ -36,6 +36,8 @@ def stop_now(proc: subprocess.Popen[Any]) -> None:
     if proc.poll() is None:
         proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30.0)
+    if proc.stdin is not None:
+        proc.stdin.close()
 
 
 def alerted(outcome: Any) -> bool:
