@@ -105,9 +105,12 @@ class MissionRun:
         self.scene: Scene | None = load_run_scene(scene_path) if scene_path else None
         self.pace = fleet.pace if fleet else Pace(settings.speed)
         tlog = self.run_dir / "flight.tlog"
+        snapshot_s = snapshot.sim_t if snapshot is not None and snapshot.sim_t is not None else 0.0
+        # a vehicle of its own goes on from where the run's files end; the simulator from the snapshot it restores
+        self._clock0 = resumed_at(self.run_dir, snapshot_s) if self.resuming and settings.connect else snapshot_s
         self.backend: Backend = fleet.backend(self) if fleet else (
             LinkBackend(settings.connect, camera_hz=settings.camera_hz, tlog=tlog, signing_key=settings.signing_key,
-                        start_s=resumed_at(self.run_dir, snapshot.sim_t if snapshot else None) if self.resuming else 0)
+                        start_s=self._clock0)
             if settings.connect
             else SimBackend(
                 home=self.scene.home.to_home() if self.scene else None, seed=settings.seed, pace=self.pace,
@@ -136,7 +139,6 @@ class MissionRun:
             self.loop.restore(WorldModel.model_validate(snapshot.world), snapshot.last_seen, snapshot.tracks)
             self.loop.first_detected.update(snapshot.first_detected)
         self.last_sample: TelemetrySample | None = None
-        self._clock0 = snapshot.sim_t if snapshot is not None and snapshot.sim_t is not None else 0.0
         self._client: VehicleClient | None = None
         self.backend.on_sample(self._on_sample)
         if self.loop is not None:

@@ -1,7 +1,8 @@
 """With ``--connect`` the run's times count from the run's start on the vehicle's clock, not from the vehicle's
 boot: a vehicle up 2,000 s flies a short mission whose trace, telemetry, summary and report all start near 0 and
-end near the flight's length; resuming the finished run goes on from where it stood, never from the vehicle's
-uptime; and a vehicle clock that goes back (a reboot) does not take the run's back."""
+end near the flight's length; resuming the finished run goes on from where it stood (where its files end, even
+when its last checkpoint came earlier), never from the vehicle's uptime; and a vehicle clock that goes back (a
+reboot) does not take the run's back."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import pytest
 from agentic_core.contracts import TelemetrySample
 from agentic_core.run.run_clock import RunClock, resumed_at
 from agentic_core.run.runner import RunSettings, resume_run, run_mission
+from agentic_core.run.state_files import SNAPSHOT_FILE
 from flight.mavlink import MavlinkVehicle
 from flight.sim import Simulator
 from tests.flight.test_cli import free_udp_port
@@ -82,6 +84,8 @@ def test_a_connected_runs_times_count_from_its_start_not_the_vehicles_boot(old_v
     assert telemetry[0] < 5.0 and telemetry == sorted(telemetry) and telemetry[-1] <= flown + 1e-6
     assert duration_in_report(result.run_dir) == pytest.approx(flown, abs=0.05)
 
+    snapshot = result.run_dir / SNAPSHOT_FILE  # its last checkpoint taken at take-off, seconds before the run ended
+    snapshot.write_text(json.dumps({**json.loads(snapshot.read_text()), "sim_t": takeoff["sim_t"]}), encoding="utf-8")
     again = resume_run(runs, result.run_id, progress=None)  # the finished run, resumed: nothing left to fly
     assert again.summary.outcome == "completed"
     assert flown <= again.summary.sim_duration_s < flown + 60.0  # on from where it stood, not from the uptime
