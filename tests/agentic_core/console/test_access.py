@@ -205,20 +205,20 @@ def test_run_console_without_the_extra_says_what_to_install(
 def test_the_console_command_serves_until_a_signal_and_then_exits_0(tmp_path: Path, sig: signal.Signals) -> None:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     env.pop(TOKEN_ENV, None)
-    process = subprocess.Popen(
+    with subprocess.Popen(
         [sys.executable, "-m", "agentic_core", "console", "--port", "0", "--runs-dir", str(tmp_path)],
         cwd=REPO, env=env, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        assert process.stderr is not None
-        line = process.stderr.readline()
-        url = line.split()[1]
-        token = url.split("#token=")[1]
-        listed = httpx.get(url.split("/#")[0] + "/api/runs", headers={"authorization": f"Bearer {token}"})
-        assert listed.json() == {"runs": [], "live": False}
-        process.send_signal(sig)
-        assert process.wait(timeout=30) == 0
-        assert "Traceback" not in process.stderr.read()
-    finally:
-        if process.poll() is None:
-            process.kill()
+    ) as process:  # fmt: skip
+        try:
+            assert process.stderr is not None
+            line = process.stderr.readline()
+            url = line.split()[1]
+            token = url.split("#token=")[1]
+            listed = httpx.get(url.split("/#")[0] + "/api/runs", headers={"authorization": f"Bearer {token}"})
+            assert listed.json() == {"runs": [], "live": False}
+            process.send_signal(sig)
+            assert process.wait(timeout=30) == 0
+            assert "Traceback" not in process.stderr.read()
+        finally:
+            if process.poll() is None:
+                process.kill()

@@ -42,19 +42,19 @@ def holder(folder: Path) -> subprocess.Popen[str]:
 
 
 def test_a_second_process_is_refused_at_once_and_a_killed_holder_blocks_nobody(tmp_path: Path) -> None:
-    proc = holder(tmp_path)
-    try:
-        with pytest.raises(InputError) as refused:
-            RunHold.take(tmp_path, "r1", "resumed")
-        assert f"run r1 is already being resumed by pid {proc.pid}" in str(refused.value)
-        with pytest.raises(InputError, match="already being resumed"):
-            open_resume(tmp_path, "r1")
-        proc.send_signal(signal.SIGKILL)  # the kernel lets go of the lock: no stale lock file blocks the next
-        proc.wait(timeout=30.0)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    with holder(tmp_path) as proc:  # its pipes closed on the way out
+        try:
+            with pytest.raises(InputError) as refused:
+                RunHold.take(tmp_path, "r1", "resumed")
+            assert f"run r1 is already being resumed by pid {proc.pid}" in str(refused.value)
+            with pytest.raises(InputError, match="already being resumed"):
+                open_resume(tmp_path, "r1")
+            proc.send_signal(signal.SIGKILL)  # the kernel lets go of the lock: no stale lock file blocks the next
             proc.wait(timeout=30.0)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(timeout=30.0)
     hold = RunHold.take(tmp_path, "r1", "resumed")
     assert (tmp_path / "run.lock").read_text().split() == [str(os.getpid()), "resumed"]
     hold.release()

@@ -44,18 +44,18 @@ def test_refusals(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
 
 def test_the_http_command_requires_tokens_from_the_secret() -> None:
     env = {"AGENTIC_UAV_TOKEN_SECRET": SECRET, "PATH": "/usr/bin:/bin"}
-    process = subprocess.Popen(
+    with subprocess.Popen(
         [*OUR_SERVER, "--http", "--port", "0"], cwd=ROOT, env=env, stderr=subprocess.PIPE, text=True
-    )
-    try:
-        assert process.stderr is not None
-        line = process.stderr.readline()
-        assert "bearer tokens required" in line, line
-        url = line.split(" on ", 1)[1].split(" ", 1)[0]
-        assert httpx.post(url, json={"jsonrpc": "2.0", "id": 1, "method": "ping"}).status_code == 401
-    finally:
-        process.terminate()
-        assert process.wait(timeout=10) == 0
+    ) as process:
+        try:
+            assert process.stderr is not None
+            line = process.stderr.readline()
+            assert "bearer tokens required" in line, line
+            url = line.split(" on ", 1)[1].split(" ", 1)[0]
+            assert httpx.post(url, json={"jsonrpc": "2.0", "id": 1, "method": "ping"}).status_code == 401
+        finally:
+            process.terminate()
+            assert process.wait(timeout=10) == 0
 
 
 MODULES = [
