@@ -44,13 +44,13 @@ Pass = tuple[FloatArray, FloatArray, list[str]]
 class SecondLook(BaseModel):
     """When to look twice and how far to shift (a recipe's ``second_look`` entry)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", strict=True, allow_inf_nan=False)
 
-    shift_px: int = Field(default=2, ge=1, le=64, description="the shift of the second pass: half the model's stride")
+    shift_px: int = Field(default=2, ge=1, le=16, description="the shift of the second pass: half the model's stride")
     from_person_px: float = Field(
-        default=24.0, gt=0.0, description="look twice when a person of person_m would span at least this many pixels"
+        default=24.0, ge=1.0, le=4096.0, description="look twice when a person_m person would span this many pixels"
     )
-    person_m: float = Field(default=1.7, gt=0.0, le=5.0, description="the length of a person, lying")
+    person_m: float = Field(default=1.7, ge=0.3, le=5.0, description="the length of a person, lying")
 
     @classmethod
     def from_recipe(cls, entry: Any, where: Path) -> SecondLook:
@@ -90,12 +90,16 @@ class SecondLook(BaseModel):
         all_boxes, all_scores, all_labels = [], [], []
         for right, down in self.shifts(index):
             boxes, scores, labels = detect(shifted(image, right, down))
-            back = boxes.reshape(-1, 4) - np.array([right, down, right, down], np.float32)
+            boxes = boxes.reshape(-1, 4)
+            back = boxes - np.array([right, down, right, down], np.float32)
+            back[boxes[:, 2] >= width - 0.5, 2] = width  # cut by the edge: the frame's last columns are not in view
+            back[boxes[:, 3] >= height - 0.5, 3] = height
             np.clip(back[:, 0::2], 0, width, out=back[:, 0::2])
             np.clip(back[:, 1::2], 0, height, out=back[:, 1::2])
-            all_boxes.append(back)
-            all_scores.append(scores.astype(np.float32))
-            all_labels += labels
+            seen = (back[:, 2] > back[:, 0]) & (back[:, 3] > back[:, 1])  # not a box of the repeated edge alone
+            all_boxes.append(back[seen])
+            all_scores.append(np.asarray(scores, np.float32)[seen])
+            all_labels += [label for label, keep in zip(labels, seen.tolist(), strict=True) if keep]
         merged_boxes, merged_scores = np.concatenate(all_boxes).astype(np.float32), np.concatenate(all_scores)
         names = sorted(set(all_labels))
         classes = np.array([names.index(n) for n in all_labels], np.int64)
