@@ -28,6 +28,7 @@ from .grounded import ground_tool
 from .model import ON_ABORT_TOOLS, PolicyGraph, RepeatStep, Step, Trigger
 from .state import FINISHED, MissionState
 from .steps import (
+    ALIASES,
     Environment,
     Interrupted,
     StepFailed,
@@ -242,7 +243,8 @@ class MissionRuntime:
             if (step_id in spliced and current is None) or current in ("repeating", "blocked"):
                 marks[step_id] = "scheduled"
                 if step_id in spliced:
-                    snapshot = {**view, "event": spliced[step_id].get("event")}
+                    task = spliced[step_id]
+                    snapshot = {**view, "event": task.get("event"), ALIASES: task.get(ALIASES)}
                     goto.append(Send(DYNAMIC, {"id": step_id, "state": snapshot}))
                 else:
                     goto.append(step_id)
@@ -358,6 +360,8 @@ class MissionRuntime:
             data = s.model_dump(mode="json", by_alias=True)
             data["id"], data["depends_on"] = rename[s.id], [rename[d] for d in s.depends_on]
             out[rename[s.id]] = {"step": data, "deps": [rename[d] for d in deps], "origin": origin, "event": event}
+            if firing > 1:  # its expressions name the sub-plan's steps as written: this firing's are meant
+                out[rename[s.id]][ALIASES] = rename
         return out
 
     # --- policies ---

@@ -156,17 +156,34 @@ the world model, the event that fired a trigger, and the mission itself (``missi
 ``mission.declined``, the steps the operator said no to). :func:`scope` provides exactly these."""
 
 
+ALIASES = "aliases"
+"""The key of a spliced step's state holding, for a trigger's second firing on, its sub-plan's ids as written →
+this firing's ids (``confirm`` → ``confirm_2``)."""
+
+
 def scope(state: Mapping[str, Any], env: Environment, event: Any = None) -> dict[str, Any]:
     """The values of :data:`SCOPE_ROOTS`, and each step's output under its own id too (the paper's
-    ``step_1.wind_speed``)."""
+    ``step_1.wind_speed``). In a trigger's sub-plan fired again, its steps' ids as written name this firing's
+    steps (:data:`ALIASES`): ``confirm.assessment`` is this firing's confirmation, never an earlier one's."""
     outputs = dict(state.get("outputs") or {})
+    status = dict(state.get("status") or {})
+    refused = declined(state)
+    aliases: Mapping[str, str] = state.get(ALIASES) or {}
+    if aliases:
+        for table in (outputs, status):
+            mine = {written: table[renamed] for written, renamed in aliases.items() if renamed in table}
+            for written in aliases:
+                table.pop(written, None)  # an earlier firing's: unknown here until this firing's has run
+            table.update(mine)
+        written_as = {renamed: written for written, renamed in aliases.items()}
+        refused = [written_as.get(s, s) for s in refused if s not in aliases]
     roots = {
         "params": dict(state.get("params") or {}),
         "steps": outputs,
         "vehicle": env.vehicle(),
         "world": env.world(),
         "event": event if event is not None else state.get("event"),
-        "mission": {"status": dict(state.get("status") or {}), "declined": declined(state)},
+        "mission": {"status": status, "declined": refused},
     }
     return {**outputs, **roots}
 

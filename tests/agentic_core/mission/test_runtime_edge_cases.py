@@ -86,6 +86,56 @@ def test_a_trigger_that_may_fire_again_does_so_for_a_new_event_under_fresh_ids()
     assert out["status"]["warn"] == "ok" and out["status"]["warn_2"] == "ok"
 
 
+VERDICTS = GATED.replace(
+    """    steps: [{id: warn, action: notify, args: {subject: "${event.id}", body: seen}}]""",
+    """    steps:
+      - {id: look, action: hover, args: {duration_s: 2}}
+      - id: warn
+        action: notify
+        depends_on: [look]
+        preconditions: ["look.verdict == 'real'"]
+        on_fail: skip
+        args: {subject: "${event.id} ${look.verdict}", body: "${steps.look.verdict}"}""",
+)
+
+
+def test_a_trigger_fired_again_reads_its_own_steps_not_the_first_firings() -> None:
+    """The emergency mission's shape: a look, then steps whose preconditions read its verdict. The first person
+    is a false alarm, the second is real: the second firing's steps must read the second look (``look`` in its
+    expressions is ``look_2``), or a real casualty after a false alarm is skipped on the old verdict."""
+    world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
+    legs, verdicts = [0], iter(["false alarm", "real"])
+
+    def hover(args: dict[str, Any]) -> Result:
+        if args["duration_s"] == 2:
+            return Result("ok", {"verdict": next(verdicts)})
+        legs[0] += 1
+        if legs[0] == 2:
+            world["objects"] = [{"id": "P-2", "class": "person"}]
+        return Result("ok", {})
+
+    rec = Recorder({"flight.hover": hover})
+    out = run(VERDICTS, rec, env={"world": lambda: world})
+    sent = [(args["subject"], args["body"]) for tool, args in rec.calls if tool == "alerts.notify"]
+    assert sent == [("P-2 real", "real")]
+    assert out["status"]["warn"] == "skipped" and out["status"]["warn_2"] == "ok"
+
+
+def test_in_a_firing_again_the_written_ids_name_its_own_steps_in_every_root() -> None:
+    from agentic_core.mission.steps import ALIASES, DECLINED, scope
+
+    state = {
+        "outputs": {"look": {"verdict": "old"}, "look_2": {"verdict": "new"}, "route": {"km": 3}},
+        "status": {"look": "ok", "look_2": "ok", "land": "failed", "route": "ok"},
+        "errors": {"land": f"{DECLINED} land", "drop_2": f"{DECLINED} drop_2"},
+        ALIASES: {"look": "look_2", "land": "land_2", "drop": "drop_2"},
+    }
+    where = scope(state, Environment(Recorder()))
+    assert where["look"] == where["steps"]["look"] == {"verdict": "new"} and where["route"] == {"km": 3}
+    assert "land" not in where and where["mission"]["status"] == {"look": "ok", "look_2": "ok", "route": "ok"}
+    assert where["mission"]["declined"] == ["drop"]  # this firing's, as written; the first firing's land is not
+
+
 def test_approval_is_asked_once_even_with_retries() -> None:
     rec = Recorder({"flight.deploy_payload": flaky(1)})
     plan = load_mission(
