@@ -69,6 +69,8 @@ MISSION_RETRIES = 5
 """Resends of one unanswered mission message before giving up (the MAVLink guide's maximum)."""
 VALIDITY_WAIT_S = 2.0
 """After an accepted upload, how long to wait for the MISSION_CURRENT that says whether the plan may fly."""
+VALIDITY_ASKS = 3
+"""MISSION_CURRENTs asked for in that wait, besides the 1 Hz reports."""
 CURRENT_WAIT_S = 1.5
 """How long :meth:`MissionClient.start_mission` waits for a first MISSION_CURRENT (streamed at 1 Hz)."""
 TRANSFER_TIMEOUT_S = 5.5
@@ -307,10 +309,12 @@ class MissionClient(OperationsClient):
 
     async def _next_current(self, inbox: Inbox, count: int) -> Any | None:
         """The first MISSION_CURRENT in ``inbox`` reporting ``count`` items, within :data:`VALIDITY_WAIT_S`. One is
-        asked for at once and again halfway (REQUEST_MESSAGE, its ACK not awaited): the 1 Hz reports alone, a few
-        lost, would let a plan the vehicle will not fly pass as ``ok``."""
+        asked for at once, a third and two thirds of the way (REQUEST_MESSAGE, its ACK not awaited): the 1 Hz reports
+        alone, a few lost, would let a plan the vehicle will not fly pass as ``ok``, and two asks and a slow report
+        were three messages, all of them lost in three."""
         start = time.monotonic()
-        deadline, asks = start + VALIDITY_WAIT_S, [start, start + VALIDITY_WAIT_S / 2.0]
+        deadline = start + VALIDITY_WAIT_S
+        asks = [start + k * VALIDITY_WAIT_S / VALIDITY_ASKS for k in range(VALIDITY_ASKS)]
         while (left := deadline - time.monotonic()) > 0:
             if asks and time.monotonic() >= asks[0]:
                 asks.pop(0)
