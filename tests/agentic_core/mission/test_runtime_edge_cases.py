@@ -1,6 +1,7 @@
 """Edge cases of running missions, each found in review and fixed: halts that stop parallel work, steps that
 must run exactly once, splices that compose, pre-emption that resumes the plan, a dispatcher that raises."""
 
+from collections.abc import Callable
 from typing import Any
 
 import pytest
@@ -69,17 +70,22 @@ triggers:
 """
 
 
-def test_a_trigger_that_may_fire_again_does_so_for_a_new_event_under_fresh_ids() -> None:
-    world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
-    looks = [0]
+def another_person_on_the_second_leg(world: dict[str, Any]) -> Callable[[dict[str, Any]], Result]:
+    """A hover that finds P-1 replaced by P-2 in ``world`` when it is flown the second time."""
+    legs = [0]
 
-    def look(args: dict[str, Any]) -> Result:
-        looks[0] += 1
-        if looks[0] == 2:
+    def hover(args: dict[str, Any]) -> Result:
+        legs[0] += 1
+        if legs[0] == 2:
             world["objects"] = [{"id": "P-2", "class": "person"}]
         return Result("ok", {})
 
-    rec = Recorder({"flight.hover": look})
+    return hover
+
+
+def test_a_trigger_that_may_fire_again_does_so_for_a_new_event_under_fresh_ids() -> None:
+    world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
+    rec = Recorder({"flight.hover": another_person_on_the_second_leg(world)})
     out = run(GATED, rec, env={"world": lambda: world})
     subjects = [args["subject"] for tool, args in rec.calls if tool == "alerts.notify"]
     assert subjects == ["P-1", "P-2"]
@@ -104,15 +110,10 @@ def test_a_trigger_fired_again_reads_its_own_steps_not_the_first_firings() -> No
     is a false alarm, the second is real: the second firing's steps must read the second look (``look`` in its
     expressions is ``look_2``), or a real casualty after a false alarm is skipped on the old verdict."""
     world: dict[str, Any] = {"objects": [{"id": "P-1", "class": "person"}], "relations": []}
-    legs, verdicts = [0], iter(["false alarm", "real"])
+    verdicts, leg = iter(["false alarm", "real"]), another_person_on_the_second_leg(world)
 
     def hover(args: dict[str, Any]) -> Result:
-        if args["duration_s"] == 2:
-            return Result("ok", {"verdict": next(verdicts)})
-        legs[0] += 1
-        if legs[0] == 2:
-            world["objects"] = [{"id": "P-2", "class": "person"}]
-        return Result("ok", {})
+        return Result("ok", {"verdict": next(verdicts)}) if args["duration_s"] == 2 else leg(args)
 
     rec = Recorder({"flight.hover": hover})
     out = run(VERDICTS, rec, env={"world": lambda: world})
